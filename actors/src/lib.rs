@@ -1,0 +1,2 @@
+//! The nekosim engine.
+pub mod world;

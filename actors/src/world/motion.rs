@@ -1,0 +1,577 @@
+//! Motion modules and motion patterns (seed 3.1.1 and 4.2.1, eq. 3.1-3.2 and 4.1-4.6).
+//!
+//! A motion pattern answers the seed's two operations: the exact kinematic state of the robot
+//! at any instant of the motion ([`MotionPattern::state_at`]) and the list of events the motion
+//! produces ([`MotionPattern::events`]). For collision prediction it also describes its path as
+//! [`Piece`]s: straight pieces are solved in closed form, curved ones by conservative
+//! advancement against a speed bound, never by time slicing.
+//!
+//! The built-in module is the seed's wheel-based one: [`Turn`], [`Forward`] and [`MoveTo`].
+//! Users add their own patterns by implementing [`MotionSpec`] (how a request starts from a
+//! pose) and [`MotionPattern`] (the started motion).
+
+use std::fmt;
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use super::geometry::{
+    heading_vector, normalize_deg, shortest_turn, vector_heading, Point, Vector,
+};
+
+/// Where a robot is and where it faces.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// Centre of the robot [units].
+    pub pos: Point,
+    /// Heading [deg], anticlockwise from +x, in `[0, 360)`.
+    pub angle: f64,
+}
+
+/// The exact kinematic state of a robot from an instant on (the seed's MotionVector).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Kinematics {
+    /// Centre of the robot [units].
+    pub pos: Point,
+    /// Heading [deg] in `[0, 360)`.
+    pub angle: f64,
+    /// Velocity of the centre [units/s]; zero while turning or stopped.
+    pub vel: Vector,
+    /// Turn rate [deg/s]; zero when not turning.
+    pub omega: f64,
+}
+
+impl Kinematics {
+    /// A robot standing still at `pose`.
+    pub fn at_rest(pose: Pose) -> Self {
+        Self {
+            pos: pose.pos,
+            angle: pose.angle,
+            vel: Vector::zeros(),
+            omega: 0.0,
+        }
+    }
+
+    /// The pose part of the state.
+    pub fn pose(&self) -> Pose {
+        Pose {
+            pos: self.pos,
+            angle: self.angle,
+        }
+    }
+}
+
+/// What a motion event marks (seed 4.3.1).
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum StepKind {
+    StartTurn,
+    FinishTurn,
+    StartForward,
+    FinishForward,
+    /// An event of a user-defined pattern.
+    Custom(String),
+}
+
+impl StepKind {
+    /// The trace name of the step (`start_turn`, ...).
+    pub fn name(&self) -> &str {
+        match self {
+            StepKind::StartTurn => "start_turn",
+            StepKind::FinishTurn => "finish_turn",
+            StepKind::StartForward => "start_forward",
+            StepKind::FinishForward => "finish_forward",
+            StepKind::Custom(s) => s,
+        }
+    }
+}
+
+/// One event a motion produces: at time `t` [s] the robot passes `kind`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MotionStep {
+    pub t: f64,
+    pub kind: StepKind,
+}
+
+/// Shape of a piece of a path, over `[t0, t1]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// `pos(t) = p0 + v (t - t0)` (seed eq. 3.2).
+    Linear { p0: Point, v: Vector },
+    /// Any other curve; positions come from [`MotionPattern::state_at`] and the speed of the
+    /// centre never exceeds `max_speed` [units/s].
+    Curve { max_speed: f64 },
+}
+
+/// A piece of a robot's path between two instants [s].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Piece {
+    pub t0: f64,
+    pub t1: f64,
+    pub shape: Shape,
+}
+
+/// Remaining work of a motion at an instant, as the seed's log shows it (fig. 4.12).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Progress {
+    /// Where the motion ends [units].
+    pub dest: Point,
+    /// Angle still to turn [deg], unsigned.
+    pub turn_left: f64,
+    /// Distance still to move [units].
+    pub distance_left: f64,
+    /// Turn speed of the motion [deg/s].
+    pub turn_speed: f64,
+    /// Move speed of the motion [units/s].
+    pub move_speed: f64,
+}
+
+/// A started motion: the seed's two operations plus the path description used for exact
+/// collision prediction. All times are absolute simulated seconds.
+pub trait MotionPattern: fmt::Debug + Send + Sync {
+    /// When the motion starts [s].
+    fn start_time(&self) -> f64;
+    /// When the motion ends [s]; afterwards the robot rests at `state_at(end_time())`.
+    fn end_time(&self) -> f64;
+    /// The exact state at `t`, clamped to `[start_time, end_time]` (seed 4.2.1, first
+    /// operation). At `end_time` and after, velocity and turn rate are zero.
+    fn state_at(&self, t: f64) -> Kinematics;
+    /// The events the motion produces, in time order (seed 4.2.1, second operation).
+    fn events(&self) -> Vec<MotionStep>;
+    /// The path from start to end as consecutive pieces.
+    fn pieces(&self) -> Vec<Piece>;
+    /// What is left of the motion at `t`, for the Neko log.
+    fn progress_at(&self, t: f64) -> Progress {
+        Progress {
+            dest: self.state_at(self.end_time()).pos,
+            ..Progress::default()
+        }
+    }
+}
+
+/// Why a motion request cannot start.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum MotionError {
+    /// A speed was not a finite positive number.
+    #[error("{what} must be a finite number > 0, got {value}")]
+    BadSpeed { what: &'static str, value: f64 },
+    /// A distance, angle or coordinate was not finite (or negative where that is meaningless).
+    #[error("{what} must be {expected}, got {value}")]
+    BadValue {
+        what: &'static str,
+        expected: &'static str,
+        value: f64,
+    },
+}
+
+fn check_speed(what: &'static str, value: f64) -> Result<f64, MotionError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(MotionError::BadSpeed { what, value })
+    }
+}
+
+fn check_finite(what: &'static str, value: f64) -> Result<f64, MotionError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(MotionError::BadValue {
+            what,
+            expected: "finite",
+            value,
+        })
+    }
+}
+
+/// A user-defined motion request: how it starts from a pose. Implement this (and
+/// [`MotionPattern`]) to add a motion pattern to the simulator.
+pub trait MotionSpec: fmt::Debug + Send + Sync {
+    /// Name of the pattern, as it appears in traces and logs.
+    fn name(&self) -> &str;
+    /// Parameters as name/value pairs, for traces and logs.
+    fn params(&self) -> Vec<(String, f64)>;
+    /// Starts the motion at time `t0` from `from`.
+    fn begin(&self, t0: f64, from: Pose) -> Result<Box<dyn MotionPattern>, MotionError>;
+}
+
+/// A motion request, as a robot's algorithm issues it.
+#[derive(Clone, Debug)]
+pub enum Motion {
+    /// Turn on the spot by a signed `angle` [deg] at `turn_speed` [deg/s].
+    Turn { angle: f64, turn_speed: f64 },
+    /// Move `distance` [units] along the heading at `move_speed` [units/s].
+    Forward { distance: f64, move_speed: f64 },
+    /// Turn the shortest way towards `dest`, then move there.
+    MoveTo {
+        dest: Point,
+        move_speed: f64,
+        turn_speed: f64,
+    },
+    /// A user-defined pattern.
+    Custom(Arc<dyn MotionSpec>),
+}
+
+impl Motion {
+    /// The pattern's name: `turn`, `forward`, `move_to` or the custom name.
+    pub fn name(&self) -> &str {
+        match self {
+            Motion::Turn { .. } => "turn",
+            Motion::Forward { .. } => "forward",
+            Motion::MoveTo { .. } => "move_to",
+            Motion::Custom(spec) => spec.name(),
+        }
+    }
+
+    /// The request's parameters as name/value pairs.
+    pub fn params(&self) -> Vec<(String, f64)> {
+        let p = |pairs: &[(&str, f64)]| pairs.iter().map(|(k, v)| (k.to_string(), *v)).collect();
+        match self {
+            Motion::Turn { angle, turn_speed } => {
+                p(&[("angle", *angle), ("turn_speed", *turn_speed)])
+            }
+            Motion::Forward {
+                distance,
+                move_speed,
+            } => p(&[("distance", *distance), ("move_speed", *move_speed)]),
+            Motion::MoveTo {
+                dest,
+                move_speed,
+                turn_speed,
+            } => p(&[
+                ("x", dest.x),
+                ("y", dest.y),
+                ("move_speed", *move_speed),
+                ("turn_speed", *turn_speed),
+            ]),
+            Motion::Custom(spec) => spec.params(),
+        }
+    }
+
+    /// Starts the requested motion at `t0` from `from`.
+    pub fn begin(&self, t0: f64, from: Pose) -> Result<Box<dyn MotionPattern>, MotionError> {
+        Ok(match self {
+            Motion::Turn { angle, turn_speed } => Box::new(TurnForward::new(
+                t0,
+                from,
+                check_finite("turn angle", *angle)?,
+                check_speed("turn speed", *turn_speed)?,
+                0.0,
+                1.0,
+                (true, false),
+            )),
+            Motion::Forward {
+                distance,
+                move_speed,
+            } => {
+                let distance = check_finite("distance", *distance)?;
+                if distance < 0.0 {
+                    return Err(MotionError::BadValue {
+                        what: "distance",
+                        expected: ">= 0",
+                        value: distance,
+                    });
+                }
+                Box::new(TurnForward::new(
+                    t0,
+                    from,
+                    0.0,
+                    1.0,
+                    distance,
+                    check_speed("move speed", *move_speed)?,
+                    (false, true),
+                ))
+            }
+            Motion::MoveTo {
+                dest,
+                move_speed,
+                turn_speed,
+            } => {
+                check_finite("destination x", dest.x)?;
+                check_finite("destination y", dest.y)?;
+                let (ms, ts) = (
+                    check_speed("move speed", *move_speed)?,
+                    check_speed("turn speed", *turn_speed)?,
+                );
+                let delta = dest - from.pos;
+                let distance = delta.norm();
+                let turn = if distance > 0.0 {
+                    shortest_turn(from.angle, vector_heading(delta))
+                } else {
+                    0.0
+                };
+                Box::new(TurnForward::new(
+                    t0,
+                    from,
+                    turn,
+                    ts,
+                    distance,
+                    ms,
+                    (true, true),
+                ))
+            }
+            Motion::Custom(spec) => spec.begin(t0, from)?,
+        })
+    }
+}
+
+/// Type names for the built-in patterns, so users can name them.
+pub type Turn = TurnForward;
+/// See [`TurnForward`].
+pub type Forward = TurnForward;
+/// See [`TurnForward`].
+pub type MoveTo = TurnForward;
+
+/// The built-in wheel-based motion: an optional turn on the spot (eq. 4.1-4.2) followed by an
+/// optional straight move along the new heading (eq. 4.3-4.6). TURN is a pure turn, FORWARD a
+/// pure move, MOVETO both, with the four events start-turn, finish-turn, start-forward and
+/// finish-forward.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TurnForward {
+    t0: f64,
+    from: Pose,
+    /// Signed turn [deg].
+    turn: f64,
+    /// [deg/s].
+    turn_speed: f64,
+    /// [units].
+    distance: f64,
+    /// [units/s].
+    move_speed: f64,
+    has_turn: bool,
+    has_forward: bool,
+    /// Heading after the turn [deg].
+    heading: f64,
+    /// Instant the turn ends and the forward part starts [s].
+    t_turned: f64,
+    t_end: f64,
+}
+
+impl TurnForward {
+    fn new(
+        t0: f64,
+        from: Pose,
+        turn: f64,
+        turn_speed: f64,
+        distance: f64,
+        move_speed: f64,
+        (has_turn, has_forward): (bool, bool),
+    ) -> Self {
+        let t_turned = t0 + turn.abs() / turn_speed;
+        let heading = normalize_deg(from.angle + turn);
+        Self {
+            t0,
+            from,
+            turn,
+            turn_speed,
+            distance,
+            move_speed,
+            has_turn,
+            has_forward,
+            heading,
+            t_turned,
+            t_end: t_turned + distance / move_speed,
+        }
+    }
+
+    fn end_pos(&self) -> Point {
+        self.from.pos + heading_vector(self.heading) * self.distance
+    }
+}
+
+impl MotionPattern for TurnForward {
+    fn start_time(&self) -> f64 {
+        self.t0
+    }
+
+    fn end_time(&self) -> f64 {
+        self.t_end
+    }
+
+    fn state_at(&self, t: f64) -> Kinematics {
+        if t >= self.t_end {
+            return Kinematics::at_rest(Pose {
+                pos: self.end_pos(),
+                angle: self.heading,
+            });
+        }
+        if t < self.t_turned {
+            let dt = (t - self.t0).max(0.0);
+            let omega = self.turn_speed * self.turn.signum();
+            return Kinematics {
+                pos: self.from.pos,
+                angle: normalize_deg(self.from.angle + omega * dt),
+                vel: Vector::zeros(),
+                omega,
+            };
+        }
+        let u = heading_vector(self.heading);
+        let s = self.move_speed * (t - self.t_turned);
+        Kinematics {
+            pos: self.from.pos + u * s,
+            angle: self.heading,
+            vel: u * self.move_speed,
+            omega: 0.0,
+        }
+    }
+
+    fn events(&self) -> Vec<MotionStep> {
+        let mut out = Vec::with_capacity(4);
+        if self.has_turn {
+            out.push(MotionStep {
+                t: self.t0,
+                kind: StepKind::StartTurn,
+            });
+            out.push(MotionStep {
+                t: self.t_turned,
+                kind: StepKind::FinishTurn,
+            });
+        }
+        if self.has_forward {
+            out.push(MotionStep {
+                t: self.t_turned,
+                kind: StepKind::StartForward,
+            });
+            out.push(MotionStep {
+                t: self.t_end,
+                kind: StepKind::FinishForward,
+            });
+        }
+        out
+    }
+
+    fn pieces(&self) -> Vec<Piece> {
+        let u = heading_vector(self.heading);
+        vec![
+            Piece {
+                t0: self.t0,
+                t1: self.t_turned,
+                shape: Shape::Linear {
+                    p0: self.from.pos,
+                    v: Vector::zeros(),
+                },
+            },
+            Piece {
+                t0: self.t_turned,
+                t1: self.t_end,
+                shape: Shape::Linear {
+                    p0: self.from.pos,
+                    v: u * self.move_speed,
+                },
+            },
+        ]
+    }
+
+    fn progress_at(&self, t: f64) -> Progress {
+        let t = t.clamp(self.t0, self.t_end);
+        let turn_left = (self.turn.abs() - self.turn_speed * (t - self.t0)).max(0.0);
+        let moving = (t - self.t_turned).max(0.0);
+        Progress {
+            dest: self.end_pos(),
+            turn_left: if self.has_turn { turn_left } else { 0.0 },
+            distance_left: (self.distance - self.move_speed * moving).max(0.0),
+            turn_speed: if self.has_turn { self.turn_speed } else { 0.0 },
+            move_speed: if self.has_forward {
+                self.move_speed
+            } else {
+                0.0
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn pose(x: f64, y: f64, angle: f64) -> Pose {
+        Pose {
+            pos: Point::new(x, y),
+            angle,
+        }
+    }
+
+    #[test]
+    fn move_to_turns_shortest_way_then_arrives() {
+        let m = Motion::MoveTo {
+            dest: Point::new(0.0, 10.0),
+            move_speed: 2.0,
+            turn_speed: 45.0,
+        }
+        .begin(1.0, pose(0.0, 0.0, 0.0))
+        .unwrap();
+        // 90 degrees at 45 deg/s, then 10 units at 2 units/s.
+        assert_eq!(m.end_time(), 1.0 + 2.0 + 5.0);
+        let kinds: Vec<_> = m.events().into_iter().map(|e| (e.t, e.kind)).collect();
+        assert_eq!(
+            kinds,
+            vec![
+                (1.0, StepKind::StartTurn),
+                (3.0, StepKind::FinishTurn),
+                (3.0, StepKind::StartForward),
+                (8.0, StepKind::FinishForward)
+            ]
+        );
+        let mid = m.state_at(2.0);
+        assert!((mid.angle - 45.0).abs() < 1e-12 && mid.omega == 45.0);
+        let end = m.state_at(8.0);
+        assert!((end.pos - Point::new(0.0, 10.0)).norm() < 1e-12);
+        assert_eq!(end.vel, Vector::zeros());
+    }
+
+    #[test]
+    fn turn_is_clockwise_for_negative_angles() {
+        let m = Motion::Turn {
+            angle: -90.0,
+            turn_speed: 30.0,
+        }
+        .begin(0.0, pose(5.0, 5.0, 10.0))
+        .unwrap();
+        assert_eq!(m.end_time(), 3.0);
+        assert!((m.state_at(3.0).angle - 280.0).abs() < 1e-12);
+        assert_eq!(m.events().len(), 2);
+        assert_eq!(m.state_at(1.5).pos, Point::new(5.0, 5.0));
+    }
+
+    #[test]
+    fn bad_requests_are_rejected() {
+        let from = pose(0.0, 0.0, 0.0);
+        assert!(Motion::Forward {
+            distance: 1.0,
+            move_speed: 0.0
+        }
+        .begin(0.0, from)
+        .is_err());
+        assert!(Motion::Forward {
+            distance: -1.0,
+            move_speed: 1.0
+        }
+        .begin(0.0, from)
+        .is_err());
+        assert!(Motion::MoveTo {
+            dest: Point::new(f64::NAN, 0.0),
+            move_speed: 1.0,
+            turn_speed: 1.0
+        }
+        .begin(0.0, from)
+        .is_err());
+    }
+
+    proptest! {
+        /// The pieces describe the same positions as `state_at` (eq. 3.2 vs eq. 4.4-4.6).
+        #[test]
+        fn pieces_agree_with_state_at(x in -100.0f64..100.0, y in -100.0f64..100.0, a in 0.0f64..360.0,
+                                      dx in -100.0f64..100.0, dy in -100.0f64..100.0,
+                                      ms in 0.5f64..20.0, ts in 1.0f64..90.0, f in 0.0f64..1.0) {
+            let m = Motion::MoveTo { dest: Point::new(dx, dy), move_speed: ms, turn_speed: ts }
+                .begin(3.0, pose(x, y, a)).unwrap();
+            let t = 3.0 + f * (m.end_time() - 3.0);
+            let piece = m.pieces().into_iter().find(|p| p.t0 <= t && t <= p.t1).unwrap();
+            let Shape::Linear { p0, v } = piece.shape else { unreachable!() };
+            let from_piece = p0 + v * (t - piece.t0);
+            prop_assert!((from_piece - m.state_at(t).pos).norm() < 1e-9);
+            prop_assert!((m.state_at(m.end_time()).pos - Point::new(dx, dy)).norm() < 1e-9);
+        }
+    }
+}
