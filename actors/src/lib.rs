@@ -1,2 +1,20 @@
-//! The nekosim engine.
+//! The nekosim engine: a deterministic, event-driven simulator of cooperative mobile robots,
+//! rebuilt from the Neko robot simulation engine (Sangsubhan, 2009; "the seed").
+//!
+//! - [`world`]: the pure kernel (geometry, motion patterns, exact collision prediction, the
+//!   spatial index, the virtual world), free of actix.
+//! - [`scheduler`]: the virtual-time scheduler actor and its ordering contract.
+//! - [`motion_manager`], [`sensor_manager`], [`robot`], [`sensor`]: the other actors.
+//! - [`algorithm`]: built-in robot algorithms; [`simulation`]: building and running a run.
+
+pub mod algorithm;
+pub mod motion_manager;
+pub mod robot;
+pub mod scheduler;
+pub mod sensor;
+pub mod sensor_manager;
+pub mod simulation;
 pub mod world;
+
+pub use robot::{Algorithm, AlgorithmFuture, MotionEnd, Robot};
+pub use simulation::{run, SimConfig, SimError};

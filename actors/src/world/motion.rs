@@ -140,7 +140,7 @@ pub trait MotionPattern: fmt::Debug + Send + Sync {
     /// The path from start to end as consecutive pieces.
     fn pieces(&self) -> Vec<Piece>;
     /// What is left of the motion at `t`, for the Neko log.
-    fn progress_at(&self, t: f64) -> Progress {
+    fn progress_at(&self, _t: f64) -> Progress {
         Progress {
             dest: self.state_at(self.end_time()).pos,
             ..Progress::default()

@@ -1,0 +1,212 @@
+//! Built-in robot algorithms (seed chapter 5): [`Idle`], [`Script`], [`RandomMovement`]
+//! (seed 5.1) and [`Gathering`] (seed 5.2), with the speed ranges of the seed's code.
+
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::robot::{Algorithm, AlgorithmFuture, Robot};
+use crate::world::geometry::Point;
+use crate::world::motion::Motion;
+use crate::world::virtual_world::WorldSize;
+
+/// Does nothing: the robot stands where it was born (an obstacle for the others).
+#[derive(Clone, Debug, Default)]
+pub struct Idle;
+
+impl Algorithm for Idle {
+    fn name(&self) -> &str {
+        "Idle"
+    }
+    fn run(&self, _: Robot) -> AlgorithmFuture {
+        Box::pin(async {})
+    }
+}
+
+/// One step of a [`Script`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum ScriptStep {
+    /// Turn by a signed `angle` [deg] at `turn_speed` [deg/s].
+    Turn { angle: f64, turn_speed: f64 },
+    /// Move `distance` [units] forward at `move_speed` [units/s].
+    Forward { distance: f64, move_speed: f64 },
+    /// Go to `(x, y)`.
+    MoveTo {
+        x: f64,
+        y: f64,
+        move_speed: f64,
+        turn_speed: f64,
+    },
+    /// Wait [s].
+    Wait(f64),
+}
+
+/// Runs a list of steps once; each step starts when the previous one ends, however it ended.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Script(pub Vec<ScriptStep>);
+
+impl Algorithm for Script {
+    fn name(&self) -> &str {
+        "Script"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        let steps = self.0.clone();
+        Box::pin(async move {
+            for step in steps {
+                match step {
+                    ScriptStep::Turn { angle, turn_speed } => {
+                        robot.turn(angle, turn_speed).await;
+                    }
+                    ScriptStep::Forward {
+                        distance,
+                        move_speed,
+                    } => {
+                        robot.forward(distance, move_speed).await;
+                    }
+                    ScriptStep::MoveTo {
+                        x,
+                        y,
+                        move_speed,
+                        turn_speed,
+                    } => {
+                        robot
+                            .motion(Motion::MoveTo {
+                                dest: Point::new(x, y),
+                                move_speed,
+                                turn_speed,
+                            })
+                            .await;
+                    }
+                    ScriptStep::Wait(d) => robot.sleep(d).await,
+                }
+            }
+        })
+    }
+}
+
+/// A speed range `[min, min + spread)`, as the seed's code draws speeds.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SpeedRange {
+    pub min: f64,
+    pub spread: f64,
+}
+
+impl SpeedRange {
+    fn draw(&self, rng: &mut impl Rng) -> f64 {
+        self.min + self.spread * rng.gen::<f64>()
+    }
+}
+
+/// Where random destinations are drawn: the world if it is bounded, else this square.
+const DEFAULT_AREA: f64 = 800.0;
+
+fn area(robot: &Robot) -> (f64, f64) {
+    match robot.info().world {
+        WorldSize::Bounded { width, height } => (width, height),
+        WorldSize::Infinite => (DEFAULT_AREA, DEFAULT_AREA),
+    }
+}
+
+/// Seed 5.1: pick a random destination and random speeds, go there, repeat.
+///
+/// As in the seed's code: move speed uniform in `[3, 13)`; turn speed = `3 + move_speed × U`;
+/// the destination uniform over the world (an 800×800 square in an infinite world).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RandomMovement {
+    pub move_speed: SpeedRange,
+    /// When set, turn speeds are drawn from this range instead of the seed's rule.
+    pub turn_speed: Option<SpeedRange>,
+}
+
+impl Default for RandomMovement {
+    fn default() -> Self {
+        Self {
+            move_speed: SpeedRange {
+                min: 3.0,
+                spread: 10.0,
+            },
+            turn_speed: None,
+        }
+    }
+}
+
+fn draw_speeds(robot: &Robot, ms: SpeedRange, ts: Option<SpeedRange>) -> (f64, f64) {
+    let mut rng = robot.rng();
+    let move_speed = ms.draw(&mut *rng);
+    let turn_speed = match ts {
+        Some(r) => r.draw(&mut *rng),
+        None => ms.min + move_speed * rng.gen::<f64>(),
+    };
+    (move_speed, turn_speed)
+}
+
+impl Algorithm for RandomMovement {
+    fn name(&self) -> &str {
+        "RandomMovement"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        let cfg = self.clone();
+        Box::pin(async move {
+            let (w, h) = area(&robot);
+            loop {
+                let (move_speed, turn_speed) = draw_speeds(&robot, cfg.move_speed, cfg.turn_speed);
+                let dest = {
+                    let mut rng = robot.rng();
+                    Point::new(w * rng.gen::<f64>(), h * rng.gen::<f64>())
+                };
+                robot.move_to(dest, move_speed, turn_speed).await;
+            }
+        })
+    }
+}
+
+/// Seed 5.2: ask the GPS for all positions, go to their centroid, repeat. As in the seed's
+/// code: move speed uniform in `[3, 6)`, turn speed = `3 + move_speed × U`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Gathering {
+    pub move_speed: SpeedRange,
+    pub turn_speed: Option<SpeedRange>,
+    /// GPS error factor.
+    pub error: f64,
+}
+
+impl Default for Gathering {
+    fn default() -> Self {
+        Self {
+            move_speed: SpeedRange {
+                min: 3.0,
+                spread: 3.0,
+            },
+            turn_speed: None,
+            error: 0.0,
+        }
+    }
+}
+
+/// The centroid of points (seed 5.2 `getCentroid`).
+pub fn centroid(points: impl IntoIterator<Item = Point>) -> Option<Point> {
+    let (mut sum, mut n) = (Point::origin().coords, 0usize);
+    for p in points {
+        sum += p.coords;
+        n += 1;
+    }
+    (n > 0).then(|| Point::from(sum / n as f64))
+}
+
+impl Algorithm for Gathering {
+    fn name(&self) -> &str {
+        "Gathering"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        let cfg = self.clone();
+        Box::pin(async move {
+            loop {
+                let all = robot.gps().all_positions(cfg.error).await;
+                let Some(c) = centroid(all.into_iter().map(|(_, p)| p)) else {
+                    return;
+                };
+                let (move_speed, turn_speed) = draw_speeds(&robot, cfg.move_speed, cfg.turn_speed);
+                robot.move_to(c, move_speed, turn_speed).await;
+            }
+        })
+    }
+}

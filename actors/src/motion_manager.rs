@@ -1,0 +1,40 @@
+//! The motion manager actor (seed 4.2.3, fig. 4.4): brings robot states to the current time,
+//! turns motion requests into motion events and predicts collisions, through the virtual
+//! world it shares with the sensor manager.
+
+use std::sync::{Arc, Mutex};
+
+use actix::prelude::*;
+
+use crate::scheduler::Deliver;
+use crate::world::event::{Effect, Outbox};
+use crate::world::virtual_world::VirtualWorld;
+
+/// The motion manager.
+#[derive(Debug)]
+pub struct MotionManager {
+    world: Arc<Mutex<VirtualWorld>>,
+}
+
+impl MotionManager {
+    /// A motion manager over `world`.
+    pub fn new(world: Arc<Mutex<VirtualWorld>>) -> Self {
+        Self { world }
+    }
+}
+
+impl Actor for MotionManager {
+    type Context = Context<Self>;
+}
+
+impl Handler<Deliver> for MotionManager {
+    type Result = MessageResult<Deliver>;
+
+    fn handle(&mut self, msg: Deliver, _: &mut Context<Self>) -> Self::Result {
+        let mut out = Outbox::new(msg.now, msg.seq);
+        // The scheduler has one event in flight at a time, so this lock is never contended.
+        let mut world = self.world.lock().expect("world lock");
+        world.handle_motion(msg.event.payload, &mut out);
+        MessageResult(out.into_effects() as Vec<Effect>)
+    }
+}

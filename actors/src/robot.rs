@@ -1,0 +1,405 @@
+//! Robots (seed 3.1 and 4.1): the robot actor and the algorithm API.
+//!
+//! A robot's algorithm is sequential async code, like the seed's `doMotion` loops:
+//!
+//! ```ignore
+//! loop {
+//!     let all = robot.gps().all_positions(0.0).await;
+//!     let end = robot.move_to(centroid(&all), 4.0, 30.0).await;
+//! }
+//! ```
+//!
+//! The robot actor polls the algorithm's future itself, inside the handler of the event that
+//! woke it, until the future is pending; every request the algorithm makes meanwhile goes into
+//! the handler's reply. No executor, timer or thread is involved, so the algorithm runs at a
+//! single instant of virtual time and deterministically.
+
+use std::cell::{RefCell, RefMut};
+use std::collections::VecDeque;
+use std::fmt;
+use std::future::{poll_fn, Future};
+use std::pin::Pin;
+use std::rc::Rc;
+use std::task::{Context as TaskContext, Poll, Waker};
+
+use actix::prelude::*;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::scheduler::Deliver;
+use crate::world::event::{EventClass, Notice, Outbox, Payload, Target};
+use crate::world::geometry::Point;
+use crate::world::motion::{Kinematics, Motion};
+use crate::world::sensor::{SensorQuery, SensorValue};
+use crate::world::virtual_world::WorldSize;
+use crate::world::{MotionOutcome, RobotId};
+
+/// A running algorithm.
+pub type AlgorithmFuture = Pin<Box<dyn Future<Output = ()>>>;
+
+/// A robot algorithm (seed 4.1, chapter 5): given the robot's handle, the sequential code the
+/// robot runs. Implementations are plain data (their settings); `run` builds the future.
+pub trait Algorithm: fmt::Debug + Send {
+    /// Name for logs.
+    fn name(&self) -> &str;
+    /// The algorithm's code.
+    fn run(&self, robot: Robot) -> AlgorithmFuture;
+}
+
+/// How a motion call ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MotionEnd {
+    pub outcome: MotionOutcome,
+    /// The robot's state when the motion ended.
+    pub state: Kinematics,
+}
+
+/// Identifies a motion started with [`Robot::start_motion`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MotionTicket(pub u64);
+
+/// What the algorithm asked for during one poll.
+#[derive(Debug)]
+enum Request {
+    Motion { ticket: u64, motion: Motion },
+    Sensor { ticket: u64, query: SensorQuery },
+    Timer { ticket: u64, at: f64 },
+}
+
+#[derive(Debug)]
+struct RobotIo {
+    now: f64,
+    next_ticket: u64,
+    inbox: VecDeque<Notice>,
+    outbox: Vec<Request>,
+    rng: ChaCha8Rng,
+}
+
+/// What a robot knows about its setting.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RobotInfo {
+    pub id: RobotId,
+    /// Number of robots in the run.
+    pub count: usize,
+    /// Radius [units].
+    pub radius: f64,
+    pub world: WorldSize,
+}
+
+/// The handle an algorithm uses to move, sense and wait (the seed's interface layer).
+#[derive(Clone)]
+pub struct Robot {
+    info: RobotInfo,
+    io: Rc<RefCell<RobotIo>>,
+}
+
+impl fmt::Debug for Robot {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Robot").field("info", &self.info).finish()
+    }
+}
+
+impl Robot {
+    /// The robot's id.
+    pub fn id(&self) -> RobotId {
+        self.info.id
+    }
+
+    /// The robot's settings.
+    pub fn info(&self) -> RobotInfo {
+        self.info
+    }
+
+    /// Current virtual time [s].
+    pub fn now(&self) -> f64 {
+        self.io.borrow().now
+    }
+
+    /// The robot's own random stream, derived from the run's seed and the robot's id.
+    pub fn rng(&self) -> RefMut<'_, ChaCha8Rng> {
+        RefMut::map(self.io.borrow_mut(), |io| &mut io.rng)
+    }
+
+    fn ticket(&self) -> u64 {
+        let mut io = self.io.borrow_mut();
+        io.next_ticket += 1;
+        io.next_ticket
+    }
+
+    fn push(&self, r: Request) {
+        self.io.borrow_mut().outbox.push(r);
+    }
+
+    /// Waits for the first notice `pick` accepts and removes it from the inbox.
+    async fn take<T>(&self, pick: impl Fn(&Notice) -> Option<T>) -> (T, Notice) {
+        poll_fn(|_| {
+            let mut io = self.io.borrow_mut();
+            match io.inbox.iter().enumerate().find_map(|(i, n)| pick(n).map(|v| (i, v))) {
+                Some((i, v)) => Poll::Ready((v, io.inbox.remove(i).expect("index"))),
+                None => Poll::Pending,
+            }
+        })
+        .await
+    }
+
+    /// Starts a motion, replacing the current one, without waiting for it to end.
+    pub fn start_motion(&self, motion: Motion) -> MotionTicket {
+        let ticket = self.ticket();
+        self.push(Request::Motion { ticket, motion });
+        MotionTicket(ticket)
+    }
+
+    /// Waits until the motion `t` ends.
+    pub async fn wait_motion(&self, t: MotionTicket) -> MotionEnd {
+        let (end, _) = self
+            .take(|n| match n {
+                Notice::MotionEnded {
+                    ticket,
+                    outcome,
+                    state,
+                } if *ticket == t.0 => Some(MotionEnd {
+                    outcome: outcome.clone(),
+                    state: *state,
+                }),
+                _ => None,
+            })
+            .await;
+        end
+    }
+
+    /// Performs a motion and waits for its end.
+    pub async fn motion(&self, motion: Motion) -> MotionEnd {
+        let t = self.start_motion(motion);
+        self.wait_motion(t).await
+    }
+
+    /// MOVETO: turn the shortest way towards `dest`, then move there (seed 6.3.1).
+    pub async fn move_to(&self, dest: Point, move_speed: f64, turn_speed: f64) -> MotionEnd {
+        self.motion(Motion::MoveTo {
+            dest,
+            move_speed,
+            turn_speed,
+        })
+        .await
+    }
+
+    /// FORWARD: move `distance` along the heading.
+    pub async fn forward(&self, distance: f64, move_speed: f64) -> MotionEnd {
+        self.motion(Motion::Forward {
+            distance,
+            move_speed,
+        })
+        .await
+    }
+
+    /// TURN: turn by a signed `angle` [deg] (positive is anticlockwise).
+    pub async fn turn(&self, angle: f64, turn_speed: f64) -> MotionEnd {
+        self.motion(Motion::Turn { angle, turn_speed }).await
+    }
+
+    /// Waits `duration` [s] of virtual time.
+    pub async fn sleep(&self, duration: f64) {
+        let ticket = self.ticket();
+        let at = self.now() + duration.max(0.0);
+        self.push(Request::Timer { ticket, at });
+        self.take(|n| matches!(n, Notice::Timer { ticket: t } if *t == ticket).then_some(()))
+            .await;
+    }
+
+    /// Sends a sensor request and waits for the reply.
+    pub async fn sense(&self, query: SensorQuery) -> SensorValue {
+        let ticket = self.ticket();
+        self.push(Request::Sensor { ticket, query });
+        let (v, _) = self
+            .take(|n| match n {
+                Notice::SensorReply { ticket: t, value } if *t == ticket => Some(value.clone()),
+                _ => None,
+            })
+            .await;
+        v
+    }
+
+    /// Waits for the next push-sensor interrupt or end of a motion started with
+    /// [`Robot::start_motion`], whichever comes first.
+    pub async fn next_notice(&self) -> Notice {
+        let ((), n) = self
+            .take(|n| {
+                matches!(n, Notice::Interrupt { .. } | Notice::MotionEnded { .. }).then_some(())
+            })
+            .await;
+        n
+    }
+
+    /// The GPS sensor.
+    pub fn gps(&self) -> Gps<'_> {
+        Gps(self)
+    }
+
+    /// Positions of the other robots whose centres are within `range` (view sensor).
+    pub async fn robots_in_view(&self, range: f64) -> Vec<(RobotId, Point)> {
+        match self.sense(SensorQuery::View { range }).await {
+            SensorValue::Positions(v) => v,
+            _ => Vec::new(),
+        }
+    }
+
+    /// Free distances (border to border) to the other robots within `range` (proximity
+    /// sensor, pull).
+    pub async fn proximity(&self, range: f64) -> Vec<(RobotId, f64)> {
+        match self.sense(SensorQuery::Proximity { range }).await {
+            SensorValue::Distances(v) => v,
+            _ => Vec::new(),
+        }
+    }
+
+    /// Activates the push proximity sensor; interrupts arrive through [`Robot::next_notice`].
+    pub async fn activate_proximity(&self, range: f64, interval: f64) -> SensorValue {
+        self.sense(SensorQuery::ActivateProximity { range, interval })
+            .await
+    }
+
+    /// Deactivates the push proximity sensor.
+    pub async fn deactivate_proximity(&self) {
+        self.sense(SensorQuery::DeactivateProximity).await;
+    }
+
+    /// Activates the contact sensor; interrupts arrive through [`Robot::next_notice`].
+    pub async fn activate_contact(&self) {
+        self.sense(SensorQuery::ActivateContact).await;
+    }
+
+    /// Deactivates the contact sensor.
+    pub async fn deactivate_contact(&self) {
+        self.sense(SensorQuery::DeactivateContact).await;
+    }
+}
+
+/// The GPS sensor of a robot (seed 6.3.2).
+#[derive(Debug)]
+pub struct Gps<'a>(&'a Robot);
+
+impl Gps<'_> {
+    /// The robot's own position, each coordinate perturbed by `error` × N(0, 1).
+    pub async fn self_position(&self, error: f64) -> Point {
+        match self.0.sense(SensorQuery::SelfPosition { error }).await {
+            SensorValue::Position(p) => p,
+            _ => Point::new(f64::NAN, f64::NAN),
+        }
+    }
+
+    /// All robots' positions by id, perturbed as above.
+    pub async fn all_positions(&self, error: f64) -> Vec<(RobotId, Point)> {
+        match self.0.sense(SensorQuery::AllPositions { error }).await {
+            SensorValue::Positions(v) => v,
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// The robot actor: hosts one algorithm.
+pub struct RobotActor {
+    handle: Robot,
+    algorithm: Box<dyn Algorithm>,
+    task: Option<AlgorithmFuture>,
+}
+
+impl fmt::Debug for RobotActor {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("RobotActor")
+            .field("robot", &self.handle.info)
+            .field("algorithm", &self.algorithm.name())
+            .field("running", &self.task.is_some())
+            .finish()
+    }
+}
+
+impl RobotActor {
+    /// A robot running `algorithm`, with a random stream derived from `seed` and its id.
+    pub fn new(info: RobotInfo, algorithm: Box<dyn Algorithm>, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(info.id as u64);
+        Self {
+            handle: Robot {
+                info,
+                io: Rc::new(RefCell::new(RobotIo {
+                    now: 0.0,
+                    next_ticket: 0,
+                    inbox: VecDeque::new(),
+                    outbox: Vec::new(),
+                    rng,
+                })),
+            },
+            algorithm,
+            task: None,
+        }
+    }
+}
+
+impl Actor for RobotActor {
+    type Context = Context<Self>;
+}
+
+impl Handler<Deliver> for RobotActor {
+    type Result = MessageResult<Deliver>;
+
+    fn handle(&mut self, msg: Deliver, _: &mut Context<Self>) -> Self::Result {
+        let mut out = Outbox::new(msg.now, msg.seq);
+        let id = self.handle.info.id;
+        self.handle.io.borrow_mut().now = msg.now;
+        match msg.event.payload {
+            Payload::Notice(Notice::Start) => {
+                self.task = Some(self.algorithm.run(self.handle.clone()));
+            }
+            Payload::Notice(n) => self.handle.io.borrow_mut().inbox.push_back(n),
+            Payload::Timer { ticket, .. } => self
+                .handle
+                .io
+                .borrow_mut()
+                .inbox
+                .push_back(Notice::Timer { ticket }),
+            _ => {}
+        }
+        if let Some(task) = self.task.as_mut() {
+            let mut cx = TaskContext::from_waker(Waker::noop());
+            if task.as_mut().poll(&mut cx).is_ready() {
+                self.task = None;
+            }
+        }
+        let requests = std::mem::take(&mut self.handle.io.borrow_mut().outbox);
+        let me = [Some(id), None];
+        for r in requests {
+            match r {
+                Request::Motion { ticket, motion } => out.schedule(
+                    msg.now,
+                    Target::MotionManager,
+                    EventClass::Eventual,
+                    me,
+                    Payload::MotionRequest {
+                        robot: id,
+                        ticket,
+                        motion,
+                    },
+                ),
+                Request::Sensor { ticket, query } => out.schedule(
+                    msg.now,
+                    Target::SensorManager,
+                    EventClass::Eventual,
+                    me,
+                    Payload::SensorRequest {
+                        robot: id,
+                        ticket,
+                        query,
+                    },
+                ),
+                Request::Timer { ticket, at } => out.schedule(
+                    at,
+                    Target::Robot(id),
+                    EventClass::Eventual,
+                    me,
+                    Payload::Timer { robot: id, ticket },
+                ),
+            };
+        }
+        MessageResult(out.into_effects())
+    }
+}

@@ -1,0 +1,236 @@
+//! The virtual-time scheduler actor, which is also the event manager (seed 3.6 and 4.2.3).
+//!
+//! # Ordering contract
+//!
+//! 1. The scheduler owns the only event queue and the virtual clock. Nothing in a simulated run
+//!    reads the wall clock or uses actix/tokio timers; time moves only when the scheduler takes
+//!    the next event, and it jumps straight to that event's time.
+//! 2. Events are taken in order of time; at equal times in order of their causal key
+//!    `(cause, index)`: `cause` is the processing number of the event whose handling created
+//!    them, `index` their position among that handling's outputs. Processing numbers are given
+//!    out in processing order, so the whole order is a function of the scenario and seed alone.
+//! 3. One event is in flight at a time. The scheduler sends it to its actor (a manager, a
+//!    robot, a sensor) and waits for the reply, which is the list of effects the handling
+//!    produced (events to schedule, events to cancel, observations to record). Only then does
+//!    it take the next event. Actors never message each other directly: every hop is an event.
+//! 4. Quiescence is therefore structural: an actor's work at instant `t` is exactly the handling
+//!    of events at `t`, and everything it causes is an event at `t` or later. Virtual time
+//!    cannot advance while work at the current instant remains, because that work is an event
+//!    at the current instant and sorts first. A robot's algorithm runs inside its actor's
+//!    handler until it blocks on a motion, sensor, timer or notice, so every request it makes
+//!    is in the reply before the scheduler moves on.
+//! 5. Because of 2 and 3, the order does not depend on which arbiter (thread) hosts an actor
+//!    or on mailbox timing; a run spread over several arbiters gives the same events in the
+//!    same order as a run on one.
+
+use std::collections::HashMap;
+
+use actix::prelude::*;
+
+use crate::world::event::{Effect, Event, EventQueue, Outbox, Target};
+use crate::world::observation::{Observation, Record};
+use crate::world::sensor::SensorKind;
+use crate::world::RobotId;
+
+/// Delivery of one event to the actor that handles it; the reply is the handling's effects.
+#[derive(Debug, Message)]
+#[rtype(result = "Vec<Effect>")]
+pub struct Deliver {
+    /// Virtual time of the event [s].
+    pub now: f64,
+    /// The event's processing number (the `cause` of whatever it creates).
+    pub seq: u64,
+    pub event: Event,
+}
+
+/// Who handles which events.
+pub struct Routes {
+    pub motion_manager: Recipient<Deliver>,
+    pub sensor_manager: Recipient<Deliver>,
+    pub robots: Vec<Recipient<Deliver>>,
+    /// Starts a robot's sensor actor on the robot's arbiter when it is first needed.
+    pub spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Recipient<Deliver>>,
+}
+
+impl std::fmt::Debug for Routes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Routes").field("robots", &self.robots.len()).finish()
+    }
+}
+
+/// Figures of a finished run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunStats {
+    /// Events processed.
+    pub events: u64,
+    /// Events cancelled before they fired.
+    pub cancelled: u64,
+    /// Collisions (robot-robot and boundary).
+    pub collisions: u64,
+    /// Virtual time at the end [s].
+    pub end_time: f64,
+}
+
+/// What a run hands back.
+#[derive(Clone, Debug, Default)]
+pub struct RunOutput {
+    pub records: Vec<Record>,
+    pub stats: RunStats,
+    /// Set if the run stopped because an actor failed.
+    pub failure: Option<String>,
+}
+
+/// The scheduler actor.
+pub struct Scheduler {
+    queue: EventQueue,
+    now: f64,
+    seq: u64,
+    until: f64,
+    routes: Routes,
+    sensors: HashMap<(RobotId, SensorKind), Recipient<Deliver>>,
+    output: RunOutput,
+    on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
+    record: bool,
+}
+
+impl std::fmt::Debug for Scheduler {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Scheduler")
+            .field("now", &self.now)
+            .field("seq", &self.seq)
+            .field("pending", &self.queue.len())
+            .finish()
+    }
+}
+
+/// Take and deliver the next event.
+#[derive(Debug, Message)]
+#[rtype(result = "()")]
+struct Step;
+
+impl Scheduler {
+    /// A scheduler that runs until `until` [s] and then calls `on_finish`; `setup` holds the
+    /// effects of the setup at t = 0 (cause 0). With `record` false observations are counted
+    /// but not kept (for benchmarks).
+    pub fn new(
+        routes: Routes,
+        until: f64,
+        setup: Outbox,
+        record: bool,
+        on_finish: Box<dyn FnOnce(RunOutput)>,
+    ) -> Self {
+        let mut s = Self {
+            queue: EventQueue::new(),
+            now: 0.0,
+            seq: 0,
+            until,
+            routes,
+            sensors: HashMap::new(),
+            output: RunOutput::default(),
+            on_finish: Some(on_finish),
+            record,
+        };
+        s.apply(setup.into_effects());
+        s
+    }
+
+    fn apply(&mut self, effects: Vec<Effect>) {
+        for e in effects {
+            match e {
+                Effect::Schedule(ev) => {
+                    assert!(ev.time >= self.now, "an event was scheduled in the past");
+                    self.queue.register(*ev);
+                }
+                Effect::Cancel(id) => {
+                    if self.queue.cancel(id) {
+                        self.output.stats.cancelled += 1;
+                    }
+                }
+                Effect::Record(obs) => {
+                    if matches!(obs, Observation::Collision { .. }) {
+                        self.output.stats.collisions += 1;
+                    }
+                    if self.record {
+                        let seq = self.output.records.len() as u64;
+                        self.output.records.push(Record {
+                            t: self.now,
+                            seq,
+                            obs,
+                        });
+                    }
+                }
+            }
+        }
+    }
+
+    fn route(&mut self, target: Target) -> Recipient<Deliver> {
+        match target {
+            Target::MotionManager => self.routes.motion_manager.clone(),
+            Target::SensorManager => self.routes.sensor_manager.clone(),
+            Target::Robot(r) => self.routes.robots[r as usize].clone(),
+            Target::Sensor(r, k) => {
+                let spawn = &self.routes.spawn_sensor;
+                self.sensors.entry((r, k)).or_insert_with(|| spawn(r, k)).clone()
+            }
+        }
+    }
+
+    fn finish(&mut self, ctx: &mut Context<Self>) {
+        let mut output = std::mem::take(&mut self.output);
+        output.stats.end_time = if self.queue.is_empty() {
+            self.now
+        } else {
+            self.until.max(self.now)
+        };
+        if let Some(f) = self.on_finish.take() {
+            f(output);
+        }
+        ctx.stop();
+    }
+
+    /// The pending events of a robot (the event manager's listing).
+    pub fn future_of(&self, robot: RobotId) -> Vec<&Event> {
+        self.queue.future_of(robot)
+    }
+}
+
+impl Actor for Scheduler {
+    type Context = Context<Self>;
+
+    fn started(&mut self, ctx: &mut Self::Context) {
+        ctx.notify(Step);
+    }
+}
+
+impl Handler<Step> for Scheduler {
+    type Result = ();
+
+    fn handle(&mut self, _: Step, ctx: &mut Context<Self>) {
+        match self.queue.peek_time() {
+            Some(t) if t <= self.until => {}
+            _ => return self.finish(ctx),
+        }
+        let event = self.queue.pop().expect("peeked event");
+        debug_assert!(event.time >= self.now, "time went backwards");
+        self.now = event.time;
+        self.seq += 1;
+        self.output.stats.events += 1;
+        let target = event.target;
+        let deliver = Deliver {
+            now: self.now,
+            seq: self.seq,
+            event,
+        };
+        let fut = self.route(target).send(deliver);
+        ctx.wait(fut.into_actor(self).map(move |res, act, ctx| match res {
+            Ok(effects) => {
+                act.apply(effects);
+                ctx.notify(Step);
+            }
+            Err(e) => {
+                act.output.failure = Some(format!("{target:?} did not answer: {e}"));
+                act.finish(ctx);
+            }
+        }));
+    }
+}

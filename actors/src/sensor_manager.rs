@@ -1,0 +1,38 @@
+//! The sensor manager actor (seed 4.2.3, fig. 4.5): turns sensor requests into sensor events,
+//! gathers the world's exact data for each sensor at trigger time and re-arms push sensors.
+
+use std::sync::{Arc, Mutex};
+
+use actix::prelude::*;
+
+use crate::scheduler::Deliver;
+use crate::world::event::Outbox;
+use crate::world::virtual_world::VirtualWorld;
+
+/// The sensor manager.
+#[derive(Debug)]
+pub struct SensorManager {
+    world: Arc<Mutex<VirtualWorld>>,
+}
+
+impl SensorManager {
+    /// A sensor manager over `world`.
+    pub fn new(world: Arc<Mutex<VirtualWorld>>) -> Self {
+        Self { world }
+    }
+}
+
+impl Actor for SensorManager {
+    type Context = Context<Self>;
+}
+
+impl Handler<Deliver> for SensorManager {
+    type Result = MessageResult<Deliver>;
+
+    fn handle(&mut self, msg: Deliver, _: &mut Context<Self>) -> Self::Result {
+        let mut out = Outbox::new(msg.now, msg.seq);
+        let mut world = self.world.lock().expect("world lock");
+        world.handle_sensor(msg.event.payload, &mut out);
+        MessageResult(out.into_effects())
+    }
+}

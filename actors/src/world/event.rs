@@ -1,0 +1,360 @@
+//! Events and the event queue (seed 3.6 and 4.3, event manager of 4.2.3).
+//!
+//! Every change of state is an [`Event`] at an instant of virtual time. Events are ordered by
+//! time and, at equal times, by their [`EventId`], which is derived from causality: an event
+//! created while the event processed as number `s` was handled gets the id `(s, i)`, `i` being
+//! its position among that handler's outputs. Processing numbers are handed out in processing
+//! order, so the order is the same on every run whatever the order in which actor mailboxes
+//! happened to be served. Setup events have cause 0.
+//!
+//! Events are *eventually-happen* (motion starts, sensor events, notices) or *conditional*
+//! (motion steps after the start, collisions, cell crossings, sensor entries): a conditional
+//! event is cancelled when a robot it depends on changes its path before it fires.
+
+use std::cmp::Ordering;
+use std::collections::{BTreeSet, BinaryHeap, HashMap};
+
+use super::motion::Motion;
+use super::observation::Observation;
+use super::sensor::{SensorKind, SensorQuery, SensorValue, Snapshot};
+use super::{MotionOutcome, Obstacle, RobotId};
+use crate::world::motion::Kinematics;
+
+/// Identity and tie-break key of an event: `(cause, index)`, see the module doc.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct EventId {
+    /// Processing number of the event whose handling created this one (0 for setup).
+    pub cause: u64,
+    /// Position among the events that handling created.
+    pub index: u32,
+}
+
+/// Which actor handles an event.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Target {
+    MotionManager,
+    SensorManager,
+    Robot(RobotId),
+    Sensor(RobotId, SensorKind),
+}
+
+/// Eventually-happen or conditional (seed 4.3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EventClass {
+    Eventual,
+    Conditional,
+}
+
+/// What a robot's algorithm is told.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Notice {
+    /// The algorithm starts.
+    Start,
+    /// A motion ended; `state` is the robot's kinematic state then.
+    MotionEnded {
+        ticket: u64,
+        outcome: MotionOutcome,
+        state: Kinematics,
+    },
+    /// A pull sensor answered, or a push sensor acknowledged (de)activation.
+    SensorReply { ticket: u64, value: SensorValue },
+    /// A push sensor interrupts the robot.
+    Interrupt { sensor: SensorKind, value: SensorValue },
+    /// A timer set by `sleep` fired.
+    Timer { ticket: u64 },
+}
+
+/// The content of an event.
+#[derive(Clone, Debug)]
+pub enum Payload {
+    /// Robot -> motion manager: start `motion`, replacing the current one.
+    MotionRequest {
+        robot: RobotId,
+        ticket: u64,
+        motion: Motion,
+    },
+    /// The `step`-th event of the robot's current motion.
+    MotionStep { robot: RobotId, step: usize },
+    /// Robot `a` touches `b`; `contact` is the contact point on a boundary.
+    Collision {
+        a: RobotId,
+        b: Obstacle,
+        contact: Option<super::geometry::Point>,
+    },
+    /// The robot leaves its cell of the spatial index towards `offset`.
+    CellCrossing { robot: RobotId, offset: [i64; 2] },
+    /// `other` enters the range of `robot`'s push proximity sensor.
+    ProximityEntry { robot: RobotId, other: RobotId },
+    /// `robot`'s push proximity sensor ends its quiet interval.
+    ProximityRearm { robot: RobotId, generation: u64 },
+    /// Robot -> sensor manager: a sensor request.
+    SensorRequest {
+        robot: RobotId,
+        ticket: u64,
+        query: SensorQuery,
+    },
+    /// The sensor event of a request, at its trigger time.
+    SensorTrigger {
+        robot: RobotId,
+        ticket: u64,
+        query: SensorQuery,
+    },
+    /// Sensor manager -> sensor actor: compute the reply from the world's data.
+    SensorCompute {
+        robot: RobotId,
+        ticket: Option<u64>,
+        query: SensorQuery,
+        snapshot: Snapshot,
+    },
+    /// To a robot's algorithm.
+    Notice(Notice),
+    /// A robot's own timer.
+    Timer { robot: RobotId, ticket: u64 },
+}
+
+/// A scheduled event.
+#[derive(Clone, Debug)]
+pub struct Event {
+    /// When it fires [s].
+    pub time: f64,
+    pub id: EventId,
+    pub target: Target,
+    pub class: EventClass,
+    /// Robots the event concerns, for the event manager's per-robot listing.
+    pub robots: [Option<RobotId>; 2],
+    pub payload: Payload,
+}
+
+/// What handling an event produces: effects as data, carried out by the scheduler.
+#[derive(Clone, Debug)]
+pub enum Effect {
+    Schedule(Box<Event>),
+    Cancel(EventId),
+    Record(Observation),
+}
+
+/// Collects the effects of one event's handling and names the events it creates.
+#[derive(Debug)]
+pub struct Outbox {
+    now: f64,
+    cause: u64,
+    next: u32,
+    effects: Vec<Effect>,
+}
+
+impl Outbox {
+    /// An outbox for handling the event processed as number `cause` at time `now`.
+    pub fn new(now: f64, cause: u64) -> Self {
+        Self {
+            now,
+            cause,
+            next: 0,
+            effects: Vec::new(),
+        }
+    }
+
+    /// Current virtual time [s].
+    pub fn now(&self) -> f64 {
+        self.now
+    }
+
+    /// Schedules an event; times before now are raised to now so time never goes backwards.
+    pub fn schedule(
+        &mut self,
+        time: f64,
+        target: Target,
+        class: EventClass,
+        robots: [Option<RobotId>; 2],
+        payload: Payload,
+    ) -> EventId {
+        debug_assert!(!time.is_nan(), "event time is NaN");
+        let id = EventId {
+            cause: self.cause,
+            index: self.next,
+        };
+        self.next += 1;
+        self.effects.push(Effect::Schedule(Box::new(Event {
+            time: time.max(self.now),
+            id,
+            target,
+            class,
+            robots,
+            payload,
+        })));
+        id
+    }
+
+    /// Schedules a notice to a robot's algorithm, now.
+    pub fn notify(&mut self, robot: RobotId, notice: Notice) {
+        self.schedule(
+            self.now,
+            Target::Robot(robot),
+            EventClass::Eventual,
+            [Some(robot), None],
+            Payload::Notice(notice),
+        );
+    }
+
+    /// Cancels a scheduled event (no-op if it already fired or was cancelled).
+    pub fn cancel(&mut self, id: EventId) {
+        self.effects.push(Effect::Cancel(id));
+    }
+
+    /// Records an observation for the run's trace.
+    pub fn record(&mut self, obs: Observation) {
+        self.effects.push(Effect::Record(obs));
+    }
+
+    /// The effects, in the order they were produced.
+    pub fn into_effects(self) -> Vec<Effect> {
+        self.effects
+    }
+}
+
+#[derive(Debug, PartialEq)]
+struct Key(f64, EventId);
+impl Eq for Key {}
+impl PartialOrd for Key {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Key {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // Reversed: BinaryHeap is a max-heap and we want the earliest first.
+        other.0.total_cmp(&self.0).then_with(|| other.1.cmp(&self.1))
+    }
+}
+
+/// The event manager's queue: register, cancel, pop in order, and list a robot's future
+/// events (seed 4.2.3).
+#[derive(Debug, Default)]
+pub struct EventQueue {
+    heap: BinaryHeap<Key>,
+    live: HashMap<EventId, Event>,
+    by_robot: HashMap<RobotId, BTreeSet<(u64, EventId)>>,
+}
+
+impl EventQueue {
+    /// An empty queue.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Registers an event.
+    pub fn register(&mut self, ev: Event) {
+        self.heap.push(Key(ev.time, ev.id));
+        for r in ev.robots.iter().flatten() {
+            self.by_robot
+                .entry(*r)
+                .or_default()
+                .insert((ev.time.to_bits(), ev.id));
+        }
+        self.live.insert(ev.id, ev);
+    }
+
+    /// Cancels an event; returns whether it was still pending.
+    pub fn cancel(&mut self, id: EventId) -> bool {
+        match self.live.remove(&id) {
+            Some(ev) => {
+                self.unindex(&ev);
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn unindex(&mut self, ev: &Event) {
+        for r in ev.robots.iter().flatten() {
+            if let Some(set) = self.by_robot.get_mut(r) {
+                set.remove(&(ev.time.to_bits(), ev.id));
+            }
+        }
+    }
+
+    /// Time of the next pending event.
+    pub fn peek_time(&mut self) -> Option<f64> {
+        while let Some(Key(t, id)) = self.heap.peek() {
+            if self.live.contains_key(id) {
+                return Some(*t);
+            }
+            self.heap.pop();
+        }
+        None
+    }
+
+    /// Removes and returns the next pending event.
+    pub fn pop(&mut self) -> Option<Event> {
+        while let Some(Key(_, id)) = self.heap.pop() {
+            if let Some(ev) = self.live.remove(&id) {
+                self.unindex(&ev);
+                return Some(ev);
+            }
+        }
+        None
+    }
+
+    /// Number of pending events.
+    pub fn len(&self) -> usize {
+        self.live.len()
+    }
+
+    /// Whether no event is pending.
+    pub fn is_empty(&self) -> bool {
+        self.live.is_empty()
+    }
+
+    /// The pending events of a robot, in time order (time ties in id order).
+    pub fn future_of(&self, robot: RobotId) -> Vec<&Event> {
+        let mut evs: Vec<&Event> = self
+            .by_robot
+            .get(&robot)
+            .into_iter()
+            .flatten()
+            .filter_map(|(_, id)| self.live.get(id))
+            .collect();
+        evs.sort_by(|a, b| a.time.total_cmp(&b.time).then(a.id.cmp(&b.id)));
+        evs
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ev(time: f64, cause: u64, index: u32, robot: RobotId) -> Event {
+        Event {
+            time,
+            id: EventId { cause, index },
+            target: Target::Robot(robot),
+            class: EventClass::Eventual,
+            robots: [Some(robot), None],
+            payload: Payload::Timer { robot, ticket: 0 },
+        }
+    }
+
+    #[test]
+    fn ties_are_broken_by_causal_key_not_insertion_order() {
+        let mut q = EventQueue::new();
+        q.register(ev(1.0, 7, 0, 0));
+        q.register(ev(1.0, 3, 5, 1));
+        q.register(ev(0.5, 9, 0, 2));
+        q.register(ev(1.0, 3, 1, 3));
+        let order: Vec<_> = std::iter::from_fn(|| q.pop()).map(|e| (e.id.cause, e.id.index)).collect();
+        assert_eq!(order, vec![(9, 0), (3, 1), (3, 5), (7, 0)]);
+    }
+
+    #[test]
+    fn cancelled_events_never_fire_and_leave_the_robot_listing() {
+        let mut q = EventQueue::new();
+        q.register(ev(2.0, 1, 0, 4));
+        q.register(ev(1.0, 1, 1, 4));
+        assert_eq!(q.future_of(4).len(), 2);
+        assert!(q.cancel(EventId { cause: 1, index: 1 }));
+        assert!(!q.cancel(EventId { cause: 1, index: 1 }));
+        assert_eq!(q.future_of(4).len(), 1);
+        assert_eq!(q.pop().map(|e| e.time), Some(2.0));
+        assert!(q.pop().is_none());
+        assert!(q.future_of(4).is_empty());
+    }
+}

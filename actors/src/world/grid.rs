@@ -1,0 +1,97 @@
+//! The spatial index: a uniform grid of square cells, as event-driven molecular dynamics codes
+//! use (scale is designed in, seed 3.4 speaks of thousands of robots).
+//!
+//! Each robot is registered in the cell that contains its centre; a conditional
+//! `CellCrossing` event moves it when it leaves. Cells are at least as wide as the largest
+//! interaction distance (the sum of two radii, or a push sensor's reach), so two robots that
+//! can touch are always in neighbouring cells, and predictions only ever look at the 3×3 block
+//! around a robot: O(1) per request at uniform density. Cells are keyed by integer coordinates
+//! in a hash map, so an infinite world costs only the occupied cells. The map is only ever
+//! looked up, never iterated, so its hashing cannot affect the order of anything.
+
+use std::collections::HashMap;
+
+use super::geometry::Point;
+use super::RobotId;
+
+/// Integer coordinates of a cell.
+pub type Cell = [i64; 2];
+
+/// A uniform grid of robots.
+#[derive(Clone, Debug)]
+pub struct Grid {
+    size: f64,
+    cells: HashMap<Cell, Vec<RobotId>>,
+}
+
+impl Grid {
+    /// An empty grid of cells `size` wide [units].
+    pub fn new(size: f64) -> Self {
+        assert!(size.is_finite() && size > 0.0, "cell size must be > 0");
+        Self {
+            size,
+            cells: HashMap::new(),
+        }
+    }
+
+    /// Width of a cell [units].
+    pub fn cell_size(&self) -> f64 {
+        self.size
+    }
+
+    /// The cell containing `p`.
+    pub fn cell_of(&self, p: Point) -> Cell {
+        [
+            (p.x / self.size).floor() as i64,
+            (p.y / self.size).floor() as i64,
+        ]
+    }
+
+    /// The lower corner of a cell.
+    pub fn lower_corner(&self, c: Cell) -> Point {
+        Point::new(c[0] as f64 * self.size, c[1] as f64 * self.size)
+    }
+
+    pub fn insert(&mut self, id: RobotId, c: Cell) {
+        self.cells.entry(c).or_default().push(id);
+    }
+
+    pub fn remove(&mut self, id: RobotId, c: Cell) {
+        if let Some(v) = self.cells.get_mut(&c) {
+            if let Some(i) = v.iter().position(|&x| x == id) {
+                v.swap_remove(i);
+            }
+            if v.is_empty() {
+                self.cells.remove(&c);
+            }
+        }
+    }
+
+    /// Robots in the 3×3 block of cells around `c`.
+    pub fn neighbours(&self, c: Cell) -> impl Iterator<Item = RobotId> + '_ {
+        (-1..=1)
+            .flat_map(move |dx| (-1..=1).map(move |dy| [c[0] + dx, c[1] + dy]))
+            .filter_map(|k| self.cells.get(&k))
+            .flatten()
+            .copied()
+    }
+
+    /// Robots registered in cells that intersect the square `[lo, hi]`, or `None` when that
+    /// square spans more cells than `limit` (the caller should then scan every robot).
+    pub fn in_box(&self, lo: Point, hi: Point, limit: usize) -> Option<Vec<RobotId>> {
+        let (a, b) = (self.cell_of(lo), self.cell_of(hi));
+        let span = (b[0] - a[0] + 1) as f64 * (b[1] - a[1] + 1) as f64;
+        if !span.is_finite() || span > limit as f64 {
+            return None;
+        }
+        let mut out = Vec::new();
+        for i in a[0]..=b[0] {
+            for j in a[1]..=b[1] {
+                if let Some(v) = self.cells.get(&[i, j]) {
+                    out.extend_from_slice(v);
+                }
+            }
+        }
+        Some(out)
+    }
+}

@@ -1,0 +1,69 @@
+//! What a run shows: the observations the engine records, one per traced event, in
+//! processing order. The scenario layer turns them into the Neko log and the JSONL trace.
+
+use serde::{Deserialize, Serialize};
+
+use super::geometry::Point;
+use super::motion::{Kinematics, Progress, StepKind};
+use super::sensor::{SensorKind, SensorQuery, SensorValue};
+use super::{MotionOutcome, Obstacle, RobotId};
+
+/// One observation with its instant and sequence number.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    /// Simulated time [s].
+    pub t: f64,
+    /// Strictly increasing over a run.
+    pub seq: u64,
+    pub obs: Observation,
+}
+
+/// A traced event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Observation {
+    /// A robot exists (one per robot at t = 0).
+    Spawn {
+        robot: RobotId,
+        pos: Point,
+        angle: f64,
+        radius: f64,
+    },
+    /// A motion request was accepted.
+    MotionRequest {
+        robot: RobotId,
+        motion: String,
+        params: Vec<(String, f64)>,
+    },
+    /// A motion event; `state` is the exact kinematic state from this instant on.
+    MotionStep {
+        robot: RobotId,
+        step: StepKind,
+        state: Kinematics,
+        progress: Progress,
+    },
+    /// A motion ended.
+    MotionFinish {
+        robot: RobotId,
+        state: Kinematics,
+        outcome: MotionOutcome,
+    },
+    /// `robot` touched `other` at `pos`; `other_pos` is the other robot's centre or the contact
+    /// point on the boundary.
+    Collision {
+        robot: RobotId,
+        other: Obstacle,
+        pos: Point,
+        other_pos: Point,
+    },
+    SensorRequest {
+        robot: RobotId,
+        query: SensorQuery,
+    },
+    /// A sensor's reply; `interrupt` when a push sensor fired on its own.
+    SensorReply {
+        robot: RobotId,
+        sensor: SensorKind,
+        value: SensorValue,
+        interrupt: bool,
+    },
+}
