@@ -134,7 +134,12 @@ impl Robot {
     async fn take<T>(&self, pick: impl Fn(&Notice) -> Option<T>) -> (T, Notice) {
         poll_fn(|_| {
             let mut io = self.io.borrow_mut();
-            match io.inbox.iter().enumerate().find_map(|(i, n)| pick(n).map(|v| (i, v))) {
+            match io
+                .inbox
+                .iter()
+                .enumerate()
+                .find_map(|(i, n)| pick(n).map(|v| (i, v)))
+            {
                 Some((i, v)) => Poll::Ready((v, io.inbox.remove(i).expect("index"))),
                 None => Poll::Pending,
             }

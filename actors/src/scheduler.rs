@@ -54,7 +54,9 @@ pub struct Routes {
 
 impl std::fmt::Debug for Routes {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Routes").field("robots", &self.robots.len()).finish()
+        f.debug_struct("Routes")
+            .field("robots", &self.robots.len())
+            .finish()
     }
 }
 
@@ -170,7 +172,10 @@ impl Scheduler {
             Target::Robot(r) => self.routes.robots[r as usize].clone(),
             Target::Sensor(r, k) => {
                 let spawn = &self.routes.spawn_sensor;
-                self.sensors.entry((r, k)).or_insert_with(|| spawn(r, k)).clone()
+                self.sensors
+                    .entry((r, k))
+                    .or_insert_with(|| spawn(r, k))
+                    .clone()
             }
         }
     }

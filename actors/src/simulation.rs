@@ -102,8 +102,10 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             sensor_manager,
             robots,
             spawn_sensor: Box::new(move |robot, kind| {
-                Sensor::start_in_arbiter(&arbiter_of(robot), move |_| Sensor::new(robot, kind, seed))
-                    .recipient()
+                Sensor::start_in_arbiter(&arbiter_of(robot), move |_| {
+                    Sensor::new(robot, kind, seed)
+                })
+                .recipient()
             }),
         };
         let on_finish = Box::new(move |out: RunOutput| {
@@ -115,9 +117,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
         });
         Scheduler::new(routes, until, setup, record, on_finish).start();
     });
-    system
-        .run()
-        .map_err(|e| SimError::System(e.to_string()))?;
+    system.run().map_err(|e| SimError::System(e.to_string()))?;
     let out = rx
         .recv()
         .map_err(|_| SimError::System("the scheduler ended without a result".into()))?;

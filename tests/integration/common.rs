@@ -44,7 +44,11 @@ pub fn idle() -> Box<dyn Algorithm> {
     Box::new(Idle)
 }
 
-pub fn run(world: WorldConfig, until: f64, robots: Vec<(RobotSpec, Box<dyn Algorithm>)>) -> RunOutput {
+pub fn run(
+    world: WorldConfig,
+    until: f64,
+    robots: Vec<(RobotSpec, Box<dyn Algorithm>)>,
+) -> RunOutput {
     nekosim::run(SimConfig {
         seed: 1,
         until,
@@ -54,4 +58,62 @@ pub fn run(world: WorldConfig, until: f64, robots: Vec<(RobotSpec, Box<dyn Algor
         record: true,
     })
     .expect("run")
+}
+
+use nekosim::world::geometry::Vector;
+use nekosim::world::observation::{Observation, Record};
+
+/// A straight piece of a robot's path rebuilt from the trace: from `t` on the centre is at
+/// `p + v (time - t)` until the next piece.
+#[derive(Clone, Copy, Debug)]
+pub struct Seg {
+    pub t: f64,
+    pub p: Point,
+    pub v: Vector,
+}
+
+/// Rebuilds every robot's piecewise-linear path from the recorded kinematic states only
+/// (spawn, motion steps, motion finishes), without any engine code.
+pub fn trajectories(records: &[Record]) -> Vec<Vec<Seg>> {
+    let mut out: Vec<Vec<Seg>> = Vec::new();
+    for r in records {
+        match &r.obs {
+            Observation::Spawn { robot, pos, .. } => {
+                assert_eq!(*robot as usize, out.len());
+                out.push(vec![Seg {
+                    t: r.t,
+                    p: *pos,
+                    v: Vector::zeros(),
+                }]);
+            }
+            Observation::MotionStep { robot, state, .. }
+            | Observation::MotionFinish { robot, state, .. } => {
+                out[*robot as usize].push(Seg {
+                    t: r.t,
+                    p: state.pos,
+                    v: state.vel,
+                });
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// Position of a rebuilt path at `t`.
+pub fn pos_at(path: &[Seg], t: f64) -> Point {
+    let i = path.partition_point(|s| s.t <= t).saturating_sub(1);
+    let s = path[i];
+    s.p + s.v * (t - s.t)
+}
+
+/// Radii by robot id, from the spawn records.
+pub fn radii(records: &[Record]) -> Vec<f64> {
+    records
+        .iter()
+        .filter_map(|r| match r.obs {
+            Observation::Spawn { radius, .. } => Some(radius),
+            _ => None,
+        })
+        .collect()
 }

@@ -1,4 +1,5 @@
 //! All integration tests, one binary; modules are named by behaviour.
 
+mod collisions;
 mod common;
 mod smoke;

@@ -8,14 +8,30 @@ fn head_on_robots_collide_at_the_closed_form_instant() {
         infinite(),
         100.0,
         vec![
-            (spec(0.0, 0.0, 0.0, 1.0), script(vec![ScriptStep::Forward { distance: 50.0, move_speed: 2.0 }])),
-            (spec(20.0, 0.0, 180.0, 1.0), script(vec![ScriptStep::Forward { distance: 50.0, move_speed: 3.0 }])),
+            (
+                spec(0.0, 0.0, 0.0, 1.0),
+                script(vec![ScriptStep::Forward {
+                    distance: 50.0,
+                    move_speed: 2.0,
+                }]),
+            ),
+            (
+                spec(20.0, 0.0, 180.0, 1.0),
+                script(vec![ScriptStep::Forward {
+                    distance: 50.0,
+                    move_speed: 3.0,
+                }]),
+            ),
         ],
     );
     for r in &out.records {
         println!("{:.3} {:?}", r.t, r.obs);
     }
-    let c: Vec<_> = out.records.iter().filter(|r| matches!(r.obs, Observation::Collision { .. })).collect();
+    let c: Vec<_> = out
+        .records
+        .iter()
+        .filter(|r| matches!(r.obs, Observation::Collision { .. }))
+        .collect();
     assert_eq!(c.len(), 1);
     // Gap 18 closed at 5 units/s.
     assert!((c[0].t - 3.6).abs() < 1e-12, "{}", c[0].t);

@@ -183,7 +183,11 @@ fn predict_exit(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64> {
                 (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
                     let d0 = linear_at(p, u, x.t0, s) - linear_at(q, w, y.t0, s);
                     let dv = u - w;
-                    let (qa, qb, qc) = (dv.norm_squared(), 2.0 * d0.dot(&dv), d0.norm_squared() - reach * reach);
+                    let (qa, qb, qc) = (
+                        dv.norm_squared(),
+                        2.0 * d0.dot(&dv),
+                        d0.norm_squared() - reach * reach,
+                    );
                     if qc > 0.0 {
                         Some(s)
                     } else if qa == 0.0 {

@@ -59,7 +59,10 @@ pub enum Notice {
     /// A pull sensor answered, or a push sensor acknowledged (de)activation.
     SensorReply { ticket: u64, value: SensorValue },
     /// A push sensor interrupts the robot.
-    Interrupt { sensor: SensorKind, value: SensorValue },
+    Interrupt {
+        sensor: SensorKind,
+        value: SensorValue,
+    },
     /// A timer set by `sleep` fired.
     Timer { ticket: u64 },
 }
@@ -222,7 +225,10 @@ impl PartialOrd for Key {
 impl Ord for Key {
     fn cmp(&self, other: &Self) -> Ordering {
         // Reversed: BinaryHeap is a max-heap and we want the earliest first.
-        other.0.total_cmp(&self.0).then_with(|| other.1.cmp(&self.1))
+        other
+            .0
+            .total_cmp(&self.0)
+            .then_with(|| other.1.cmp(&self.1))
     }
 }
 
@@ -340,7 +346,9 @@ mod tests {
         q.register(ev(1.0, 3, 5, 1));
         q.register(ev(0.5, 9, 0, 2));
         q.register(ev(1.0, 3, 1, 3));
-        let order: Vec<_> = std::iter::from_fn(|| q.pop()).map(|e| (e.id.cause, e.id.index)).collect();
+        let order: Vec<_> = std::iter::from_fn(|| q.pop())
+            .map(|e| (e.id.cause, e.id.index))
+            .collect();
         assert_eq!(order, vec![(9, 0), (3, 1), (3, 5), (7, 0)]);
     }
 

@@ -41,16 +41,27 @@ impl SensorKind {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum SensorQuery {
     /// GPS: own position, each coordinate perturbed by `error` × N(0, 1) [units].
-    SelfPosition { error: f64 },
+    SelfPosition {
+        error: f64,
+    },
     /// GPS: all robots' positions (including the requester), perturbed as above.
-    AllPositions { error: f64 },
+    AllPositions {
+        error: f64,
+    },
     /// View: positions of the other robots whose centres are within `range` [units].
-    View { range: f64 },
+    View {
+        range: f64,
+    },
     /// Proximity: free distances (border to border) to the other robots within `range`.
-    Proximity { range: f64 },
+    Proximity {
+        range: f64,
+    },
     /// Push proximity: interrupt when another robot's border comes within `range`; after an
     /// interrupt the sensor is quiet for `interval` [s] and re-senses at its end.
-    ActivateProximity { range: f64, interval: f64 },
+    ActivateProximity {
+        range: f64,
+        interval: f64,
+    },
     DeactivateProximity,
     /// Contact: interrupt when the robot touches a robot or the world boundary.
     ActivateContact,
@@ -84,7 +95,9 @@ impl SensorQuery {
             SensorQuery::SelfPosition { error } | SensorQuery::AllPositions { error } => {
                 nonneg("error factor", error)
             }
-            SensorQuery::View { range } | SensorQuery::Proximity { range } => nonneg("range", range),
+            SensorQuery::View { range } | SensorQuery::Proximity { range } => {
+                nonneg("range", range)
+            }
             SensorQuery::ActivateProximity { range, interval } => {
                 nonneg("range", range)?;
                 nonneg("interval", interval)
@@ -151,9 +164,11 @@ mod tests {
         let sample = |seed| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
             (0..4000)
-                .map(|_| match cal_reply(&q, SensorValue::Position(Point::new(10.0, 0.0)), &mut rng) {
-                    SensorValue::Position(p) => p.x - 10.0,
-                    _ => unreachable!(),
+                .map(|_| {
+                    match cal_reply(&q, SensorValue::Position(Point::new(10.0, 0.0)), &mut rng) {
+                        SensorValue::Position(p) => p.x - 10.0,
+                        _ => unreachable!(),
+                    }
                 })
                 .collect::<Vec<_>>()
         };
@@ -162,6 +177,9 @@ mod tests {
         assert_ne!(xs, sample(2));
         let mean = xs.iter().sum::<f64>() / xs.len() as f64;
         let sd = (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / xs.len() as f64).sqrt();
-        assert!(mean.abs() < 0.15 && (sd - 2.0).abs() < 0.15, "mean {mean} sd {sd}");
+        assert!(
+            mean.abs() < 0.15 && (sd - 2.0).abs() < 0.15,
+            "mean {mean} sd {sd}"
+        );
     }
 }

@@ -27,7 +27,10 @@ use super::{MotionOutcome, Obstacle, RobotId};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum WorldSize {
     /// `[0, width] × [0, height]`; the boundary stops robots like a wall.
-    Bounded { width: f64, height: f64 },
+    Bounded {
+        width: f64,
+        height: f64,
+    },
     Infinite,
 }
 
@@ -50,7 +53,9 @@ pub enum WorldError {
     BadRadius { robot: RobotId, radius: f64 },
     #[error("robot {robot}: position and angle must be finite")]
     NotFinite { robot: RobotId },
-    #[error("robot {robot} at ({x}, {y}) with radius {radius} is not inside the {width}x{height} world")]
+    #[error(
+        "robot {robot} at ({x}, {y}) with radius {radius} is not inside the {width}x{height} world"
+    )]
     OutOfWorld {
         robot: RobotId,
         x: f64,
@@ -240,7 +245,13 @@ impl VirtualWorld {
 
     /// Robots other than `me` whose centres are within `reach` of `centre` at `t`, by id, with
     /// their positions and centre distances.
-    pub fn within(&self, me: RobotId, centre: Point, reach: f64, t: f64) -> Vec<(RobotId, Point, f64)> {
+    pub fn within(
+        &self,
+        me: RobotId,
+        centre: Point,
+        reach: f64,
+        t: f64,
+    ) -> Vec<(RobotId, Point, f64)> {
         let m = Point::new(reach, reach).coords;
         let candidates = self
             .grid
@@ -345,7 +356,9 @@ impl VirtualWorld {
         let now = out.now();
         let cell = self.robots[id as usize].cell;
         let lo = self.grid.lower_corner(cell);
-        if let Some((t, offset)) = predict_cell_exit(&self.track(id), lo, self.grid.cell_size(), now) {
+        if let Some((t, offset)) =
+            predict_cell_exit(&self.track(id), lo, self.grid.cell_size(), now)
+        {
             let e = out.schedule(
                 t,
                 Target::MotionManager,
@@ -533,58 +546,137 @@ impl VirtualWorld {
         }
     }
 
+    /// Robots and walls that `x` touches at `now` while moving towards them, other than those
+    /// in `known`: contacts at the same instant as a collision that stops `x`.
+    fn simultaneous_contacts(
+        &self,
+        x: RobotId,
+        now: f64,
+        known: &[(RobotId, Obstacle)],
+    ) -> Vec<(Obstacle, Option<Point>)> {
+        const TOUCH: f64 = 1e-9;
+        let kx = self.state_at(x, now);
+        let rx = self.radius(x);
+        let mut out = Vec::new();
+        let listed = |o: Obstacle| {
+            known.iter().any(|&(p, q)| {
+                (p == x && q == o) || (q == Obstacle::Robot(x) && Obstacle::Robot(p) == o)
+            })
+        };
+        if !self.cfg.ghost_mode {
+            for o in self.grid.neighbours(self.robots[x as usize].cell) {
+                if o == x || listed(Obstacle::Robot(o)) {
+                    continue;
+                }
+                let ko = self.state_at(o, now);
+                let d = kx.pos - ko.pos;
+                if d.norm() - rx - self.radius(o) <= TOUCH && d.dot(&(kx.vel - ko.vel)) < 0.0 {
+                    out.push((Obstacle::Robot(o), None));
+                }
+            }
+        }
+        if let WorldSize::Bounded { width, height } = self.cfg.size {
+            if !listed(Obstacle::Boundary) {
+                let hit = super::geometry::first_wall_contact(
+                    kx.pos,
+                    kx.vel,
+                    rx,
+                    Point::new(0.0, 0.0),
+                    Point::new(width, height),
+                    TOUCH / kx.vel.norm().max(1e-300),
+                );
+                if let Some((_, c)) = hit {
+                    out.push((Obstacle::Boundary, Some(c)));
+                }
+            }
+        }
+        out
+    }
+
+    /// A collision stops both robots (seed 3.3); every other contact either of them makes at
+    /// the same instant is a collision too.
     fn collision(&mut self, a: RobotId, b: Obstacle, contact: Option<Point>, out: &mut Outbox) {
         let now = out.now();
-        let pa = self.state_at(a, now).pos;
-        let other_pos = match b {
-            Obstacle::Robot(b) => self.state_at(b, now).pos,
-            Obstacle::Boundary => contact.unwrap_or(pa),
-        };
-        out.record(Observation::Collision {
-            robot: a,
-            other: b,
-            pos: pa,
-            other_pos,
-        });
-        let mut involved = vec![(a, b)];
-        if let Obstacle::Robot(b) = b {
-            involved.push((b, Obstacle::Robot(a)));
-        }
+        let mut contacts = vec![(a, b, contact)];
         let mut stopped = Vec::new();
-        for &(x, with) in &involved {
-            if self.end_motion(x, MotionOutcome::Collided { with }, out) {
-                stopped.push(x);
+        let mut k = 0;
+        while k < contacts.len() {
+            let (x, y, c) = contacts[k];
+            k += 1;
+            let px = self.state_at(x, now).pos;
+            let other_pos = match y {
+                Obstacle::Robot(y) => self.state_at(y, now).pos,
+                Obstacle::Boundary => c.unwrap_or(px),
+            };
+            out.record(Observation::Collision {
+                robot: x,
+                other: y,
+                pos: px,
+                other_pos,
+            });
+            let mut sides = vec![(x, y)];
+            if let Obstacle::Robot(y) = y {
+                sides.push((y, Obstacle::Robot(x)));
+            }
+            for (r, with) in sides {
+                let known: Vec<(RobotId, Obstacle)> =
+                    contacts.iter().map(|&(p, q, _)| (p, q)).collect();
+                for (o, c) in self.simultaneous_contacts(r, now, &known) {
+                    contacts.push((r, o, c));
+                }
+                if self.end_motion(r, MotionOutcome::Collided { with }, out) {
+                    stopped.push(r);
+                }
             }
         }
         for &x in &stopped {
             self.invalidate(x, out);
         }
-        // The pair's collision has been consumed even if neither path changed: drop the pair's
+        // A pair's collision has been consumed even if neither path changed: drop the pair's
         // remaining predictions and make them again from the new state.
-        if let Obstacle::Robot(b) = b {
-            if let Some(ids) = self.robots[a as usize].pairs.remove(&b) {
+        let pairs: Vec<(RobotId, RobotId)> = contacts
+            .iter()
+            .filter_map(|&(x, y, _)| match y {
+                Obstacle::Robot(y) => Some((x, y)),
+                Obstacle::Boundary => None,
+            })
+            .collect();
+        for &(x, y) in &pairs {
+            if let Some(ids) = self.robots[x as usize].pairs.remove(&y) {
                 ids.into_iter().for_each(|e| out.cancel(e));
-                self.robots[b as usize].pairs.remove(&a);
+                self.robots[y as usize].pairs.remove(&x);
             }
         }
         for &x in &stopped {
             self.predict_all(x, out);
         }
-        if let Obstacle::Robot(b) = b {
-            if !self.robots[a as usize].pairs.contains_key(&b) {
-                self.predict_pair(a, b, out);
+        for &(x, y) in &pairs {
+            if !self.robots[x as usize].pairs.contains_key(&y) {
+                self.predict_pair(x, y, out);
             }
         }
-        for &(x, with) in &involved {
-            if self.robots[x as usize].contact {
-                self.push_interrupt(x, SensorKind::Contact, SensorValue::Contact(with), out);
+        for &(x, y, _) in &contacts {
+            let mut sides = vec![(x, y)];
+            if let Obstacle::Robot(y) = y {
+                sides.push((y, Obstacle::Robot(x)));
+            }
+            for (r, with) in sides {
+                if self.robots[r as usize].contact {
+                    self.push_interrupt(r, SensorKind::Contact, SensorValue::Contact(with), out);
+                }
             }
         }
     }
 
     // ----- sensor manager ------------------------------------------------------------
 
-    fn push_interrupt(&self, robot: RobotId, sensor: SensorKind, value: SensorValue, out: &mut Outbox) {
+    fn push_interrupt(
+        &self,
+        robot: RobotId,
+        sensor: SensorKind,
+        value: SensorValue,
+        out: &mut Outbox,
+    ) {
         out.schedule(
             out.now(),
             Target::Sensor(robot, sensor),
@@ -703,7 +795,12 @@ impl VirtualWorld {
         let near = self.free_distances(robot, push.range, now);
         push.pending = false;
         if !near.is_empty() {
-            self.push_interrupt(robot, SensorKind::PushProximity, SensorValue::Distances(near), out);
+            self.push_interrupt(
+                robot,
+                SensorKind::PushProximity,
+                SensorValue::Distances(near),
+                out,
+            );
             if push.interval > 0.0 {
                 push.quiet_until = now + push.interval;
                 push.generation += 1;
