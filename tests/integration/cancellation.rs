@@ -1,0 +1,91 @@
+//! Conditional events (seed 4.3.3): a predicted collision is cancelled when a robot changes
+//! its path before it.
+
+use crate::common::*;
+use nekosim::world::geometry::Point;
+use nekosim::world::motion::Motion;
+use nekosim::world::observation::Observation;
+use nekosim::world::MotionOutcome;
+use nekosim::{Algorithm, AlgorithmFuture, Robot};
+
+/// Starts forward at 1 unit/s, then after `react` seconds does `then` (replacing the motion).
+#[derive(Debug, Clone)]
+struct Swerve {
+    react: Option<f64>,
+    then: Option<Motion>,
+}
+
+impl Algorithm for Swerve {
+    fn name(&self) -> &str {
+        "Swerve"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        let me = self.clone();
+        Box::pin(async move {
+            let first = robot.start_motion(Motion::Forward { distance: 100.0, move_speed: 1.0 });
+            match me.react {
+                None => {
+                    robot.wait_motion(first).await;
+                }
+                Some(d) => {
+                    robot.sleep(d).await;
+                    if let Some(m) = me.then {
+                        let end = robot.motion(m).await;
+                        assert_ne!(end.outcome, MotionOutcome::Replaced);
+                    }
+                    let replaced = robot.wait_motion(first).await;
+                    assert_eq!(replaced.outcome, MotionOutcome::Replaced);
+                }
+            }
+        })
+    }
+}
+
+fn scenario(react: Option<f64>, then: Option<Motion>) -> nekosim::scheduler::RunOutput {
+    run(
+        infinite(),
+        500.0,
+        vec![
+            (spec(0.0, 0.0, 0.0, 1.0), Box::new(Swerve { react, then })),
+            (spec(50.0, 0.0, 0.0, 1.0), idle()),
+        ],
+    )
+}
+
+fn collisions(out: &nekosim::scheduler::RunOutput) -> Vec<f64> {
+    out.records
+        .iter()
+        .filter(|r| matches!(r.obs, Observation::Collision { .. }))
+        .map(|r| r.t)
+        .collect()
+}
+
+#[test]
+fn the_collision_happens_when_nobody_reacts() {
+    let out = scenario(None, None);
+    assert_eq!(collisions(&out), vec![48.0]);
+}
+
+#[test]
+fn turning_away_cancels_the_predicted_collision() {
+    let out = scenario(Some(10.0), Some(Motion::Turn { angle: 90.0, turn_speed: 45.0 }));
+    assert!(collisions(&out).is_empty());
+    assert!(out.stats.cancelled >= 1, "the predicted collision was cancelled, not just skipped");
+    // The robot stands where it stopped, 10 units along, facing up.
+    let last = out.records.iter().rev().find_map(|r| match &r.obs {
+        Observation::MotionFinish { robot: 0, state, .. } => Some(*state),
+        _ => None,
+    });
+    let s = last.unwrap();
+    assert!((s.pos - Point::new(10.0, 0.0)).norm() < 1e-12 && (s.angle - 90.0).abs() < 1e-9);
+}
+
+#[test]
+fn stopping_short_cancels_the_predicted_collision_and_a_later_push_collides_on_time() {
+    // Replace the long forward by a short one that ends 10 units before contact.
+    let out = scenario(Some(10.0), Some(Motion::Forward { distance: 28.0, move_speed: 1.0 }));
+    assert!(collisions(&out).is_empty());
+    // Replacing it by a faster forward moves the collision earlier: 10 + 38 / 2.
+    let out = scenario(Some(10.0), Some(Motion::Forward { distance: 100.0, move_speed: 2.0 }));
+    assert_eq!(collisions(&out), vec![29.0]);
+}
