@@ -5,4 +5,6 @@ mod collisions;
 mod determinism;
 mod virtual_time;
 mod common;
+mod scale;
+mod sensors;
 mod smoke;

@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
+pub mod born;
 pub mod collision;
 pub mod event;
 pub mod geometry;
