@@ -1,1 +1,185 @@
-fn main() {}
+//! Engine benchmarks (`cargo bench --bench engine`):
+//! - `throughput/*`: events per second through the scheduler actor next to a raw actix
+//!   `do_send` ring carrying the same number of messages;
+//! - `random_movement/*`: the seed's random movement with collisions at 1k and 10k robots
+//!   (events/s; wall time per simulated second = time per iteration / horizon).
+
+use actix::prelude::*;
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use nekosim::algorithm::RandomMovement;
+use nekosim::world::born::random_born_points;
+use nekosim::world::motion::Pose;
+use nekosim::world::virtual_world::{RobotSpec, WorldConfig, WorldSize};
+use nekosim::{Algorithm, AlgorithmFuture, Robot, SimConfig};
+use rand::SeedableRng;
+
+/// Sleeps one simulated second at a time, forever: one scheduler round trip per event.
+#[derive(Debug)]
+struct Ticker;
+
+impl Algorithm for Ticker {
+    fn name(&self) -> &str {
+        "Ticker"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        Box::pin(async move {
+            loop {
+                robot.sleep(1.0).await;
+            }
+        })
+    }
+}
+
+const TICKERS: usize = 100;
+const TICKS: usize = 200;
+
+fn ticker_config() -> SimConfig {
+    let robots = (0..TICKERS)
+        .map(|i| {
+            let spec = RobotSpec {
+                radius: 1.0,
+                pose: Pose {
+                    pos: nekosim::world::geometry::Point::new(10.0 * i as f64, 0.0),
+                    angle: 0.0,
+                },
+            };
+            (spec, Box::new(Ticker) as Box<dyn Algorithm>)
+        })
+        .collect();
+    SimConfig {
+        seed: 1,
+        until: TICKS as f64 - 0.5,
+        world: WorldConfig {
+            size: WorldSize::Infinite,
+            ghost_mode: true,
+            cell_size: None,
+        },
+        robots,
+        arbiters: 1,
+        record: false,
+    }
+}
+
+#[derive(Message)]
+#[rtype(result = "()")]
+struct Token(u64);
+
+struct Hop {
+    next: Option<Recipient<Token>>,
+}
+
+impl Actor for Hop {
+    type Context = Context<Self>;
+}
+
+impl Handler<Token> for Hop {
+    type Result = ();
+    fn handle(&mut self, t: Token, _: &mut Context<Self>) {
+        if t.0 == 0 {
+            System::current().stop();
+        } else if let Some(n) = &self.next {
+            n.do_send(Token(t.0 - 1));
+        }
+    }
+}
+
+#[derive(Message)]
+#[rtype(result = "()")]
+struct Link(Recipient<Token>);
+
+impl Handler<Link> for Hop {
+    type Result = ();
+    fn handle(&mut self, l: Link, _: &mut Context<Self>) {
+        self.next = Some(l.0);
+    }
+}
+
+/// A ring of `n` actors passing one token `hops` times with `do_send`.
+fn raw_ring(n: usize, hops: u64) {
+    let sys = System::new();
+    sys.block_on(async move {
+        let addrs: Vec<Addr<Hop>> = (0..n).map(|_| Hop { next: None }.start()).collect();
+        for (i, a) in addrs.iter().enumerate() {
+            a.do_send(Link(addrs[(i + 1) % n].clone().recipient()));
+        }
+        addrs[0].do_send(Token(hops));
+    });
+    sys.run().unwrap();
+}
+
+fn throughput(c: &mut Criterion) {
+    let events = nekosim::run(ticker_config()).unwrap().stats.events;
+    let mut g = c.benchmark_group("throughput");
+    g.sample_size(20);
+    g.throughput(Throughput::Elements(events));
+    g.bench_function("scheduler_actor", |b| {
+        b.iter_batched(
+            ticker_config,
+            |cfg| nekosim::run(cfg).unwrap(),
+            BatchSize::PerIteration,
+        )
+    });
+    g.bench_function("raw_actix_do_send_ring", |b| {
+        b.iter(|| raw_ring(TICKERS, events))
+    });
+    g.finish();
+}
+
+fn random_config(n: usize, until: f64) -> SimConfig {
+    // The seed's density: 100 robots of radius 5 per 800×800.
+    let side = 800.0 * (n as f64 / 100.0).sqrt();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(n as u64);
+    let robots = random_born_points(n, 5.0, side, side, &[], &mut rng)
+        .unwrap()
+        .into_iter()
+        .map(|p| {
+            let spec = RobotSpec {
+                radius: 5.0,
+                pose: Pose { pos: p, angle: 0.0 },
+            };
+            (
+                spec,
+                Box::new(RandomMovement::default()) as Box<dyn Algorithm>,
+            )
+        })
+        .collect();
+    SimConfig {
+        seed: 3,
+        until,
+        world: WorldConfig {
+            size: WorldSize::Bounded {
+                width: side,
+                height: side,
+            },
+            ghost_mode: false,
+            cell_size: None,
+        },
+        robots,
+        arbiters: 1,
+        record: false,
+    }
+}
+
+fn random_movement(c: &mut Criterion) {
+    let mut g = c.benchmark_group("random_movement");
+    g.sample_size(10);
+    for (n, until) in [(1_000usize, 100.0), (10_000, 20.0)] {
+        let stats = nekosim::run(random_config(n, until)).unwrap().stats;
+        eprintln!(
+            "random_movement/{n}: {until} simulated s, {} events, {} collisions",
+            stats.events, stats.collisions
+        );
+        g.throughput(Throughput::Elements(stats.events));
+        g.bench_function(format!("{n}_robots_{until}s"), |b| {
+            b.iter_batched(
+                || random_config(n, until),
+                |cfg| nekosim::run(cfg).unwrap(),
+                BatchSize::PerIteration,
+            )
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, throughput, random_movement);
+criterion_main!(benches);

@@ -2,7 +2,7 @@
 //!
 //! A robot's algorithm is sequential async code, like the seed's `doMotion` loops:
 //!
-//! ```ignore
+//! ```text
 //! loop {
 //!     let all = robot.gps().all_positions(0.0).await;
 //!     let end = robot.move_to(centroid(&all), 4.0, 30.0).await;
@@ -27,7 +27,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::scheduler::Deliver;
-use crate::world::event::{EventClass, Notice, Outbox, Payload, Target};
+use crate::world::event::{EventClass, FutureEvent, Notice, Outbox, Payload, Target};
 use crate::world::geometry::Point;
 use crate::world::motion::{Kinematics, Motion};
 use crate::world::sensor::{SensorQuery, SensorValue};
@@ -64,6 +64,7 @@ enum Request {
     Motion { ticket: u64, motion: Motion },
     Sensor { ticket: u64, query: SensorQuery },
     Timer { ticket: u64, at: f64 },
+    ListEvents { ticket: u64 },
 }
 
 #[derive(Debug)]
@@ -235,6 +236,20 @@ impl Robot {
         n
     }
 
+    /// The robot's pending events, as the event manager lists them now (seed 4.2.3): for
+    /// instance to see a predicted collision before acting.
+    pub async fn future_events(&self) -> Vec<FutureEvent> {
+        let ticket = self.ticket();
+        self.push(Request::ListEvents { ticket });
+        let (v, _) = self
+            .take(|n| match n {
+                Notice::FutureEvents { ticket: t, events } if *t == ticket => Some(events.clone()),
+                _ => None,
+            })
+            .await;
+        v
+    }
+
     /// The GPS sensor.
     pub fn gps(&self) -> Gps<'_> {
         Gps(self)
@@ -402,6 +417,13 @@ impl Handler<Deliver> for RobotActor {
                     EventClass::Eventual,
                     me,
                     Payload::Timer { robot: id, ticket },
+                ),
+                Request::ListEvents { ticket } => out.schedule(
+                    msg.now,
+                    Target::EventManager,
+                    EventClass::Eventual,
+                    me,
+                    Payload::ListEvents { robot: id, ticket },
                 ),
             };
         }

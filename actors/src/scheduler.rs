@@ -27,7 +27,9 @@ use std::collections::HashMap;
 
 use actix::prelude::*;
 
-use crate::world::event::{Effect, Event, EventQueue, Outbox, Target};
+use crate::world::event::{
+    Effect, Event, EventQueue, FutureEvent, Notice, Outbox, Payload, Target,
+};
 use crate::world::observation::{Observation, Record};
 use crate::world::sensor::SensorKind;
 use crate::world::RobotId;
@@ -165,8 +167,29 @@ impl Scheduler {
         }
     }
 
+    /// The event manager's own events: a robot's listing of its future events.
+    fn handle_inline(&mut self, event: Event) {
+        let mut out = Outbox::new(self.now, self.seq);
+        if let Payload::ListEvents { robot, ticket } = event.payload {
+            let events = self
+                .queue
+                .future_of(robot)
+                .into_iter()
+                .map(|e| FutureEvent {
+                    time: e.time,
+                    class: e.class,
+                    kind: e.payload.kind(),
+                    robots: e.robots,
+                })
+                .collect();
+            out.notify(robot, Notice::FutureEvents { ticket, events });
+        }
+        self.apply(out.into_effects());
+    }
+
     fn route(&mut self, target: Target) -> Recipient<Deliver> {
         match target {
+            Target::EventManager => unreachable!("the event manager's events are handled inline"),
             Target::MotionManager => self.routes.motion_manager.clone(),
             Target::SensorManager => self.routes.sensor_manager.clone(),
             Target::Robot(r) => self.routes.robots[r as usize].clone(),
@@ -221,6 +244,11 @@ impl Handler<Step> for Scheduler {
         self.seq += 1;
         self.output.stats.events += 1;
         let target = event.target;
+        if target == Target::EventManager {
+            self.handle_inline(event);
+            ctx.notify(Step);
+            return;
+        }
         let deliver = Deliver {
             now: self.now,
             seq: self.seq,

@@ -22,7 +22,10 @@ impl Algorithm for Swerve {
     fn run(&self, robot: Robot) -> AlgorithmFuture {
         let me = self.clone();
         Box::pin(async move {
-            let first = robot.start_motion(Motion::Forward { distance: 100.0, move_speed: 1.0 });
+            let first = robot.start_motion(Motion::Forward {
+                distance: 100.0,
+                move_speed: 1.0,
+            });
             match me.react {
                 None => {
                     robot.wait_motion(first).await;
@@ -68,12 +71,23 @@ fn the_collision_happens_when_nobody_reacts() {
 
 #[test]
 fn turning_away_cancels_the_predicted_collision() {
-    let out = scenario(Some(10.0), Some(Motion::Turn { angle: 90.0, turn_speed: 45.0 }));
+    let out = scenario(
+        Some(10.0),
+        Some(Motion::Turn {
+            angle: 90.0,
+            turn_speed: 45.0,
+        }),
+    );
     assert!(collisions(&out).is_empty());
-    assert!(out.stats.cancelled >= 1, "the predicted collision was cancelled, not just skipped");
+    assert!(
+        out.stats.cancelled >= 1,
+        "the predicted collision was cancelled, not just skipped"
+    );
     // The robot stands where it stopped, 10 units along, facing up.
     let last = out.records.iter().rev().find_map(|r| match &r.obs {
-        Observation::MotionFinish { robot: 0, state, .. } => Some(*state),
+        Observation::MotionFinish {
+            robot: 0, state, ..
+        } => Some(*state),
         _ => None,
     });
     let s = last.unwrap();
@@ -83,9 +97,91 @@ fn turning_away_cancels_the_predicted_collision() {
 #[test]
 fn stopping_short_cancels_the_predicted_collision_and_a_later_push_collides_on_time() {
     // Replace the long forward by a short one that ends 10 units before contact.
-    let out = scenario(Some(10.0), Some(Motion::Forward { distance: 28.0, move_speed: 1.0 }));
+    let out = scenario(
+        Some(10.0),
+        Some(Motion::Forward {
+            distance: 28.0,
+            move_speed: 1.0,
+        }),
+    );
     assert!(collisions(&out).is_empty());
     // Replacing it by a faster forward moves the collision earlier: 10 + 38 / 2.
-    let out = scenario(Some(10.0), Some(Motion::Forward { distance: 100.0, move_speed: 2.0 }));
+    let out = scenario(
+        Some(10.0),
+        Some(Motion::Forward {
+            distance: 100.0,
+            move_speed: 2.0,
+        }),
+    );
     assert_eq!(collisions(&out), vec![29.0]);
+}
+
+#[derive(Debug)]
+struct Lookahead;
+
+impl Algorithm for Lookahead {
+    fn name(&self) -> &str {
+        "Lookahead"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        Box::pin(async move {
+            robot.start_motion(Motion::Forward {
+                distance: 100.0,
+                move_speed: 1.0,
+            });
+            let events = robot.future_events().await;
+            // The event manager lists the predicted collision and the motion's finish.
+            let collision = events
+                .iter()
+                .find(|e| e.kind == "collision")
+                .expect("collision listed");
+            assert_eq!(collision.time, 48.0);
+            assert_eq!(
+                collision.class,
+                nekosim::world::event::EventClass::Conditional
+            );
+            assert!(events
+                .iter()
+                .any(|e| e.kind == "motion_step" && e.time == 100.0));
+            assert!(events.windows(2).all(|w| w[0].time <= w[1].time));
+            // Seeing it coming, stop short: the collision is cancelled.
+            robot
+                .motion(Motion::Forward {
+                    distance: 10.0,
+                    move_speed: 1.0,
+                })
+                .await;
+            assert!(robot
+                .future_events()
+                .await
+                .iter()
+                .all(|e| e.kind != "collision"));
+        })
+    }
+}
+
+#[test]
+fn an_algorithm_can_list_its_future_events_and_avoid_a_predicted_collision() {
+    // Collisions are predicted once robots are in neighbouring cells of the spatial index;
+    // wide cells make the prediction immediate here.
+    let mut world = infinite();
+    world.cell_size = Some(100.0);
+    let out = run(
+        world,
+        500.0,
+        vec![
+            (spec(0.0, 0.0, 0.0, 1.0), Box::new(Lookahead)),
+            (spec(50.0, 0.0, 0.0, 1.0), idle()),
+        ],
+    );
+    assert!(collisions(&out).is_empty());
+    // The algorithm's assertions ran to the end: its last motion finished.
+    assert!(out.records.iter().any(|r| matches!(
+        &r.obs,
+        Observation::MotionFinish {
+            robot: 0,
+            outcome: MotionOutcome::Arrived,
+            ..
+        }
+    ) && r.t == 10.0));
 }

@@ -14,18 +14,31 @@ fn run_with(seed: u64, arbiters: usize) -> RunOutput {
     for i in 0..24 {
         let (x, y) = (20.0 + 25.0 * (i % 6) as f64, 20.0 + 30.0 * (i / 6) as f64);
         let alg: Box<dyn Algorithm> = if i % 3 == 0 {
-            Box::new(Gathering { error: 0.5, ..Gathering::default() })
+            Box::new(Gathering {
+                error: 0.5,
+                ..Gathering::default()
+            })
         } else {
             Box::new(RandomMovement::default())
         };
         robots.push((spec(x, y, 15.0 * i as f64, 4.0), alg));
     }
-    nekosim::run(SimConfig { seed, until: 80.0, world: bounded(200.0, 200.0), robots, arbiters, record: true })
-        .expect("run")
+    nekosim::run(SimConfig {
+        seed,
+        until: 80.0,
+        world: bounded(200.0, 200.0),
+        robots,
+        arbiters,
+        record: true,
+    })
+    .expect("run")
 }
 
 fn text(records: &[Record]) -> String {
-    records.iter().map(|r| format!("{} {} {:?}\n", r.t, r.seq, r.obs)).collect()
+    records
+        .iter()
+        .map(|r| format!("{} {} {:?}\n", r.t, r.seq, r.obs))
+        .collect()
 }
 
 #[test]
@@ -52,7 +65,12 @@ fn several_arbiters_give_the_same_order_as_one() {
 fn time_never_goes_backwards_and_seq_strictly_increases() {
     let out = run_with(5, 2);
     for w in out.records.windows(2) {
-        assert!(w[1].t >= w[0].t, "time went back: {:?} then {:?}", w[0], w[1]);
+        assert!(
+            w[1].t >= w[0].t,
+            "time went back: {:?} then {:?}",
+            w[0],
+            w[1]
+        );
         assert!(w[1].seq > w[0].seq);
     }
 }

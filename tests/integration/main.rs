@@ -2,9 +2,9 @@
 
 mod cancellation;
 mod collisions;
-mod determinism;
-mod virtual_time;
 mod common;
+mod determinism;
 mod scale;
 mod sensors;
 mod smoke;
+mod virtual_time;

@@ -18,8 +18,14 @@ fn ten_thousand_robots_run() {
     let robots = points
         .into_iter()
         .map(|p| {
-            let spec = RobotSpec { radius: 5.0, pose: Pose { pos: p, angle: 0.0 } };
-            (spec, Box::new(RandomMovement::default()) as Box<dyn Algorithm>)
+            let spec = RobotSpec {
+                radius: 5.0,
+                pose: Pose { pos: p, angle: 0.0 },
+            };
+            (
+                spec,
+                Box::new(RandomMovement::default()) as Box<dyn Algorithm>,
+            )
         })
         .collect();
     let out = nekosim::run(SimConfig {

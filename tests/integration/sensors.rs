@@ -53,7 +53,15 @@ fn pull_sensors_report_the_exact_state_at_reply_time() {
         100.0,
         vec![
             (spec(0.0, 0.0, 0.0, 1.0), Box::new(Asker { at })),
-            (spec(20.0, 0.0, 0.0, 1.0), script(vec![ScriptStep::MoveTo { x: 40.0, y: 30.0, move_speed: 2.0, turn_speed: 45.0 }])),
+            (
+                spec(20.0, 0.0, 0.0, 1.0),
+                script(vec![ScriptStep::MoveTo {
+                    x: 40.0,
+                    y: 30.0,
+                    move_speed: 2.0,
+                    turn_speed: 45.0,
+                }]),
+            ),
             (spec(5.0, 5.0, 0.0, 1.0), idle()),
         ],
     );
@@ -61,7 +69,12 @@ fn pull_sensors_report_the_exact_state_at_reply_time() {
         .records
         .iter()
         .filter_map(|r| match &r.obs {
-            Observation::SensorReply { robot: 0, value, sensor, interrupt: false } => Some((r.t, *sensor, value.clone())),
+            Observation::SensorReply {
+                robot: 0,
+                value,
+                sensor,
+                interrupt: false,
+            } => Some((r.t, *sensor, value.clone())),
             _ => None,
         })
         .collect();
@@ -141,7 +154,13 @@ fn push_proximity_fires_at_entry_and_contact_at_collision() {
         100.0,
         vec![
             (spec(0.0, 0.0, 0.0, 1.0), Box::new(WatcherCfg)),
-            (spec(50.0, 0.0, 180.0, 1.0), script(vec![ScriptStep::Forward { distance: 100.0, move_speed: 2.0 }])),
+            (
+                spec(50.0, 0.0, 180.0, 1.0),
+                script(vec![ScriptStep::Forward {
+                    distance: 100.0,
+                    move_speed: 2.0,
+                }]),
+            ),
         ],
     );
     let seen = WATCHED.with(|s| s.borrow().clone());
@@ -150,7 +169,10 @@ fn push_proximity_fires_at_entry_and_contact_at_collision() {
     let (t, n) = &seen[0];
     assert!((t - 21.5).abs() < 1e-9, "entry at {t}");
     match n {
-        Notice::Interrupt { sensor: SensorKind::PushProximity, value: SensorValue::Distances(d) } => {
+        Notice::Interrupt {
+            sensor: SensorKind::PushProximity,
+            value: SensorValue::Distances(d),
+        } => {
             assert_eq!(d.len(), 1);
             assert!((d[0].1 - 5.0).abs() < 1e-9);
         }
@@ -159,9 +181,18 @@ fn push_proximity_fires_at_entry_and_contact_at_collision() {
     // Contact when the centres are 2 apart: 48 units.
     let (t, n) = &seen[1];
     assert!((t - 24.0).abs() < 1e-9, "contact at {t}");
-    assert_eq!(*n, Notice::Interrupt { sensor: SensorKind::Contact, value: SensorValue::Contact(Obstacle::Robot(1)) });
     assert_eq!(
-        out.records.iter().filter(|r| matches!(r.obs, Observation::Collision { .. })).count(),
+        *n,
+        Notice::Interrupt {
+            sensor: SensorKind::Contact,
+            value: SensorValue::Contact(Obstacle::Robot(1))
+        }
+    );
+    assert_eq!(
+        out.records
+            .iter()
+            .filter(|r| matches!(r.obs, Observation::Collision { .. }))
+            .count(),
         1
     );
 }
@@ -175,11 +206,23 @@ fn push_proximity_reports_robots_already_in_range_at_activation_and_re_entries()
         vec![
             (spec(0.0, 0.0, 0.0, 1.0), Box::new(WatcherCfg)),
             // Starts 4 apart (free distance 2), leaves along +y, then comes back.
-            (spec(0.0, 4.0, 90.0, 1.0), script(vec![
-                ScriptStep::Forward { distance: 20.0, move_speed: 1.0 },
-                ScriptStep::Turn { angle: 180.0, turn_speed: 90.0 },
-                ScriptStep::Forward { distance: 20.0, move_speed: 1.0 },
-            ])),
+            (
+                spec(0.0, 4.0, 90.0, 1.0),
+                script(vec![
+                    ScriptStep::Forward {
+                        distance: 20.0,
+                        move_speed: 1.0,
+                    },
+                    ScriptStep::Turn {
+                        angle: 180.0,
+                        turn_speed: 90.0,
+                    },
+                    ScriptStep::Forward {
+                        distance: 20.0,
+                        move_speed: 1.0,
+                    },
+                ]),
+            ),
         ],
     );
     let seen = WATCHED.with(|s| s.borrow().clone());

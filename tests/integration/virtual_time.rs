@@ -14,11 +14,20 @@ fn a_billion_simulated_seconds_take_well_under_a_wall_clock_second() {
         infinite(),
         2e9,
         vec![
-            (spec(0.0, 0.0, 0.0, 1.0), script(vec![
-                ScriptStep::Wait(1e8),
-                ScriptStep::Forward { distance: 100.0, move_speed: 1e-7 },
-                ScriptStep::Turn { angle: 180.0, turn_speed: 1e-6 },
-            ])),
+            (
+                spec(0.0, 0.0, 0.0, 1.0),
+                script(vec![
+                    ScriptStep::Wait(1e8),
+                    ScriptStep::Forward {
+                        distance: 100.0,
+                        move_speed: 1e-7,
+                    },
+                    ScriptStep::Turn {
+                        angle: 180.0,
+                        turn_speed: 1e-6,
+                    },
+                ]),
+            ),
             (spec(0.0, 50.0, 0.0, 1.0), idle()),
         ],
     );

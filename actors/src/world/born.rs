@@ -85,7 +85,15 @@ mod tests {
     fn points_are_inside_and_do_not_overlap_and_are_seeded() {
         let draw = |seed| {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-            random_born_points(300, 5.0, 400.0, 300.0, &[(Point::new(50.0, 50.0), 20.0)], &mut rng).unwrap()
+            random_born_points(
+                300,
+                5.0,
+                400.0,
+                300.0,
+                &[(Point::new(50.0, 50.0), 20.0)],
+                &mut rng,
+            )
+            .unwrap()
         };
         let pts = draw(3);
         assert_eq!(pts, draw(3));

@@ -32,6 +32,8 @@ pub struct EventId {
 /// Which actor handles an event.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Target {
+    /// The scheduler itself, as the event manager (answers listings inline).
+    EventManager,
     MotionManager,
     SensorManager,
     Robot(RobotId),
@@ -65,6 +67,23 @@ pub enum Notice {
     },
     /// A timer set by `sleep` fired.
     Timer { ticket: u64 },
+    /// The event manager's listing of the robot's future events.
+    FutureEvents {
+        ticket: u64,
+        events: Vec<FutureEvent>,
+    },
+}
+
+/// One pending event, as the event manager lists it (seed 4.2.3).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FutureEvent {
+    /// When it is due [s].
+    pub time: f64,
+    pub class: EventClass,
+    /// What it is: `motion_step`, `collision`, `cell_crossing`, `timer`, ...
+    pub kind: &'static str,
+    /// The robots it concerns.
+    pub robots: [Option<RobotId>; 2],
 }
 
 /// The content of an event.
@@ -113,6 +132,28 @@ pub enum Payload {
     Notice(Notice),
     /// A robot's own timer.
     Timer { robot: RobotId, ticket: u64 },
+    /// Robot -> event manager: list my future events.
+    ListEvents { robot: RobotId, ticket: u64 },
+}
+
+impl Payload {
+    /// Short name of the kind of event.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Payload::MotionRequest { .. } => "motion_request",
+            Payload::MotionStep { .. } => "motion_step",
+            Payload::Collision { .. } => "collision",
+            Payload::CellCrossing { .. } => "cell_crossing",
+            Payload::ProximityEntry { .. } => "proximity_entry",
+            Payload::ProximityRearm { .. } => "proximity_rearm",
+            Payload::SensorRequest { .. } => "sensor_request",
+            Payload::SensorTrigger { .. } => "sensor_trigger",
+            Payload::SensorCompute { .. } => "sensor_compute",
+            Payload::Notice(_) => "notice",
+            Payload::Timer { .. } => "timer",
+            Payload::ListEvents { .. } => "list_events",
+        }
+    }
 }
 
 /// A scheduled event.
