@@ -147,10 +147,7 @@ fn random_config(n: usize, until: f64) -> SimConfig {
         seed: 3,
         until,
         world: WorldConfig {
-            size: WorldSize::Bounded {
-                width: side,
-                height: side,
-            },
+            size: WorldSize::from_origin(side, side),
             ghost_mode: false,
             cell_size: None,
         },

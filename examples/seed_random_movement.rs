@@ -36,10 +36,7 @@ fn main() {
         seed,
         until: 120.0,
         world: WorldConfig {
-            size: WorldSize::Bounded {
-                width: 800.0,
-                height: 800.0,
-            },
+            size: WorldSize::from_origin(800.0, 800.0),
             ghost_mode: false,
             cell_size: None,
         },

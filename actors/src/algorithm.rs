@@ -96,20 +96,27 @@ impl SpeedRange {
     }
 }
 
-/// Where random destinations are drawn: the world if it is bounded, else this square.
-const DEFAULT_AREA: f64 = 800.0;
+/// Side of the square, centred on the origin, where random destinations are drawn in an
+/// infinite world (the seed's 800×800).
+pub const DEFAULT_AREA: f64 = 800.0;
 
-fn area(robot: &Robot) -> (f64, f64) {
-    match robot.info().world {
-        WorldSize::Bounded { width, height } => (width, height),
-        WorldSize::Infinite => (DEFAULT_AREA, DEFAULT_AREA),
+/// The rectangle where random destinations are drawn: the world if it is bounded, else the
+/// [`DEFAULT_AREA`] square centred on the origin.
+pub fn destination_area(world: WorldSize) -> (Point, Point) {
+    match world {
+        WorldSize::Bounded { min, max } => (min, max),
+        WorldSize::Infinite => (
+            Point::new(-DEFAULT_AREA / 2.0, -DEFAULT_AREA / 2.0),
+            Point::new(DEFAULT_AREA / 2.0, DEFAULT_AREA / 2.0),
+        ),
     }
 }
 
 /// Seed 5.1: pick a random destination and random speeds, go there, repeat.
 ///
 /// As in the seed's code: move speed uniform in `[3, 13)`; turn speed = `3 + move_speed × U`;
-/// the destination uniform over the world (an 800×800 square in an infinite world).
+/// the destination uniform over the world (an 800×800 square centred on the origin in an
+/// infinite world).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RandomMovement {
     pub move_speed: SpeedRange,
@@ -146,12 +153,13 @@ impl Algorithm for RandomMovement {
     fn run(&self, robot: Robot) -> AlgorithmFuture {
         let cfg = self.clone();
         Box::pin(async move {
-            let (w, h) = area(&robot);
+            let (lo, hi) = destination_area(robot.info().world);
             loop {
                 let (move_speed, turn_speed) = draw_speeds(&robot, cfg.move_speed, cfg.turn_speed);
                 let dest = {
                     let mut rng = robot.rng();
-                    Point::new(w * rng.gen::<f64>(), h * rng.gen::<f64>())
+                    let (u, v): (f64, f64) = (rng.gen(), rng.gen());
+                    Point::new(lo.x + (hi.x - lo.x) * u, lo.y + (hi.y - lo.y) * v)
                 };
                 robot.move_to(dest, move_speed, turn_speed).await;
             }

@@ -27,10 +27,7 @@ pub fn infinite() -> WorldConfig {
 
 pub fn bounded(w: f64, h: f64) -> WorldConfig {
     WorldConfig {
-        size: WorldSize::Bounded {
-            width: w,
-            height: h,
-        },
+        size: WorldSize::from_origin(w, h),
         ghost_mode: false,
         cell_size: None,
     }

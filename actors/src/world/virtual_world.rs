@@ -26,12 +26,31 @@ use super::{MotionOutcome, Obstacle, RobotId};
 /// The world's extent (seed 3.2).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum WorldSize {
-    /// `[0, width] × [0, height]`; the boundary stops robots like a wall.
+    /// The rectangle `[min, max]`; its boundary stops robots like a wall.
     Bounded {
-        width: f64,
-        height: f64,
+        min: Point,
+        max: Point,
     },
     Infinite,
+}
+
+impl WorldSize {
+    /// A `width` × `height` world with its lower-left corner at the origin: `[0, w] × [0, h]`
+    /// (the seed's coordinates).
+    pub fn from_origin(width: f64, height: f64) -> Self {
+        WorldSize::Bounded {
+            min: Point::new(0.0, 0.0),
+            max: Point::new(width, height),
+        }
+    }
+
+    /// A `width` × `height` world centred on the origin.
+    pub fn centred(width: f64, height: f64) -> Self {
+        WorldSize::Bounded {
+            min: Point::new(-width / 2.0, -height / 2.0),
+            max: Point::new(width / 2.0, height / 2.0),
+        }
+    }
 }
 
 /// Settings of a world.
@@ -53,16 +72,16 @@ pub enum WorldError {
     BadRadius { robot: RobotId, radius: f64 },
     #[error("robot {robot}: position and angle must be finite")]
     NotFinite { robot: RobotId },
-    #[error(
-        "robot {robot} at ({x}, {y}) with radius {radius} is not inside the {width}x{height} world"
-    )]
+    #[error("robot {robot} at ({x}, {y}) with radius {radius} is not inside the world [{min_x}, {max_x}] x [{min_y}, {max_y}]")]
     OutOfWorld {
         robot: RobotId,
         x: f64,
         y: f64,
         radius: f64,
-        width: f64,
-        height: f64,
+        min_x: f64,
+        min_y: f64,
+        max_x: f64,
+        max_y: f64,
     },
     #[error("robots {a} and {b} overlap at their born points")]
     Overlap { a: RobotId, b: RobotId },
@@ -120,8 +139,9 @@ pub struct VirtualWorld {
 impl VirtualWorld {
     /// Builds a world with robots `0..specs.len()` at their born points.
     pub fn new(cfg: WorldConfig, specs: &[RobotSpec]) -> Result<Self, WorldError> {
-        if let WorldSize::Bounded { width, height } = cfg.size {
-            if !(width.is_finite() && height.is_finite() && width > 0.0 && height > 0.0) {
+        if let WorldSize::Bounded { min, max } = cfg.size {
+            let ok = [min.x, min.y, max.x, max.y].iter().all(|v| v.is_finite());
+            if !(ok && max.x > min.x && max.y > min.y) {
                 return Err(WorldError::BadSize);
             }
         }
@@ -137,17 +157,19 @@ impl VirtualWorld {
             if !(s.pose.pos.x.is_finite() && s.pose.pos.y.is_finite() && s.pose.angle.is_finite()) {
                 return Err(WorldError::NotFinite { robot });
             }
-            if let WorldSize::Bounded { width, height } = cfg.size {
+            if let WorldSize::Bounded { min, max } = cfg.size {
                 let p = s.pose.pos;
                 let r = s.radius;
-                if p.x < r || p.y < r || p.x > width - r || p.y > height - r {
+                if p.x < min.x + r || p.y < min.y + r || p.x > max.x - r || p.y > max.y - r {
                     return Err(WorldError::OutOfWorld {
                         robot,
                         x: p.x,
                         y: p.y,
                         radius: r,
-                        width,
-                        height,
+                        min_x: min.x,
+                        min_y: min.y,
+                        max_x: max.x,
+                        max_y: max.y,
                     });
                 }
             }
@@ -373,15 +395,9 @@ impl VirtualWorld {
     /// All predictions of a robot whose path just changed.
     fn predict_all(&mut self, id: RobotId, out: &mut Outbox) {
         let now = out.now();
-        if let WorldSize::Bounded { width, height } = self.cfg.size {
+        if let WorldSize::Bounded { min, max } = self.cfg.size {
             let r = self.radius(id);
-            let wall = predict_wall(
-                &self.track(id),
-                r,
-                Point::new(0.0, 0.0),
-                Point::new(width, height),
-                now,
-            );
+            let wall = predict_wall(&self.track(id), r, min, max, now);
             if let Some((t, contact)) = wall {
                 let e = out.schedule(
                     t,
@@ -575,14 +591,14 @@ impl VirtualWorld {
                 }
             }
         }
-        if let WorldSize::Bounded { width, height } = self.cfg.size {
+        if let WorldSize::Bounded { min, max } = self.cfg.size {
             if !listed(Obstacle::Boundary) {
                 let hit = super::geometry::first_wall_contact(
                     kx.pos,
                     kx.vel,
                     rx,
-                    Point::new(0.0, 0.0),
-                    Point::new(width, height),
+                    min,
+                    max,
                     TOUCH / kx.vel.norm().max(1e-300),
                 );
                 if let Some((_, c)) = hit {
