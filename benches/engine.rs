@@ -57,6 +57,7 @@ fn ticker_config() -> SimConfig {
         robots,
         arbiters: 1,
         record: false,
+        observers: Default::default(),
     }
 }
 
@@ -154,6 +155,7 @@ fn random_config(n: usize, until: f64) -> SimConfig {
         robots,
         arbiters: 1,
         record: false,
+        observers: Default::default(),
     }
 }
 

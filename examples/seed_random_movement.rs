@@ -43,6 +43,7 @@ fn main() {
         robots,
         arbiters: 1,
         record: true,
+        observers: Default::default(),
     })
     .expect("run");
     for r in out

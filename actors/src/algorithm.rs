@@ -24,6 +24,7 @@ impl Algorithm for Idle {
 
 /// One step of a [`Script`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum ScriptStep {
     /// Turn by a signed `angle` [deg] at `turn_speed` [deg/s].
     Turn { angle: f64, turn_speed: f64 },

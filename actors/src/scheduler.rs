@@ -94,8 +94,33 @@ pub struct Scheduler {
     sensors: HashMap<(RobotId, SensorKind), Recipient<Deliver>>,
     output: RunOutput,
     on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
-    record: bool,
+    observers: Observers,
+    recorded: u64,
 }
+
+/// Who sees a run while it goes on.
+#[derive(Default)]
+pub struct Observers {
+    /// Keep every observation in [`RunOutput::records`].
+    pub keep: bool,
+    /// Called with every observation, in order (for streaming outputs).
+    pub sink: Option<Box<dyn FnMut(&Record)>>,
+    /// Called with the virtual time every [`PROGRESS_EVERY`] events.
+    pub progress: Option<Box<dyn FnMut(f64)>>,
+}
+
+impl std::fmt::Debug for Observers {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Observers")
+            .field("keep", &self.keep)
+            .field("sink", &self.sink.is_some())
+            .field("progress", &self.progress.is_some())
+            .finish()
+    }
+}
+
+/// How many events pass between two progress calls.
+pub const PROGRESS_EVERY: u64 = 4096;
 
 impl std::fmt::Debug for Scheduler {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -114,13 +139,12 @@ struct Step;
 
 impl Scheduler {
     /// A scheduler that runs until `until` [s] and then calls `on_finish`; `setup` holds the
-    /// effects of the setup at t = 0 (cause 0). With `record` false observations are counted
-    /// but not kept (for benchmarks).
+    /// effects of the setup at t = 0 (cause 0).
     pub fn new(
         routes: Routes,
         until: f64,
         setup: Outbox,
-        record: bool,
+        observers: Observers,
         on_finish: Box<dyn FnOnce(RunOutput)>,
     ) -> Self {
         let mut s = Self {
@@ -132,7 +156,8 @@ impl Scheduler {
             sensors: HashMap::new(),
             output: RunOutput::default(),
             on_finish: Some(on_finish),
-            record,
+            observers,
+            recorded: 0,
         };
         s.apply(setup.into_effects());
         s
@@ -154,13 +179,17 @@ impl Scheduler {
                     if matches!(obs, Observation::Collision { .. }) {
                         self.output.stats.collisions += 1;
                     }
-                    if self.record {
-                        let seq = self.output.records.len() as u64;
-                        self.output.records.push(Record {
-                            t: self.now,
-                            seq,
-                            obs,
-                        });
+                    let record = Record {
+                        t: self.now,
+                        seq: self.recorded,
+                        obs,
+                    };
+                    self.recorded += 1;
+                    if let Some(sink) = self.observers.sink.as_mut() {
+                        sink(&record);
+                    }
+                    if self.observers.keep {
+                        self.output.records.push(record);
                     }
                 }
             }
@@ -243,6 +272,11 @@ impl Handler<Step> for Scheduler {
         self.now = event.time;
         self.seq += 1;
         self.output.stats.events += 1;
+        if self.output.stats.events % PROGRESS_EVERY == 0 {
+            if let Some(p) = self.observers.progress.as_mut() {
+                p(self.now);
+            }
+        }
         let target = event.target;
         if target == Target::EventManager {
             self.handle_inline(event);

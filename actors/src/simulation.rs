@@ -8,7 +8,7 @@ use actix::prelude::*;
 
 use crate::motion_manager::MotionManager;
 use crate::robot::{Algorithm, RobotActor, RobotInfo};
-use crate::scheduler::{Deliver, Routes, RunOutput, Scheduler};
+use crate::scheduler::{Deliver, Observers, Routes, RunOutput, Scheduler};
 use crate::sensor::Sensor;
 use crate::sensor_manager::SensorManager;
 use crate::world::event::Outbox;
@@ -16,7 +16,6 @@ use crate::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldErr
 use crate::world::RobotId;
 
 /// Everything a run needs.
-#[derive(Debug)]
 pub struct SimConfig {
     /// Seed of every random stream in the run.
     pub seed: u64,
@@ -28,8 +27,23 @@ pub struct SimConfig {
     /// Number of actix arbiters (threads) hosting robots and sensors; 1 hosts everything on
     /// the current thread. The event order is the same for any number.
     pub arbiters: usize,
-    /// Keep the observations (the trace); false only counts them.
+    /// Keep the observations (the trace) in the output; false only counts them.
     pub record: bool,
+    /// Streaming observers (outputs written while the run goes on, progress).
+    pub observers: Observers,
+}
+
+impl std::fmt::Debug for SimConfig {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SimConfig")
+            .field("seed", &self.seed)
+            .field("until", &self.until)
+            .field("world", &self.world)
+            .field("robots", &self.robots.len())
+            .field("arbiters", &self.arbiters)
+            .field("record", &self.record)
+            .finish()
+    }
 }
 
 /// Why a run failed.
@@ -63,7 +77,8 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     let (tx, rx) = mpsc::channel();
     let seed = cfg.seed;
     let until = cfg.until;
-    let record = cfg.record;
+    let mut observers = cfg.observers;
+    observers.keep = cfg.record;
     let world_cfg = cfg.world;
     let robots = cfg.robots;
     let n_arbiters = cfg.arbiters.max(1);
@@ -115,7 +130,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             let _ = tx.send(out);
             System::current().stop();
         });
-        Scheduler::new(routes, until, setup, record, on_finish).start();
+        Scheduler::new(routes, until, setup, observers, on_finish).start();
     });
     system.run().map_err(|e| SimError::System(e.to_string()))?;
     let out = rx

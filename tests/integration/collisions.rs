@@ -45,6 +45,7 @@ fn random_run(seed: u64, n: usize, world: WorldConfig, until: f64) -> Vec<Record
         robots,
         arbiters: 1,
         record: true,
+        observers: Default::default(),
     })
     .expect("run")
     .records

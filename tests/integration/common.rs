@@ -53,6 +53,7 @@ pub fn run(
         robots,
         arbiters: 1,
         record: true,
+        observers: Default::default(),
     })
     .expect("run")
 }

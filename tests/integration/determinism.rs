@@ -30,6 +30,7 @@ fn run_with(seed: u64, arbiters: usize) -> RunOutput {
         robots,
         arbiters,
         record: true,
+        observers: Default::default(),
     })
     .expect("run")
 }

@@ -35,6 +35,7 @@ fn ten_thousand_robots_run() {
         robots,
         arbiters: 1,
         record: false,
+        observers: Default::default(),
     })
     .expect("run");
     println!("{:?}", out.stats);

@@ -31,6 +31,8 @@ pub enum Observation {
     /// A motion request was accepted.
     MotionRequest {
         robot: RobotId,
+        /// The request's number among the robot's requests (the seed log's "Task ID").
+        ticket: u64,
         motion: String,
         params: Vec<(String, f64)>,
     },

@@ -477,6 +477,7 @@ impl VirtualWorld {
         let from = self.robots[robot as usize].rest;
         out.record(Observation::MotionRequest {
             robot,
+            ticket,
             motion: motion.name().to_string(),
             params: motion.params(),
         });
