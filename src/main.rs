@@ -1,10 +1,170 @@
-fn main() {
-    let p = std::env::args().nth(1).unwrap();
-    match nekosim::scenario::Source::load(std::path::Path::new(&p)) {
-        Err(e) => println!("{e}"),
-        Ok(s) => match s.build(Default::default(), &Default::default()) {
-            Err(e) => println!("{e}"),
-            Ok(b) => println!("ok {} robots", b.robots.len()),
-        },
+//! The `nekosim` command: run or validate a scenario file.
+//!
+//! Exit codes: 0 success, 2 invalid input (the message names FILE:LINE:COL where it can),
+//! 1 internal error.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use nekosim::runner::{self, RunError, RunOptions};
+use nekosim::scenario::{Overrides, Registry, Source};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "nekosim",
+    version,
+    about = "Deterministic simulator of cooperative mobile robots (Neko robot simulation engine)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run a scenario.
+    Run {
+        /// The scenario file (RON).
+        scenario: PathBuf,
+        /// Seed of every random stream (overrides the file).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// End time in simulated seconds (overrides the file).
+        #[arg(long)]
+        until: Option<f64>,
+        /// Write the Neko-style text log here.
+        #[arg(long)]
+        log: Option<PathBuf>,
+        /// Write the JSON Lines trace here.
+        #[arg(long)]
+        trace: Option<PathBuf>,
+        /// Print nothing on success.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Check a scenario file without running it.
+    Validate {
+        /// The scenario file (RON).
+        scenario: PathBuf,
+    },
+}
+
+/// A failure and its exit code.
+struct Failure {
+    code: u8,
+    message: String,
+}
+
+fn invalid(e: impl std::fmt::Display) -> Failure {
+    Failure {
+        code: 2,
+        message: e.to_string(),
+    }
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    match execute(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("nekosim: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+fn execute(command: Command) -> Result<(), Failure> {
+    let registry = Registry::new();
+    match command {
+        Command::Validate { scenario } => {
+            let source = Source::load(&scenario).map_err(invalid)?;
+            let built = source
+                .build(Overrides::default(), &registry)
+                .map_err(invalid)?;
+            println!(
+                "{}: ok: scenario {:?}, {} robots",
+                scenario.display(),
+                built.name,
+                built.robots.len()
+            );
+            Ok(())
+        }
+        Command::Run {
+            scenario,
+            seed,
+            until,
+            log,
+            trace,
+            quiet,
+        } => {
+            let source = Source::load(&scenario).map_err(invalid)?;
+            let built = source
+                .build(Overrides { seed, until }, &registry)
+                .map_err(invalid)?;
+            let horizon = built.until;
+            let bar =
+                (!quiet && std::io::stderr().is_terminal() && horizon.is_finite()).then(|| {
+                    let bar = indicatif::ProgressBar::new((horizon * 1000.0) as u64);
+                    bar.set_style(
+                        indicatif::ProgressStyle::with_template(
+                            "{spinner} simulated {msg} [{bar:40}] {percent}% ({elapsed})",
+                        )
+                        .expect("template")
+                        .progress_chars("=> "),
+                    );
+                    bar
+                });
+            let progress: Option<Box<dyn FnMut(f64)>> = bar.clone().map(|b| {
+                Box::new(move |t: f64| {
+                    b.set_position((t * 1000.0) as u64);
+                    b.set_message(format!("{t:.1} s"));
+                }) as Box<dyn FnMut(f64)>
+            });
+            let result = runner::run(
+                built,
+                RunOptions {
+                    log,
+                    trace,
+                    progress,
+                },
+            );
+            if let Some(b) = bar {
+                b.finish_and_clear();
+            }
+            let summary = result.map_err(|e| match e {
+                RunError::CreateOutput { .. } => invalid(e),
+                other => Failure {
+                    code: 1,
+                    message: format!("{:#}", anyhow::Error::from(other)),
+                },
+            })?;
+            if !quiet {
+                println!(
+                    "scenario: {} (seed {})\nrobots: {}, events: {}, collisions: {}, simulated time: {:.3} s, wall time: {:.3} s, events/s: {:.0}",
+                    summary.name,
+                    summary.seed,
+                    summary.robots,
+                    summary.events,
+                    summary.collisions,
+                    summary.end_time,
+                    summary.wall_seconds,
+                    summary.events_per_second()
+                );
+            }
+            Ok(())
+        }
     }
 }

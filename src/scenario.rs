@@ -126,6 +126,9 @@ pub enum AlgorithmSpec {
         move_speed: Option<(f64, f64)>,
         #[serde(default)]
         turn_speed: Option<(f64, f64)>,
+        /// Wait after a move that took no time (boxed in) [s]; default 1.
+        #[serde(default)]
+        retry: Option<f64>,
     },
     /// Seed 5.2. By default move speed in [3, 6) and turn speed `3 + move_speed × U`.
     Gathering {
@@ -136,6 +139,9 @@ pub enum AlgorithmSpec {
         /// GPS error factor.
         #[serde(default)]
         error: f64,
+        /// Wait after a move that took no time (gathered, or blocked) [s]; default 1.
+        #[serde(default)]
+        retry: Option<f64>,
     },
     /// An algorithm registered in Rust under `name` (see [`Registry`]).
     Custom {
@@ -372,6 +378,7 @@ impl Source {
             AlgorithmSpec::RandomMovement {
                 move_speed,
                 turn_speed,
+                retry,
             } => {
                 let d = RandomMovement::default();
                 Box::new(RandomMovement {
@@ -383,12 +390,17 @@ impl Source {
                         "turn speed",
                         *turn_speed,
                     )?,
+                    retry: match retry {
+                        Some(r) => self.positive(&format!("{path}.retry"), "retry", *r)?,
+                        None => d.retry,
+                    },
                 })
             }
             AlgorithmSpec::Gathering {
                 move_speed,
                 turn_speed,
                 error,
+                retry,
             } => {
                 let d = Gathering::default();
                 self.finite(&format!("{path}.error"), "error factor", *error)?;
@@ -408,6 +420,10 @@ impl Source {
                         *turn_speed,
                     )?,
                     error: *error,
+                    retry: match retry {
+                        Some(r) => self.positive(&format!("{path}.retry"), "retry", *r)?,
+                        None => d.retry,
+                    },
                 })
             }
             AlgorithmSpec::Custom { name, params } => {

@@ -113,6 +113,23 @@ pub fn destination_area(world: WorldSize) -> (Point, Point) {
     }
 }
 
+/// Moves to `dest`; if the move took no virtual time (blocked at its very start by a collision,
+/// or already there), waits `retry` seconds. The seed's loops (`while (t <= limit) moveTo(..)`)
+/// would otherwise spin forever at one instant once a robot is boxed in or has gathered.
+pub async fn move_or_wait(
+    robot: &Robot,
+    dest: Point,
+    move_speed: f64,
+    turn_speed: f64,
+    retry: f64,
+) {
+    let started = robot.now();
+    robot.move_to(dest, move_speed, turn_speed).await;
+    if robot.now() == started {
+        robot.sleep(retry).await;
+    }
+}
+
 /// Seed 5.1: pick a random destination and random speeds, go there, repeat.
 ///
 /// As in the seed's code: move speed uniform in `[3, 13)`; turn speed = `3 + move_speed × U`;
@@ -123,6 +140,8 @@ pub struct RandomMovement {
     pub move_speed: SpeedRange,
     /// When set, turn speeds are drawn from this range instead of the seed's rule.
     pub turn_speed: Option<SpeedRange>,
+    /// Wait after a move that took no time (boxed in by robots or walls) [s].
+    pub retry: f64,
 }
 
 impl Default for RandomMovement {
@@ -133,6 +152,7 @@ impl Default for RandomMovement {
                 spread: 10.0,
             },
             turn_speed: None,
+            retry: 1.0,
         }
     }
 }
@@ -162,7 +182,7 @@ impl Algorithm for RandomMovement {
                     let (u, v): (f64, f64) = (rng.gen(), rng.gen());
                     Point::new(lo.x + (hi.x - lo.x) * u, lo.y + (hi.y - lo.y) * v)
                 };
-                robot.move_to(dest, move_speed, turn_speed).await;
+                move_or_wait(&robot, dest, move_speed, turn_speed, cfg.retry).await;
             }
         })
     }
@@ -170,12 +190,18 @@ impl Algorithm for RandomMovement {
 
 /// Seed 5.2: ask the GPS for all positions, go to their centroid, repeat. As in the seed's
 /// code: move speed uniform in `[3, 6)`, turn speed = `3 + move_speed × U`.
+///
+/// When a move takes no time at all (the robot already stands on the centroid, or its way is
+/// blocked by a robot it touches), it waits `retry` seconds before sensing again, so that
+/// virtual time advances (see [`move_or_wait`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Gathering {
     pub move_speed: SpeedRange,
     pub turn_speed: Option<SpeedRange>,
     /// GPS error factor.
     pub error: f64,
+    /// Wait after a move that took no time [s].
+    pub retry: f64,
 }
 
 impl Default for Gathering {
@@ -187,6 +213,7 @@ impl Default for Gathering {
             },
             turn_speed: None,
             error: 0.0,
+            retry: 1.0,
         }
     }
 }
@@ -214,7 +241,7 @@ impl Algorithm for Gathering {
                     return;
                 };
                 let (move_speed, turn_speed) = draw_speeds(&robot, cfg.move_speed, cfg.turn_speed);
-                robot.move_to(c, move_speed, turn_speed).await;
+                move_or_wait(&robot, c, move_speed, turn_speed, cfg.retry).await;
             }
         })
     }

@@ -96,6 +96,10 @@ pub struct Scheduler {
     on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
     observers: Observers,
     recorded: u64,
+    /// Events processed at the current instant, and the most allowed before the run is
+    /// declared a livelock.
+    at_instant: u64,
+    instant_limit: u64,
 }
 
 /// Who sees a run while it goes on.
@@ -158,6 +162,8 @@ impl Scheduler {
             on_finish: Some(on_finish),
             observers,
             recorded: 0,
+            at_instant: 0,
+            instant_limit: u64::MAX,
         };
         s.apply(setup.into_effects());
         s
@@ -245,6 +251,13 @@ impl Scheduler {
         ctx.stop();
     }
 
+    /// Fails the run when more than `limit` events happen at one instant of virtual time (an
+    /// algorithm retrying forever without letting time pass).
+    pub fn with_instant_limit(mut self, limit: u64) -> Self {
+        self.instant_limit = limit;
+        self
+    }
+
     /// The pending events of a robot (the event manager's listing).
     pub fn future_of(&self, robot: RobotId) -> Vec<&Event> {
         self.queue.future_of(robot)
@@ -269,6 +282,18 @@ impl Handler<Step> for Scheduler {
         }
         let event = self.queue.pop().expect("peeked event");
         debug_assert!(event.time >= self.now, "time went backwards");
+        if event.time == self.now {
+            self.at_instant += 1;
+            if self.at_instant > self.instant_limit {
+                self.output.failure = Some(format!(
+                    "livelock at t={}: more than {} events without virtual time advancing (an algorithm keeps retrying at the same instant, e.g. a motion blocked by a collision, without waiting)",
+                    self.now, self.instant_limit
+                ));
+                return self.finish(ctx);
+            }
+        } else {
+            self.at_instant = 1;
+        }
         self.now = event.time;
         self.seq += 1;
         self.output.stats.events += 1;

@@ -33,6 +33,12 @@ pub struct SimConfig {
     pub observers: Observers,
 }
 
+/// Events allowed at one instant of virtual time per robot (at least [`MIN_INSTANT_LIMIT`])
+/// before a run is declared a livelock.
+pub const INSTANT_EVENTS_PER_ROBOT: u64 = 1000;
+/// Floor of the livelock limit.
+pub const MIN_INSTANT_LIMIT: u64 = 1_000_000;
+
 impl std::fmt::Debug for SimConfig {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("SimConfig")
@@ -59,6 +65,9 @@ pub enum SimError {
     /// The actor system failed (an internal error).
     #[error("actor system: {0}")]
     System(String),
+    /// The run stopped: virtual time stopped advancing.
+    #[error("{0}")]
+    Livelock(String),
 }
 
 /// Runs a simulation to its end.
@@ -130,13 +139,17 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             let _ = tx.send(out);
             System::current().stop();
         });
-        Scheduler::new(routes, until, setup, observers, on_finish).start();
+        let limit = (count as u64 * INSTANT_EVENTS_PER_ROBOT).max(MIN_INSTANT_LIMIT);
+        Scheduler::new(routes, until, setup, observers, on_finish)
+            .with_instant_limit(limit)
+            .start();
     });
     system.run().map_err(|e| SimError::System(e.to_string()))?;
     let out = rx
         .recv()
         .map_err(|_| SimError::System("the scheduler ended without a result".into()))?;
     match &out.failure {
+        Some(f) if f.starts_with("livelock") => Err(SimError::Livelock(f.clone())),
         Some(f) => Err(SimError::System(f.clone())),
         None => Ok(out),
     }

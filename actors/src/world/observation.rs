@@ -55,6 +55,8 @@ pub enum Observation {
         robot: RobotId,
         other: Obstacle,
         pos: Point,
+        /// `robot`'s heading then [deg].
+        angle: f64,
         other_pos: Point,
     },
     SensorRequest {

@@ -620,15 +620,16 @@ impl VirtualWorld {
         while k < contacts.len() {
             let (x, y, c) = contacts[k];
             k += 1;
-            let px = self.state_at(x, now).pos;
+            let kx = self.state_at(x, now);
             let other_pos = match y {
                 Obstacle::Robot(y) => self.state_at(y, now).pos,
-                Obstacle::Boundary => c.unwrap_or(px),
+                Obstacle::Boundary => c.unwrap_or(kx.pos),
             };
             out.record(Observation::Collision {
                 robot: x,
                 other: y,
-                pos: px,
+                pos: kx.pos,
+                angle: kx.angle,
                 other_pos,
             });
             let mut sides = vec![(x, y)];

@@ -1,0 +1,191 @@
+//! The Neko-style text log (seed 4.5.1, fig. 4.12, 5.2, 5.4): one line per observation, three
+//! decimals. See docs/log.md for every line type.
+
+use std::collections::HashMap;
+use std::fmt::Write;
+
+use nekosim_actors::world::geometry::Point;
+use nekosim_actors::world::motion::StepKind;
+use nekosim_actors::world::observation::{Observation, Record};
+use nekosim_actors::world::sensor::{SensorQuery, SensorValue};
+use nekosim_actors::world::{MotionOutcome, Obstacle, RobotId};
+
+/// Three decimals, with no negative zero.
+pub fn num(v: f64) -> String {
+    let s = format!("{v:.3}");
+    if s == "-0.000" {
+        "0.000".into()
+    } else {
+        s
+    }
+}
+
+fn pt(p: Point) -> String {
+    format!("[{},{}]", num(p.x), num(p.y))
+}
+
+fn obstacle(o: Obstacle) -> String {
+    match o {
+        Obstacle::Robot(id) => format!("p{id}"),
+        Obstacle::Boundary => "boundary".into(),
+    }
+}
+
+/// The seed's name of a motion pattern in conditions (`MoveTo`, `Turn`, `Forward`).
+fn pattern(name: &str) -> String {
+    match name {
+        "move_to" => "MoveTo".into(),
+        "turn" => "Turn".into(),
+        "forward" => "Forward".into(),
+        other => other.to_string(),
+    }
+}
+
+/// The query, as the seed's log says it.
+pub fn query_text(q: &SensorQuery) -> String {
+    match q {
+        SensorQuery::SelfPosition { error } => {
+            format!("SelfPositioning with errorFactor {error:?}")
+        }
+        SensorQuery::AllPositions { error } => format!("Positioning with errorFactor {error:?}"),
+        SensorQuery::View { range } => format!("View with range {}", num(*range)),
+        SensorQuery::Proximity { range } => format!("Proximity with range {}", num(*range)),
+        SensorQuery::ActivateProximity { range, interval } => {
+            format!(
+                "ActivateProximity with range {} interval {}",
+                num(*range),
+                num(*interval)
+            )
+        }
+        SensorQuery::DeactivateProximity => "DeactivateProximity".into(),
+        SensorQuery::ActivateContact => "ActivateContact".into(),
+        SensorQuery::DeactivateContact => "DeactivateContact".into(),
+    }
+}
+
+fn value_text(v: &SensorValue) -> String {
+    match v {
+        SensorValue::Position(p) => pt(*p),
+        SensorValue::Positions(ps) => {
+            let mut s = String::new();
+            for (i, (id, p)) in ps.iter().enumerate() {
+                let _ = write!(s, "{}p{id}{}", if i > 0 { " " } else { "" }, pt(*p));
+            }
+            s
+        }
+        SensorValue::Distances(ds) => {
+            let mut s = String::new();
+            for (i, (id, d)) in ds.iter().enumerate() {
+                let _ = write!(s, "{}p{id}:{}", if i > 0 { " " } else { "" }, num(*d));
+            }
+            s
+        }
+        SensorValue::Contact(o) => format!("contact {}", obstacle(*o)),
+        SensorValue::Done => "done".into(),
+        SensorValue::Rejected(m) => format!("rejected: {m}"),
+    }
+}
+
+/// Turns observations into log lines; remembers each robot's current motion pattern.
+#[derive(Debug, Default)]
+pub struct NekoLog {
+    motions: HashMap<RobotId, String>,
+}
+
+impl NekoLog {
+    /// A log writer.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The log line of an observation.
+    pub fn line(&mut self, r: &Record) -> String {
+        let t = num(r.t);
+        match &r.obs {
+            Observation::Spawn { robot, pos, angle, radius } => {
+                format!("{t} p{robot} Born: ROBOT# {robot} | {} | {} | radius {}", pt(*pos), num(*angle), num(*radius))
+            }
+            Observation::MotionRequest { robot, ticket, motion, params } => {
+                self.motions.insert(*robot, motion.clone());
+                let get = |k: &str| params.iter().find(|(n, _)| n == k).map_or(0.0, |(_, v)| *v);
+                let what = match motion.as_str() {
+                    "move_to" => format!(
+                        "MoveTo: ( {} , {} ) with turnSpeed = {} moveSpeed = {}",
+                        num(get("x")),
+                        num(get("y")),
+                        num(get("turn_speed")),
+                        num(get("move_speed"))
+                    ),
+                    "turn" => format!("Turn: angle = {} with turnSpeed = {}", num(get("angle")), num(get("turn_speed"))),
+                    "forward" => format!("Forward: distance = {} with moveSpeed = {}", num(get("distance")), num(get("move_speed"))),
+                    other => {
+                        let ps: Vec<String> = params.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect();
+                        format!("{other}: {}", ps.join(" "))
+                    }
+                };
+                format!("{t} p{robot} MotionRequest: TIME: {t} | ROBOT# {robot} Task ID = {ticket} | {what}")
+            }
+            Observation::MotionStep { robot, step, state, progress } => {
+                let name = pattern(self.motions.get(robot).map_or("motion", String::as_str));
+                let seq = if name == "MoveTo" { "MoveTo_Sequence".to_string() } else { name.clone() };
+                // As in the seed, each line shows the phase it starts: during a turn the
+                // destination is the robot's own position and only the turn is counted.
+                let (dest, turn, dist, ts, ms, cond) = match step {
+                    StepKind::StartTurn => (state.pos, progress.turn_left, 0.0, progress.turn_speed, 0.0, format!("Do_{seq}")),
+                    StepKind::FinishTurn => (state.pos, 0.0, 0.0, 0.0, 0.0, format!("Finish_{seq}")),
+                    StepKind::StartForward => (progress.dest, 0.0, progress.distance_left, 0.0, progress.move_speed, format!("Do_{seq}")),
+                    StepKind::FinishForward => (state.pos, 0.0, 0.0, 0.0, 0.0, format!("Finish_{name}")),
+                    StepKind::Custom(s) => (
+                        progress.dest,
+                        progress.turn_left,
+                        progress.distance_left,
+                        progress.turn_speed,
+                        progress.move_speed,
+                        format!("{name}_{s}"),
+                    ),
+                };
+                format!(
+                    "{t} p{robot} Event: | {t} | {robot} | {} | {} | {} | {} | {} | {} | {} | {cond}",
+                    pt(state.pos),
+                    pt(dest),
+                    num(state.angle),
+                    num(turn),
+                    num(dist),
+                    num(ts),
+                    num(ms)
+                )
+            }
+            Observation::MotionFinish { robot, state, outcome } => {
+                let name = pattern(self.motions.get(robot).map_or("motion", String::as_str));
+                let cond = match outcome {
+                    MotionOutcome::Arrived => format!("Arrived_{name}"),
+                    MotionOutcome::Collided { with } => format!("Collided_{name}({})", obstacle(*with)),
+                    MotionOutcome::Replaced => format!("Replaced_{name}"),
+                    MotionOutcome::Rejected(m) => format!("Rejected_{name}({m})"),
+                };
+                format!(
+                    "{t} p{robot} Event: | {t} | {robot} | {} | {} | {} | 0.000 | 0.000 | 0.000 | 0.000 | {cond}",
+                    pt(state.pos),
+                    pt(state.pos),
+                    num(state.angle)
+                )
+            }
+            Observation::Collision { robot, other, pos, angle, other_pos } => format!(
+                "{t} p{robot} CollisionEvent: | {t} | {robot} | {} | {} | {} | 0.000 | 0.000 | 0.000 | 0.000 | Collision({})",
+                pt(*pos),
+                pt(*other_pos),
+                num(*angle),
+                obstacle(*other)
+            ),
+            Observation::SensorRequest { robot, query } => {
+                format!("{t} p{robot} SensorRequest: ROBOT# {robot} | {}", query_text(query))
+            }
+            Observation::SensorReply { robot, sensor, value, interrupt } => format!(
+                "{t} p{robot} {}: ROBOT# {robot} | {} | {}",
+                if *interrupt { "SensorInterrupt" } else { "SensorReply" },
+                sensor.name(),
+                value_text(value)
+            ),
+        }
+    }
+}

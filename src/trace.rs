@@ -1,0 +1,159 @@
+//! The JSON Lines trace: one object per observation, schema in docs/trace.md. Every object has
+//! `t` (seconds), `seq` (strictly increasing) and `kind`, in that order.
+
+use nekosim_actors::world::geometry::{Point, Vector};
+use nekosim_actors::world::observation::{Observation, Record};
+use nekosim_actors::world::sensor::{SensorQuery, SensorValue};
+use nekosim_actors::world::{MotionOutcome, Obstacle};
+use serde_json::{json, Map, Value};
+
+fn pt(p: Point) -> Value {
+    json!([p.x, p.y])
+}
+
+fn vec2(v: Vector) -> Value {
+    json!([v.x, v.y])
+}
+
+fn obstacle(o: Obstacle) -> Value {
+    match o {
+        Obstacle::Robot(id) => json!(id),
+        Obstacle::Boundary => json!("boundary"),
+    }
+}
+
+/// Names of the fields every object has; custom motion parameters never take them.
+const RESERVED: [&str; 6] = ["t", "seq", "kind", "robot", "ticket", "motion"];
+
+/// A sensor query as a JSON object: `{"query": name, ...parameters}`.
+pub fn query_json(q: &SensorQuery) -> Value {
+    match q {
+        SensorQuery::SelfPosition { error } => json!({"query": "self_position", "error": error}),
+        SensorQuery::AllPositions { error } => json!({"query": "all_positions", "error": error}),
+        SensorQuery::View { range } => json!({"query": "view", "range": range}),
+        SensorQuery::Proximity { range } => json!({"query": "proximity", "range": range}),
+        SensorQuery::ActivateProximity { range, interval } => {
+            json!({"query": "activate_proximity", "range": range, "interval": interval})
+        }
+        SensorQuery::DeactivateProximity => json!({"query": "deactivate_proximity"}),
+        SensorQuery::ActivateContact => json!({"query": "activate_contact"}),
+        SensorQuery::DeactivateContact => json!({"query": "deactivate_contact"}),
+    }
+}
+
+/// A sensor reply as JSON.
+pub fn value_json(v: &SensorValue) -> Value {
+    match v {
+        SensorValue::Position(p) => pt(*p),
+        SensorValue::Positions(ps) => ps
+            .iter()
+            .map(|(id, p)| json!({"robot": id, "pos": pt(*p)}))
+            .collect(),
+        SensorValue::Distances(ds) => ds
+            .iter()
+            .map(|(id, d)| json!({"robot": id, "distance": d}))
+            .collect(),
+        SensorValue::Contact(o) => json!({"contact": obstacle(*o)}),
+        SensorValue::Done => json!("done"),
+        SensorValue::Rejected(m) => json!({"rejected": m}),
+    }
+}
+
+/// The trace object of an observation.
+pub fn to_json(r: &Record) -> Value {
+    let mut m = Map::new();
+    m.insert("t".into(), json!(r.t));
+    m.insert("seq".into(), json!(r.seq));
+    let mut put = |k: &str, v: Value| {
+        m.insert(k.to_string(), v);
+    };
+    match &r.obs {
+        Observation::Spawn {
+            robot,
+            pos,
+            angle,
+            radius,
+        } => {
+            put("kind", json!("spawn"));
+            put("robot", json!(robot));
+            put("pos", pt(*pos));
+            put("angle", json!(angle));
+            put("radius", json!(radius));
+        }
+        Observation::MotionRequest {
+            robot,
+            ticket,
+            motion,
+            params,
+        } => {
+            put("kind", json!("motion_request"));
+            put("robot", json!(robot));
+            put("ticket", json!(ticket));
+            put("motion", json!(motion));
+            for (k, v) in params {
+                if !RESERVED.contains(&k.as_str()) {
+                    put(k, json!(v));
+                }
+            }
+        }
+        Observation::MotionStep {
+            robot, step, state, ..
+        } => {
+            put("kind", json!(step.name()));
+            put("robot", json!(robot));
+            put("pos", pt(state.pos));
+            put("angle", json!(state.angle));
+            put("vel", vec2(state.vel));
+            put("omega", json!(state.omega));
+        }
+        Observation::MotionFinish {
+            robot,
+            state,
+            outcome,
+        } => {
+            put("kind", json!("motion_finish"));
+            put("robot", json!(robot));
+            put("pos", pt(state.pos));
+            put("angle", json!(state.angle));
+            put("outcome", json!(outcome.name()));
+            match outcome {
+                MotionOutcome::Collided { with } => put("other", obstacle(*with)),
+                MotionOutcome::Rejected(reason) => put("reason", json!(reason)),
+                _ => {}
+            }
+        }
+        Observation::Collision {
+            robot,
+            other,
+            pos,
+            angle,
+            other_pos,
+        } => {
+            put("kind", json!("collision"));
+            put("robot", json!(robot));
+            put("other", obstacle(*other));
+            put("pos", pt(*pos));
+            put("angle", json!(angle));
+            put("other_pos", pt(*other_pos));
+        }
+        Observation::SensorRequest { robot, query } => {
+            put("kind", json!("sensor_request"));
+            put("robot", json!(robot));
+            put("sensor", json!(query.kind().name()));
+            put("value", query_json(query));
+        }
+        Observation::SensorReply {
+            robot,
+            sensor,
+            value,
+            interrupt,
+        } => {
+            put("kind", json!("sensor_reply"));
+            put("robot", json!(robot));
+            put("sensor", json!(sensor.name()));
+            put("value", value_json(value));
+            put("interrupt", json!(interrupt));
+        }
+    }
+    Value::Object(m)
+}
