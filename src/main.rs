@@ -77,12 +77,22 @@ fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
-    match execute(cli.command) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(f) => {
-            eprintln!("nekosim: {}", f.message);
+    // A panic is an internal error: exit 1 with one line, never Rust's 101.
+    std::panic::set_hook(Box::new(|info| {
+        eprintln!("nekosim: internal error: {info}");
+    }));
+    match std::panic::catch_unwind(|| execute(cli.command)) {
+        Ok(Ok(())) => ExitCode::SUCCESS,
+        Ok(Err(f)) => {
+            // Invalid input starts with FILE:LINE:COL, like a compiler's diagnostics.
+            if f.code == 2 {
+                eprintln!("{}", f.message);
+            } else {
+                eprintln!("nekosim: internal error: {}", f.message);
+            }
             ExitCode::from(f.code)
         }
+        Err(_) => ExitCode::from(1),
     }
 }
 

@@ -248,13 +248,13 @@ impl Source {
     pub fn parse(file: &str, text: &str) -> Result<Self, ScenarioError> {
         let opts = ron::Options::default()
             .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-        let scenario: Scenario = opts.from_str(text).map_err(|e| ScenarioError {
-            file: file.to_string(),
-            pos: Some(Pos {
-                line: e.position.line,
-                col: e.position.col,
-            }),
-            message: describe_ron(&e.code),
+        let scenario: Scenario = opts.from_str(text).map_err(|e| {
+            let message = describe_ron(&e.code);
+            ScenarioError {
+                file: file.to_string(),
+                pos: Some(name_start(text, e.position.line, e.position.col, &message)),
+                message,
+            }
         })?;
         Ok(Self {
             file: file.to_string(),
@@ -694,6 +694,31 @@ impl Source {
             robots,
         })
     }
+}
+
+/// ron places errors about a name (an unknown field or variant) just after it; point at the
+/// name itself when it is right before the reported column.
+fn name_start(text: &str, line: usize, col: usize, message: &str) -> Pos {
+    let at = Pos { line, col };
+    let Some(src_line) = text.lines().nth(line.saturating_sub(1)) else {
+        return at;
+    };
+    let before: String = src_line.chars().take(col.saturating_sub(1)).collect();
+    let trimmed = before.trim_end_matches(|c: char| c.is_whitespace() || c == ':');
+    message
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .filter(|n| !n.is_empty() && n.chars().all(|c| c.is_alphanumeric() || c == '_'))
+        .find(|n| {
+            trimmed.ends_with(n)
+                && !trimmed[..trimmed.len() - n.len()]
+                    .ends_with(|c: char| c.is_alphanumeric() || c == '_')
+        })
+        .map_or(at, |n| Pos {
+            line,
+            col: trimmed.chars().count() - n.chars().count() + 1,
+        })
 }
 
 /// ron's error, said as what is wrong and what is expected.

@@ -1,0 +1,268 @@
+//! The `nekosim` command end to end: example scenarios, byte-identical outputs, the trace
+//! agreeing with the log, and every kind of bad input giving exit 2 with FILE:LINE:COL.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn nekosim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .args(args)
+        .output()
+        .expect("nekosim runs")
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn files(dir: &str) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(root().join(dir))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    v.sort();
+    v
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Every file in a folder, hidden ones included.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn every_bad_input_exits_2_with_file_line_col_and_leaves_no_output() {
+    let bad = files("tests/bad");
+    assert!(bad.len() >= 20);
+    for f in bad {
+        let text = std::fs::read_to_string(&f).unwrap();
+        let expect = text
+            .lines()
+            .next()
+            .unwrap()
+            .strip_prefix("// expect: ")
+            .expect("expect header")
+            .to_string();
+        let path = f.to_str().unwrap();
+        let out = tempfile::tempdir().unwrap();
+        let old_log = out.path().join("kept.log");
+        std::fs::write(&old_log, "an earlier, complete log\n").unwrap();
+        let trace = out.path().join("t.jsonl");
+        for args in [
+            vec!["validate", path],
+            vec![
+                "run",
+                path,
+                "--log",
+                old_log.to_str().unwrap(),
+                "--trace",
+                trace.to_str().unwrap(),
+            ],
+        ] {
+            let o = nekosim(&args);
+            let err = stderr(&o);
+            assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+            assert_eq!(err.lines().count(), 1, "one line: {err}");
+            let want = format!("{path}:{expect}");
+            assert!(
+                err.starts_with(&want),
+                "{args:?}\n got: {err}\nwant: {want}"
+            );
+            assert!(!err.contains("panicked"));
+        }
+        // Nothing lost, nothing half-written.
+        assert_eq!(
+            std::fs::read_to_string(&old_log).unwrap(),
+            "an earlier, complete log\n"
+        );
+        assert_eq!(listing(out.path()), vec!["kept.log".to_string()]);
+    }
+}
+
+#[test]
+fn unreadable_scenarios_exit_2() {
+    for p in ["/nonexistent/scenario.ron", env!("CARGO_MANIFEST_DIR")] {
+        for cmd in ["validate", "run"] {
+            let o = nekosim(&[cmd, p]);
+            assert_eq!(o.status.code(), Some(2));
+            let err = stderr(&o);
+            assert!(
+                err.starts_with(&format!("{p}: cannot read the scenario file")),
+                "{err}"
+            );
+        }
+    }
+    // Bad command-line values are input errors too.
+    let o = nekosim(&["run", "examples/scenarios/collision.ron", "--until", "-3"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = nekosim(&["run"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn example_scenarios_validate_and_run_with_byte_identical_outputs() {
+    let examples = files("examples/scenarios");
+    assert!(examples.len() >= 4);
+    for f in examples {
+        let path = f.to_str().unwrap();
+        let v = nekosim(&["validate", path]);
+        assert_eq!(v.status.code(), Some(0), "{path}: {}", stderr(&v));
+        let dir = tempfile::tempdir().unwrap();
+        let mut outputs = Vec::new();
+        for k in 0..2 {
+            let log = dir.path().join(format!("{k}.log"));
+            let trace = dir.path().join(format!("{k}.jsonl"));
+            let o = nekosim(&[
+                "run",
+                path,
+                "--until",
+                "40",
+                "--log",
+                log.to_str().unwrap(),
+                "--trace",
+                trace.to_str().unwrap(),
+            ]);
+            assert_eq!(o.status.code(), Some(0), "{path}: {}", stderr(&o));
+            let summary = String::from_utf8_lossy(&o.stdout);
+            assert!(
+                summary.contains("events:") && summary.contains("collisions:"),
+                "{summary}"
+            );
+            outputs.push((std::fs::read(&log).unwrap(), std::fs::read(&trace).unwrap()));
+        }
+        assert!(!outputs[0].0.is_empty() && !outputs[0].1.is_empty());
+        assert!(
+            outputs[0] == outputs[1],
+            "{path}: outputs differ between two runs"
+        );
+    }
+}
+
+#[test]
+fn seed_and_until_override_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |seed: &str, until: &str| {
+        let trace = dir.path().join(format!("{seed}-{until}.jsonl"));
+        let o = nekosim(&[
+            "run",
+            "examples/scenarios/random_movement.ron",
+            "--seed",
+            seed,
+            "--until",
+            until,
+            "--quiet",
+            "--trace",
+            trace.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert!(o.stdout.is_empty(), "--quiet prints nothing");
+        std::fs::read_to_string(trace).unwrap()
+    };
+    let a = run("5", "10");
+    assert_ne!(a, run("6", "10"));
+    let last: Value = serde_json::from_str(a.lines().last().unwrap()).unwrap();
+    assert!(last["t"].as_f64().unwrap() <= 10.0);
+    assert!(run("5", "20").len() > a.len());
+}
+
+/// Numbers of a log field like `[1.000,-2.500]`.
+fn log_point(s: &str) -> (f64, f64) {
+    let inner = s.trim().trim_start_matches('[').trim_end_matches(']');
+    let (x, y) = inner.split_once(',').unwrap();
+    (x.parse().unwrap(), y.parse().unwrap())
+}
+
+#[test]
+fn the_trace_rebuilds_trajectories_that_agree_with_the_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, trace) = (dir.path().join("r.log"), dir.path().join("r.jsonl"));
+    let o = nekosim(&[
+        "run",
+        "examples/scenarios/random_movement.ron",
+        "--until",
+        "60",
+        "--log",
+        log.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let log = std::fs::read_to_string(log).unwrap();
+    let trace: Vec<Value> = std::fs::read_to_string(trace)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(
+        log.lines().count(),
+        trace.len(),
+        "one log line per trace object"
+    );
+    // Rebuild each robot's kinematic state from the trace alone: (t, pos, vel) pieces.
+    let mut pieces: Vec<Vec<(f64, [f64; 2], [f64; 2])>> = Vec::new();
+    let mut seq = -1i64;
+    for v in &trace {
+        let s = v["seq"].as_i64().unwrap();
+        assert!(s > seq);
+        seq = s;
+        let p = |k: &str| [v[k][0].as_f64().unwrap(), v[k][1].as_f64().unwrap()];
+        match v["kind"].as_str().unwrap() {
+            "spawn" => pieces.push(vec![(0.0, p("pos"), [0.0, 0.0])]),
+            "start_turn" | "finish_turn" | "start_forward" | "finish_forward" => pieces
+                [v["robot"].as_u64().unwrap() as usize]
+                .push((v["t"].as_f64().unwrap(), p("pos"), p("vel"))),
+            "motion_finish" => pieces[v["robot"].as_u64().unwrap() as usize].push((
+                v["t"].as_f64().unwrap(),
+                p("pos"),
+                [0.0, 0.0],
+            )),
+            _ => {}
+        }
+    }
+    let at = |robot: usize, t: f64| {
+        let ps = &pieces[robot];
+        let i = ps.partition_point(|x| x.0 <= t).saturating_sub(1);
+        let (t0, p, v) = ps[i];
+        (p[0] + v[0] * (t - t0), p[1] + v[1] * (t - t0))
+    };
+    // Every position the log prints (events and collisions) matches the rebuilt trajectory
+    // at the log's time, to the log's three decimals.
+    let mut checked = 0;
+    for line in log.lines() {
+        let fields: Vec<&str> = line.split('|').collect();
+        if !(line.contains(" Event: ") || line.contains(" CollisionEvent: ")) {
+            continue;
+        }
+        let t: f64 = fields[1].trim().parse().unwrap();
+        let robot: usize = fields[2].trim().parse().unwrap();
+        let (x, y) = log_point(fields[3]);
+        // The log's time has three decimals too: compare at the trace's exact time.
+        let exact = trace
+            .iter()
+            .find(|v| {
+                v["robot"].as_u64() == Some(robot as u64)
+                    && (v["t"].as_f64().unwrap() - t).abs() <= 0.0005
+                    && v["pos"].is_array()
+            })
+            .map(|v| v["t"].as_f64().unwrap())
+            .unwrap();
+        let (rx, ry) = at(robot, exact);
+        assert!(
+            (rx - x).abs() <= 0.0015 && (ry - y).abs() <= 0.0015,
+            "{line}\nrebuilt ({rx}, {ry})"
+        );
+        checked += 1;
+    }
+    assert!(checked > 500, "{checked}");
+}
