@@ -102,13 +102,16 @@ pub struct Scheduler {
     instant_limit: u64,
 }
 
+/// Receives every observation of a run, in order.
+pub type Sink = Box<dyn FnMut(&Record)>;
+
 /// Who sees a run while it goes on.
 #[derive(Default)]
 pub struct Observers {
     /// Keep every observation in [`RunOutput::records`].
     pub keep: bool,
     /// Called with every observation, in order (for streaming outputs).
-    pub sink: Option<Box<dyn FnMut(&Record)>>,
+    pub sink: Option<Sink>,
     /// Called with the virtual time every [`PROGRESS_EVERY`] events.
     pub progress: Option<Box<dyn FnMut(f64)>>,
 }

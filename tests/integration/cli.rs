@@ -176,6 +176,9 @@ fn seed_and_until_override_the_file() {
     assert!(run("5", "20").len() > a.len());
 }
 
+/// A rebuilt straight piece: from time `.0`, position `.1` + velocity `.2` × elapsed.
+type Piece = (f64, [f64; 2], [f64; 2]);
+
 /// Numbers of a log field like `[1.000,-2.500]`.
 fn log_point(s: &str) -> (f64, f64) {
     let inner = s.trim().trim_start_matches('[').trim_end_matches(']');
@@ -210,7 +213,7 @@ fn the_trace_rebuilds_trajectories_that_agree_with_the_log() {
         "one log line per trace object"
     );
     // Rebuild each robot's kinematic state from the trace alone: (t, pos, vel) pieces.
-    let mut pieces: Vec<Vec<(f64, [f64; 2], [f64; 2])>> = Vec::new();
+    let mut pieces: Vec<Vec<Piece>> = Vec::new();
     let mut seq = -1i64;
     for v in &trace {
         let s = v["seq"].as_i64().unwrap();

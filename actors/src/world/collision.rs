@@ -123,6 +123,8 @@ fn advance(
     gap: impl Fn(f64) -> f64,
     approaching: impl Fn(f64) -> bool,
 ) -> Option<f64> {
+    // The smallest step that still moves `t` (a few ulps, never below 1e-12 s).
+    let min_step = |t: f64| (t.abs() * 4.0 * f64::EPSILON).max(1e-12);
     let mut t = s;
     loop {
         let g = gap(t);
@@ -130,12 +132,12 @@ fn advance(
             if approaching(t) {
                 return Some(t);
             }
-            // Touching but separating: move on by the smallest step that makes progress.
-            t += (e - s).abs().min(1.0) * 1e-9;
+            // Touching but separating: move on by a small step that makes progress.
+            t += min_step(t).max((e - s).abs().min(1.0) * 1e-9);
         } else if lipschitz <= 0.0 {
             return None;
         } else {
-            t += (g / lipschitz).max(1e-12);
+            t += (g / lipschitz).max(min_step(t));
         }
         if t > e {
             return None;
@@ -544,6 +546,21 @@ mod tests {
                 _ => {}
             }
         }
+    }
+
+    #[test]
+    fn advancement_terminates_on_windows_narrower_than_an_ulp_step() {
+        // A window of a few ulps late in a run, touching but never approaching: the step must
+        // still move time forward (this once looped forever).
+        let s = 10.0 * std::f64::consts::PI;
+        let e = s + 3.0 * f64::EPSILON * s;
+        assert_eq!(advance(s, e, 5.0, |_| 0.0, |_| false), None);
+        assert_eq!(advance(s, e, 5.0, |_| 1e-3, |_| true), None);
+        assert_eq!(
+            advance(1e9, 1e9 + 1.0, 1.0, |t| 1e9 + 0.5 - t, |_| true)
+                .map(|t| (t - (1e9 + 0.5)).abs() < 1e-6),
+            Some(true)
+        );
     }
 
     #[test]
