@@ -163,7 +163,7 @@ fn execute(command: Command) -> Result<(), Failure> {
             })?;
             if !quiet {
                 println!(
-                    "scenario: {} (seed {})\nrobots: {}, events: {}, collisions: {}, simulated time: {:.3} s, wall time: {:.3} s, events/s: {:.0}",
+                    "scenario: {} (seed {})\nrobots: {}, events: {}, collisions: {}, simulated time: {:.3} s, wall time: {:.3} s, events/s: {:.0}, cancelled events: {}",
                     summary.name,
                     summary.seed,
                     summary.robots,
@@ -171,7 +171,8 @@ fn execute(command: Command) -> Result<(), Failure> {
                     summary.collisions,
                     summary.end_time,
                     summary.wall_seconds,
-                    summary.events_per_second()
+                    summary.events_per_second(),
+                    summary.cancelled
                 );
             }
             Ok(())

@@ -39,6 +39,8 @@ pub struct Summary {
     pub seed: u64,
     pub robots: usize,
     pub events: u64,
+    /// Conditional events cancelled before they fired.
+    pub cancelled: u64,
     pub collisions: u64,
     /// Simulated time at the end [s].
     pub end_time: f64,
@@ -139,6 +141,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         seed: built.seed,
         robots,
         events: out.stats.events,
+        cancelled: out.stats.cancelled,
         collisions: out.stats.collisions,
         end_time: out.stats.end_time,
         wall_seconds,

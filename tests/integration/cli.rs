@@ -269,3 +269,49 @@ fn the_trace_rebuilds_trajectories_that_agree_with_the_log() {
     }
     assert!(checked > 500, "{checked}");
 }
+
+/// The number after `key: ` in the run summary.
+fn summary_count(stdout: &[u8], key: &str) -> u64 {
+    let s = String::from_utf8_lossy(stdout);
+    let at = s
+        .find(&format!("{key}: "))
+        .unwrap_or_else(|| panic!("no {key} in {s}"))
+        + key.len()
+        + 2;
+    s[at..]
+        .split(|c: char| !c.is_ascii_digit())
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap()
+}
+
+#[test]
+fn the_collision_examples_show_a_collision_and_a_cancelled_one() {
+    let o = nekosim(&["run", "examples/scenarios/collision.ron"]);
+    assert_eq!(summary_count(&o.stdout, "collisions"), 1);
+    let o = nekosim(&["run", "examples/scenarios/cancelled_collision.ron"]);
+    assert_eq!(summary_count(&o.stdout, "collisions"), 0);
+    assert!(summary_count(&o.stdout, "cancelled events") >= 1);
+    // Without robot 1 moving away, the same course ends in the predicted collision at 22.5 s.
+    let text =
+        std::fs::read_to_string(root().join("examples/scenarios/cancelled_collision.ron")).unwrap();
+    let stay = text.replace("Wait(5.0),", "Wait(100.0),");
+    let dir = tempfile::tempdir().unwrap();
+    let (file, trace) = (dir.path().join("stay.ron"), dir.path().join("stay.jsonl"));
+    std::fs::write(&file, stay).unwrap();
+    let o = nekosim(&[
+        "run",
+        file.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_eq!(summary_count(&o.stdout, "collisions"), 1, "{}", stderr(&o));
+    let collision: Value = std::fs::read_to_string(trace)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str::<Value>(l).unwrap())
+        .find(|v| v["kind"] == "collision")
+        .unwrap();
+    assert_eq!(collision["t"].as_f64(), Some(22.5));
+}
