@@ -10,6 +10,7 @@ pub mod event;
 pub mod geometry;
 pub mod grid;
 pub mod motion;
+pub mod network;
 pub mod observation;
 pub mod sensor;
 pub mod virtual_world;
