@@ -58,6 +58,7 @@ fn ticker_config() -> SimConfig {
         arbiters: 1,
         record: false,
         observers: Default::default(),
+        comms: Default::default(),
     }
 }
 
@@ -156,6 +157,7 @@ fn random_config(n: usize, until: f64) -> SimConfig {
         arbiters: 1,
         record: false,
         observers: Default::default(),
+        comms: Default::default(),
     }
 }
 

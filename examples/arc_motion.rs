@@ -197,6 +197,7 @@ fn run(obstacle_deg: f64) -> nekosim::scheduler::RunOutput {
         arbiters: 1,
         record: true,
         observers: Default::default(),
+        comms: Default::default(),
     })
     .expect("run")
 }

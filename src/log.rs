@@ -9,6 +9,7 @@ use nekosim_actors::world::motion::StepKind;
 use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_actors::world::sensor::{SensorQuery, SensorValue};
 use nekosim_actors::world::{MotionOutcome, Obstacle, RobotId};
+use nekosim_protocols::Wire;
 
 /// Three decimals, with no negative zero.
 pub fn num(v: f64) -> String {
@@ -83,6 +84,29 @@ fn value_text(v: &SensorValue) -> String {
         SensorValue::Contact(o) => format!("contact {}", obstacle(*o)),
         SensorValue::Done => "done".into(),
         SensorValue::Rejected(m) => format!("rejected: {m}"),
+    }
+}
+
+/// A message as the log shows it: the application message inside (`KIND content`) or the
+/// protocol header's name.
+pub fn wire_text(w: &Wire) -> String {
+    match w {
+        Wire::Batch(items) => {
+            let ids: Vec<String> = items.iter().map(|(id, _)| id.to_string()).collect();
+            format!("batch[{}]", ids.join(","))
+        }
+        _ => match w.app_part() {
+            Some((kind, content)) => format!("{kind} {content}"),
+            None => w.type_name().to_string(),
+        },
+    }
+}
+
+/// The application content inside a message, or `-`.
+fn content_text(w: &Wire) -> String {
+    match w.app_part() {
+        Some((_, c)) => c.to_string(),
+        None => "-".into(),
     }
 }
 
@@ -162,6 +186,7 @@ impl NekoLog {
                     MotionOutcome::Collided { with } => format!("Collided_{name}({})", obstacle(*with)),
                     MotionOutcome::Replaced => format!("Replaced_{name}"),
                     MotionOutcome::Rejected(m) => format!("Rejected_{name}({m})"),
+                    MotionOutcome::Crashed => format!("Crashed_{name}"),
                 };
                 format!(
                     "{t} p{robot} Event: | {t} | {robot} | {} | {} | {} | 0.000 | 0.000 | 0.000 | 0.000 | {cond}",
@@ -179,6 +204,25 @@ impl NekoLog {
             ),
             Observation::SensorRequest { robot, query } => {
                 format!("{t} p{robot} SensorRequest: ROBOT# {robot} | {}", query_text(query))
+            }
+            Observation::Send { robot, to, layer, msg } => {
+                let dests: Vec<String> = to.iter().map(|d| format!("p{d}")).collect();
+                format!("{t} p{robot} messages e s p{robot} {} {} {} [{layer}]", dests.join(","), msg.type_name(), content_text(msg))
+            }
+            Observation::Receive { robot, from, layer, msg } => {
+                format!("{t} p{robot} messages e r p{from} p{robot} {} {} [{layer}]", msg.type_name(), content_text(msg))
+            }
+            Observation::Deliver { robot, layer, id, msg } => {
+                format!("{t} p{robot} Deliver: layer {layer} | {id} | {}", wire_text(msg))
+            }
+            Observation::Decide { robot, layer, k, value } => {
+                format!("{t} p{robot} Decide: layer {layer} | instance {k} | {}", wire_text(value))
+            }
+            Observation::Suspect { robot, layer, process } => format!("{t} p{robot} Suspect: layer {layer} | p{process}"),
+            Observation::Trust { robot, layer, process } => format!("{t} p{robot} Trust: layer {layer} | p{process}"),
+            Observation::Leader { robot, layer, process } => format!("{t} p{robot} Leader: layer {layer} | p{process}"),
+            Observation::Crash { robot, state } => {
+                format!("{t} p{robot} Crash: ROBOT# {robot} | {} | {}", pt(state.pos), num(state.angle))
             }
             Observation::SensorReply { robot, sensor, value, interrupt } => format!(
                 "{t} p{robot} {}: ROBOT# {robot} | {} | {}",

@@ -123,6 +123,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
             sink: Some(sink),
             progress: opts.progress,
         },
+        comms: built.comms,
     })?;
     let wall_seconds = started.elapsed().as_secs_f64();
     let (log, trace, _) = Rc::try_unwrap(outputs)

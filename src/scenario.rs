@@ -14,8 +14,10 @@ use nekosim_actors::algorithm::{Gathering, Idle, RandomMovement, Script, ScriptS
 use nekosim_actors::world::born::random_born_points;
 use nekosim_actors::world::geometry::Point;
 use nekosim_actors::world::motion::Pose;
+use nekosim_actors::world::network::{NetworkSpec, Partition};
 use nekosim_actors::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldSize};
-use nekosim_actors::Algorithm;
+use nekosim_actors::{Algorithm, Comms, Fault};
+use nekosim_protocols::{LayerSpec, Wiring};
 use rand::{Rng, SeedableRng};
 use serde::Deserialize;
 
@@ -39,6 +41,28 @@ pub struct Scenario {
     /// actix arbiters (threads) hosting robots and sensors; the results do not depend on it.
     #[serde(default = "one")]
     pub arbiters: usize,
+    /// The simulated network; default `Reliable(delay: 1.0)`.
+    #[serde(default)]
+    pub network: Option<NetworkSpec>,
+    /// Every robot's protocol stack (bottom to top, any order); the algorithm sits on top.
+    #[serde(default)]
+    pub stack: Vec<LayerSpec>,
+    #[serde(default)]
+    pub faults: Vec<FaultSpec>,
+}
+
+/// A fault to inject.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum FaultSpec {
+    /// The robot stops moving, sensing and communicating at `at`.
+    Crash { robot: u32, at: f64 },
+    /// Messages between different groups are lost during `[from, to)`.
+    Partition {
+        groups: Vec<Vec<u32>>,
+        from: f64,
+        to: f64,
+    },
 }
 
 fn infinity() -> f64 {
@@ -143,6 +167,8 @@ pub enum AlgorithmSpec {
         #[serde(default)]
         retry: Option<f64>,
     },
+    /// Seed 5.3: multicast a random GOTO order to all others, obey the first order received.
+    AskForHelp,
     /// An algorithm registered in Rust under `name` (see [`Registry`]).
     Custom {
         name: String,
@@ -222,6 +248,7 @@ pub struct Built {
     pub arbiters: usize,
     pub world: WorldConfig,
     pub robots: Vec<(RobotSpec, Box<dyn Algorithm>)>,
+    pub comms: Comms,
 }
 
 /// A scenario file read and parsed, with the positions of its values.
@@ -330,6 +357,7 @@ impl Source {
     ) -> Result<Box<dyn Algorithm>, ScenarioError> {
         Ok(match spec {
             AlgorithmSpec::Idle => Box::new(Idle),
+            AlgorithmSpec::AskForHelp => Box::new(nekosim_actors::algorithm::AskForHelp),
             AlgorithmSpec::Script(steps) => {
                 for (k, step) in steps.iter().enumerate() {
                     let p = format!("{path}[0][{k}]");
@@ -680,18 +708,86 @@ impl Source {
         // The kernel's own checks, as a second net.
         let specs: Vec<RobotSpec> = robots.iter().map(|r| r.0).collect();
         VirtualWorld::new(world, &specs).map_err(|e| self.err("robots", e.to_string()))?;
+        let comms = self.comms(total)?;
         let name = s.name.clone().unwrap_or_else(|| {
             Path::new(&self.file)
                 .file_stem()
                 .map_or("scenario".into(), |s| s.to_string_lossy().into_owned())
         });
         Ok(Built {
+            comms,
             name,
             seed,
             until,
             arbiters: s.arbiters,
             world,
             robots,
+        })
+    }
+}
+
+impl Source {
+    /// Network, stack and faults, checked against `n` robots.
+    fn comms(&self, n: usize) -> Result<Comms, ScenarioError> {
+        let s = &self.scenario;
+        let network = s.network.clone().unwrap_or_default();
+        network
+            .check()
+            .map_err(|(f, m)| self.err(&format!("network.{f}"), m))?;
+        let wiring = Wiring::check(&s.stack)
+            .map_err(|e| self.err(&format!("stack[{}].{}", e.layer, e.field), e.message))?;
+        let _ = wiring;
+        let mut faults = Vec::new();
+        let robot_ok = |path: String, r: u32| -> Result<u32, ScenarioError> {
+            if (r as usize) < n {
+                Ok(r)
+            } else {
+                Err(self.err(
+                    &path,
+                    format!(
+                        "robot {r} does not exist; expected an id in 0..={}",
+                        n.saturating_sub(1)
+                    ),
+                ))
+            }
+        };
+        for (i, f) in s.faults.iter().enumerate() {
+            let p = format!("faults[{i}]");
+            match f {
+                FaultSpec::Crash { robot, at } => {
+                    let robot = robot_ok(format!("{p}.robot"), *robot)?;
+                    self.finite(&format!("{p}.at"), "crash time", *at)?;
+                    if *at < 0.0 {
+                        return Err(self.err(
+                            &format!("{p}.at"),
+                            format!("crash time is {at}; expected a time >= 0"),
+                        ));
+                    }
+                    faults.push(Fault::Crash { robot, at: *at });
+                }
+                FaultSpec::Partition { groups, from, to } => {
+                    for (g, group) in groups.iter().enumerate() {
+                        for (k, r) in group.iter().enumerate() {
+                            robot_ok(format!("{p}.groups[{g}][{k}]"), *r)?;
+                        }
+                    }
+                    self.finite(&format!("{p}.from"), "partition start", *from)?;
+                    self.finite(&format!("{p}.to"), "partition end", *to)?;
+                    if to < from {
+                        return Err(self.err(&format!("{p}.to"), format!("partition ends at {to} before it starts at {from}; expected from <= to")));
+                    }
+                    faults.push(Fault::Partition(Partition {
+                        groups: groups.clone(),
+                        from: *from,
+                        to: *to,
+                    }));
+                }
+            }
+        }
+        Ok(Comms {
+            network,
+            stack: s.stack.clone(),
+            faults,
         })
     }
 }

@@ -7,6 +7,8 @@ use nekosim_actors::world::sensor::{SensorQuery, SensorValue};
 use nekosim_actors::world::{MotionOutcome, Obstacle};
 use serde_json::{json, Map, Value};
 
+use crate::log::wire_text;
+
 fn pt(p: Point) -> Value {
     json!([p.x, p.y])
 }
@@ -141,6 +143,88 @@ pub fn to_json(r: &Record) -> Value {
             put("robot", json!(robot));
             put("sensor", json!(query.kind().name()));
             put("value", query_json(query));
+        }
+        Observation::Send {
+            robot,
+            to,
+            layer,
+            msg,
+        } => {
+            put("kind", json!("send"));
+            put("robot", json!(robot));
+            put("to", json!(to));
+            put("layer", json!(layer));
+            put("msg", json!(wire_text(msg)));
+            put("type", json!(msg.type_name()));
+        }
+        Observation::Receive {
+            robot,
+            from,
+            layer,
+            msg,
+        } => {
+            put("kind", json!("receive"));
+            put("robot", json!(robot));
+            put("from", json!(from));
+            put("layer", json!(layer));
+            put("msg", json!(wire_text(msg)));
+            put("type", json!(msg.type_name()));
+        }
+        Observation::Deliver {
+            robot,
+            layer,
+            id,
+            msg,
+        } => {
+            put("kind", json!("deliver"));
+            put("robot", json!(robot));
+            put("layer", json!(layer));
+            put("msg", json!(id.to_string()));
+            put("origin", json!(id.origin));
+            put("content", json!(wire_text(msg)));
+        }
+        Observation::Decide {
+            robot,
+            layer,
+            k,
+            value,
+        } => {
+            put("kind", json!("decide"));
+            put("robot", json!(robot));
+            put("layer", json!(layer));
+            put("instance", json!(k));
+            put("value", json!(wire_text(value)));
+        }
+        Observation::Suspect {
+            robot,
+            layer,
+            process,
+        }
+        | Observation::Trust {
+            robot,
+            layer,
+            process,
+        }
+        | Observation::Leader {
+            robot,
+            layer,
+            process,
+        } => {
+            let kind = match &r.obs {
+                Observation::Suspect { .. } => "suspect",
+                Observation::Trust { .. } => "trust",
+                _ => "leader",
+            };
+            put("kind", json!(kind));
+            put("robot", json!(robot));
+            put("layer", json!(layer));
+            put("process", json!(process));
+        }
+        Observation::Crash { robot, state } => {
+            put("kind", json!("crash"));
+            put("robot", json!(robot));
+            put("pos", pt(state.pos));
+            put("angle", json!(state.angle));
         }
         Observation::SensorReply {
             robot,

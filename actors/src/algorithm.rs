@@ -246,3 +246,90 @@ impl Algorithm for Gathering {
         })
     }
 }
+
+/// Seed 5.3, asking for help: each robot multicasts a random GOTO order to all others, then
+/// obeys the first order it receives, and repeats. As in the seed's code: destinations uniform
+/// in a 700×700 square (placed at the world's lower-left corner, or centred on the origin in
+/// an infinite world), turn speed `6 + randint(30)`, move speed `3 + randint(10)`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AskForHelp;
+
+impl Algorithm for AskForHelp {
+    fn name(&self) -> &str {
+        "AskForHelp"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        Box::pin(async move {
+            let info = robot.info();
+            let lo = match info.world {
+                WorldSize::Bounded { min, .. } => min,
+                WorldSize::Infinite => Point::new(-350.0, -350.0),
+            };
+            let others: Vec<_> = (0..info.count as u32).filter(|&p| p != info.id).collect();
+            loop {
+                let (x, y): (f64, f64) = {
+                    let mut rng = robot.rng();
+                    (rng.gen(), rng.gen())
+                };
+                let dest = Point::new(lo.x + 700.0 * x, lo.y + 700.0 * y);
+                robot.send(
+                    others.clone(),
+                    "GOTO",
+                    nekosim_protocols::Content::Point(
+                        nekosim_protocols::Real::new(dest.x),
+                        nekosim_protocols::Real::new(dest.y),
+                    ),
+                );
+                let (turn_speed, move_speed) = {
+                    let mut rng = robot.rng();
+                    (
+                        6.0 + rng.gen_range(0..30) as f64,
+                        3.0 + rng.gen_range(0..10) as f64,
+                    )
+                };
+                // The first order that arrives.
+                let goto = loop {
+                    let r = robot.receive().await;
+                    if let Some(("GOTO", nekosim_protocols::Content::Point(x, y))) = r.app() {
+                        break Point::new(x.get(), y.get());
+                    }
+                };
+                move_or_wait(&robot, goto, move_speed, turn_speed, 1.0).await;
+            }
+        })
+    }
+}
+
+/// Neko's latency test: broadcasts `count` messages through `layer` at exponentially
+/// distributed intervals of mean `mean_interval` [s], and keeps receiving (deliveries are in
+/// the trace, from which latency and throughput are computed).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BroadcastLoad {
+    pub layer: String,
+    pub count: u32,
+    pub mean_interval: f64,
+}
+
+impl Algorithm for BroadcastLoad {
+    fn name(&self) -> &str {
+        "BroadcastLoad"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        let cfg = self.clone();
+        Box::pin(async move {
+            let Some(layer) = robot.layer(&cfg.layer) else {
+                tracing::warn!(layer = cfg.layer, "BroadcastLoad: no such layer");
+                return;
+            };
+            for i in 0..cfg.count {
+                let u: f64 = robot.rng().gen();
+                robot.sleep(-cfg.mean_interval * (1.0 - u).ln()).await;
+                layer.broadcast("LOAD", nekosim_protocols::Content::Int(i as i64));
+            }
+            drop(layer);
+            loop {
+                robot.receive().await;
+            }
+        })
+    }
+}

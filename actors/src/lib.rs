@@ -8,7 +8,9 @@
 //! - [`algorithm`]: built-in robot algorithms; [`simulation`]: building and running a run.
 
 pub mod algorithm;
+pub mod layer;
 pub mod motion_manager;
+pub mod network;
 pub mod robot;
 pub mod scheduler;
 pub mod sensor;
@@ -16,5 +18,5 @@ pub mod sensor_manager;
 pub mod simulation;
 pub mod world;
 
-pub use robot::{Algorithm, AlgorithmFuture, MotionEnd, Robot};
-pub use simulation::{run, SimConfig, SimError};
+pub use robot::{Algorithm, AlgorithmFuture, MotionEnd, Received, Robot};
+pub use simulation::{run, Comms, Fault, SimConfig, SimError};

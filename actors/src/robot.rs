@@ -30,9 +30,13 @@ use crate::scheduler::Deliver;
 use crate::world::event::{EventClass, FutureEvent, Notice, Outbox, Payload, Target};
 use crate::world::geometry::Point;
 use crate::world::motion::{Kinematics, Motion};
+use crate::world::observation::Observation;
 use crate::world::sensor::{SensorQuery, SensorValue};
 use crate::world::virtual_world::WorldSize;
 use crate::world::{MotionOutcome, RobotId};
+use nekosim_protocols::{
+    Content, Indication, Input, LayerIx, Request as ProtoRequest, Wire, APP, NET,
+};
 
 /// A running algorithm.
 pub type AlgorithmFuture = Pin<Box<dyn Future<Output = ()>>>;
@@ -65,6 +69,8 @@ enum Request {
     Sensor { ticket: u64, query: SensorQuery },
     Timer { ticket: u64, at: f64 },
     ListEvents { ticket: u64 },
+    Net { to: Vec<RobotId>, msg: Wire },
+    Layer { ix: LayerIx, req: ProtoRequest },
 }
 
 #[derive(Debug)]
@@ -87,11 +93,41 @@ pub struct RobotInfo {
     pub world: WorldSize,
 }
 
+/// A message or indication that reached the algorithm.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Received {
+    /// `"net"` for a direct message, else the id of the layer that indicated it.
+    pub layer: String,
+    pub ind: Indication,
+}
+
+impl Received {
+    /// The application message carried, if any: `(kind, content)`.
+    pub fn app(&self) -> Option<(&str, &Content)> {
+        match &self.ind {
+            Indication::Deliver { msg, .. } | Indication::BDeliver { msg, .. } => msg.app_part(),
+            Indication::Decide { value, .. } => value.app_part(),
+            _ => None,
+        }
+    }
+
+    /// Who sent it (direct messages) or broadcast it (broadcast deliveries).
+    pub fn sender(&self) -> Option<RobotId> {
+        match &self.ind {
+            Indication::Deliver { from, .. } => Some(*from),
+            Indication::BDeliver { id, .. } => Some(id.origin),
+            _ => None,
+        }
+    }
+}
+
 /// The handle an algorithm uses to move, sense and wait (the seed's interface layer).
 #[derive(Clone)]
 pub struct Robot {
     info: RobotInfo,
     io: Rc<RefCell<RobotIo>>,
+    /// Ids of the protocol stack's layers, by index.
+    layers: std::sync::Arc<Vec<String>>,
 }
 
 impl fmt::Debug for Robot {
@@ -225,12 +261,16 @@ impl Robot {
         v
     }
 
-    /// Waits for the next push-sensor interrupt or end of a motion started with
-    /// [`Robot::start_motion`], whichever comes first.
+    /// Waits for the next push-sensor interrupt, end of a motion started with
+    /// [`Robot::start_motion`], or incoming message, whichever comes first.
     pub async fn next_notice(&self) -> Notice {
         let ((), n) = self
             .take(|n| {
-                matches!(n, Notice::Interrupt { .. } | Notice::MotionEnded { .. }).then_some(())
+                matches!(
+                    n,
+                    Notice::Interrupt { .. } | Notice::MotionEnded { .. } | Notice::Incoming { .. }
+                )
+                .then_some(())
             })
             .await;
         n
@@ -248,6 +288,47 @@ impl Robot {
             })
             .await;
         v
+    }
+
+    /// Sends an application message to robots `to` directly over the network (multicast).
+    pub fn send(&self, to: Vec<RobotId>, kind: &str, content: Content) {
+        self.push(Request::Net {
+            to,
+            msg: Wire::app(kind, content),
+        });
+    }
+
+    /// A layer of the robot's protocol stack, by id (as in the scenario's `stack`).
+    pub fn layer(&self, id: &str) -> Option<LayerHandle<'_>> {
+        self.layers
+            .iter()
+            .position(|l| l == id)
+            .map(|ix| LayerHandle {
+                robot: self,
+                ix: ix as LayerIx,
+            })
+    }
+
+    /// Waits for the next direct message or layer indication (Neko's active receive).
+    pub async fn receive(&self) -> Received {
+        let (r, _) = self
+            .take(|n| match n {
+                Notice::Incoming { layer, ind } => Some(Received {
+                    layer: self.layer_id(*layer),
+                    ind: ind.clone(),
+                }),
+                _ => None,
+            })
+            .await;
+        r
+    }
+
+    fn layer_id(&self, ix: LayerIx) -> String {
+        match ix {
+            NET => "net".into(),
+            APP => "app".into(),
+            i => self.layers.get(i as usize).cloned().unwrap_or_default(),
+        }
     }
 
     /// The GPS sensor.
@@ -294,6 +375,47 @@ impl Robot {
     }
 }
 
+/// A layer of a robot's stack, for requests from the algorithm.
+#[derive(Debug)]
+pub struct LayerHandle<'a> {
+    robot: &'a Robot,
+    ix: LayerIx,
+}
+
+impl LayerHandle<'_> {
+    /// Broadcasts an application message through the layer (broadcast layers).
+    pub fn broadcast(&self, kind: &str, content: Content) {
+        self.robot.push(Request::Layer {
+            ix: self.ix,
+            req: ProtoRequest::Broadcast {
+                msg: Wire::app(kind, content),
+            },
+        });
+    }
+
+    /// Proposes a value to instance `k` (consensus layers).
+    pub fn propose(&self, k: u64, kind: &str, content: Content) {
+        self.robot.push(Request::Layer {
+            ix: self.ix,
+            req: ProtoRequest::Propose {
+                k,
+                value: Wire::app(kind, content),
+            },
+        });
+    }
+
+    /// Sends through the layer (point-to-point layers such as Fifo).
+    pub fn send(&self, to: Vec<RobotId>, kind: &str, content: Content) {
+        self.robot.push(Request::Layer {
+            ix: self.ix,
+            req: ProtoRequest::Send {
+                to,
+                msg: Wire::app(kind, content),
+            },
+        });
+    }
+}
+
 /// The GPS sensor of a robot (seed 6.3.2).
 #[derive(Debug)]
 pub struct Gps<'a>(&'a Robot);
@@ -335,7 +457,12 @@ impl fmt::Debug for RobotActor {
 
 impl RobotActor {
     /// A robot running `algorithm`, with a random stream derived from `seed` and its id.
-    pub fn new(info: RobotInfo, algorithm: Box<dyn Algorithm>, seed: u64) -> Self {
+    pub fn new(
+        info: RobotInfo,
+        algorithm: Box<dyn Algorithm>,
+        seed: u64,
+        layers: std::sync::Arc<Vec<String>>,
+    ) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(info.id as u64);
         Self {
@@ -348,6 +475,7 @@ impl RobotActor {
                     outbox: Vec::new(),
                     rng,
                 })),
+                layers,
             },
             algorithm,
             task: None,
@@ -370,7 +498,21 @@ impl Handler<Deliver> for RobotActor {
             Payload::Notice(Notice::Start) => {
                 self.task = Some(self.algorithm.run(self.handle.clone()));
             }
-            Payload::Notice(n) => self.handle.io.borrow_mut().inbox.push_back(n),
+            Payload::Notice(n) => {
+                if let Notice::Incoming {
+                    layer: NET,
+                    ind: Indication::Deliver { from, msg },
+                } = &n
+                {
+                    out.record(Observation::Receive {
+                        robot: id,
+                        from: *from,
+                        layer: "app".into(),
+                        msg: msg.clone(),
+                    });
+                }
+                self.handle.io.borrow_mut().inbox.push_back(n)
+            }
             Payload::Timer { ticket, .. } => self
                 .handle
                 .io
@@ -417,6 +559,29 @@ impl Handler<Deliver> for RobotActor {
                     EventClass::Eventual,
                     me,
                     Payload::Timer { robot: id, ticket },
+                ),
+                Request::Net { to, msg: wire } => out.schedule(
+                    msg.now,
+                    Target::Network,
+                    EventClass::Eventual,
+                    me,
+                    Payload::NetSend {
+                        from: id,
+                        layer: APP,
+                        to,
+                        msg: wire,
+                    },
+                ),
+                Request::Layer { ix, req } => out.schedule(
+                    msg.now,
+                    Target::Layer(id, ix),
+                    EventClass::Eventual,
+                    me,
+                    Payload::LayerInput {
+                        robot: id,
+                        layer: ix,
+                        input: Input::Request { from: APP, req },
+                    },
                 ),
                 Request::ListEvents { ticket } => out.schedule(
                     msg.now,

@@ -50,6 +50,9 @@ pub struct Routes {
     pub motion_manager: Recipient<Deliver>,
     pub sensor_manager: Recipient<Deliver>,
     pub robots: Vec<Recipient<Deliver>>,
+    pub network: Recipient<Deliver>,
+    /// Each robot's protocol layers, by stack index.
+    pub layers: Vec<Vec<Recipient<Deliver>>>,
     /// Starts a robot's sensor actor on the robot's arbiter when it is first needed.
     pub spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Recipient<Deliver>>,
 }
@@ -92,6 +95,8 @@ pub struct Scheduler {
     until: f64,
     routes: Routes,
     sensors: HashMap<(RobotId, SensorKind), Recipient<Deliver>>,
+    /// Crashed robots: events for their robot, sensor and layer actors are dropped.
+    crashed: std::collections::BTreeSet<RobotId>,
     output: RunOutput,
     on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
     observers: Observers,
@@ -161,6 +166,7 @@ impl Scheduler {
             until,
             routes,
             sensors: HashMap::new(),
+            crashed: std::collections::BTreeSet::new(),
             output: RunOutput::default(),
             on_finish: Some(on_finish),
             observers,
@@ -208,7 +214,17 @@ impl Scheduler {
     /// The event manager's own events: a robot's listing of its future events.
     fn handle_inline(&mut self, event: Event) {
         let mut out = Outbox::new(self.now, self.seq);
-        if let Payload::ListEvents { robot, ticket } = event.payload {
+        if let Payload::Crash { robot } = event.payload {
+            // From now on the robot's own actors get nothing; the motion manager stops it.
+            self.crashed.insert(robot);
+            out.schedule(
+                self.now,
+                Target::MotionManager,
+                crate::world::event::EventClass::Eventual,
+                [Some(robot), None],
+                Payload::Crash { robot },
+            );
+        } else if let Payload::ListEvents { robot, ticket } = event.payload {
             let events = self
                 .queue
                 .future_of(robot)
@@ -231,6 +247,8 @@ impl Scheduler {
             Target::MotionManager => self.routes.motion_manager.clone(),
             Target::SensorManager => self.routes.sensor_manager.clone(),
             Target::Robot(r) => self.routes.robots[r as usize].clone(),
+            Target::Network => self.routes.network.clone(),
+            Target::Layer(r, l) => self.routes.layers[r as usize][l as usize].clone(),
             Target::Sensor(r, k) => {
                 let spawn = &self.routes.spawn_sensor;
                 self.sensors
@@ -306,6 +324,16 @@ impl Handler<Step> for Scheduler {
             }
         }
         let target = event.target;
+        let dead = match target {
+            Target::Robot(r) | Target::Sensor(r, _) | Target::Layer(r, _) => {
+                self.crashed.contains(&r)
+            }
+            _ => false,
+        };
+        if dead {
+            ctx.notify(Step);
+            return;
+        }
         if target == Target::EventManager {
             self.handle_inline(event);
             ctx.notify(Step);

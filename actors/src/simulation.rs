@@ -6,14 +6,20 @@ use std::sync::{mpsc, Arc, Mutex};
 
 use actix::prelude::*;
 
+use crate::layer::LayerActor;
 use crate::motion_manager::MotionManager;
+use crate::network::NetworkActor;
 use crate::robot::{Algorithm, RobotActor, RobotInfo};
 use crate::scheduler::{Deliver, Observers, Routes, RunOutput, Scheduler};
 use crate::sensor::Sensor;
 use crate::sensor_manager::SensorManager;
 use crate::world::event::Outbox;
+use crate::world::event::{EventClass, Payload, Target};
+use crate::world::network::{Network, NetworkSpec, Partition};
 use crate::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldError};
 use crate::world::RobotId;
+use nekosim_protocols::{Input, LayerSpec, Wiring};
+use rand::SeedableRng;
 
 /// Everything a run needs.
 pub struct SimConfig {
@@ -31,6 +37,28 @@ pub struct SimConfig {
     pub record: bool,
     /// Streaming observers (outputs written while the run goes on, progress).
     pub observers: Observers,
+    /// Network, protocol stack and faults.
+    pub comms: Comms,
+}
+
+/// Communication settings of a run (seed 3.4-3.5).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Comms {
+    pub network: NetworkSpec,
+    /// Every robot gets this stack; the algorithm sits on top.
+    pub stack: Vec<LayerSpec>,
+    pub faults: Vec<Fault>,
+}
+
+/// A fault injected into a run.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Fault {
+    /// The robot stops moving, sensing and communicating at `at` [s].
+    Crash {
+        robot: RobotId,
+        at: f64,
+    },
+    Partition(Partition),
 }
 
 /// Events allowed at one instant of virtual time per robot (at least [`MIN_INSTANT_LIMIT`])
@@ -65,6 +93,9 @@ pub enum SimError {
     /// The actor system failed (an internal error).
     #[error("actor system: {0}")]
     System(String),
+    /// The protocol stack is wired wrongly (fatal before the run starts).
+    #[error("stack: {0}")]
+    Stack(#[from] nekosim_protocols::StackError),
     /// The run stopped: virtual time stopped advancing.
     #[error("{0}")]
     Livelock(String),
@@ -77,8 +108,43 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     }
     let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
     let world = VirtualWorld::new(cfg.world, &specs)?;
+    let wiring = std::sync::Arc::new(Wiring::check(&cfg.comms.stack)?);
     let mut setup = Outbox::new(0.0, 0);
+    // Protocol layers start first, bottom-up, then the algorithms; crashes are scheduled.
+    for r in 0..specs.len() as RobotId {
+        for l in 0..cfg.comms.stack.len() as nekosim_protocols::LayerIx {
+            setup.schedule(
+                0.0,
+                Target::Layer(r, l),
+                EventClass::Eventual,
+                [Some(r), None],
+                Payload::LayerInput {
+                    robot: r,
+                    layer: l,
+                    input: Input::Start,
+                },
+            );
+        }
+    }
     world.start(&mut setup);
+    let mut partitions = Vec::new();
+    for f in &cfg.comms.faults {
+        match f {
+            Fault::Crash { robot, at } => {
+                setup.schedule(
+                    *at,
+                    Target::EventManager,
+                    EventClass::Eventual,
+                    [Some(*robot), None],
+                    Payload::Crash { robot: *robot },
+                );
+            }
+            Fault::Partition(p) => partitions.push(p.clone()),
+        }
+    }
+    let mut net_rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
+    net_rng.set_stream(0x4E45_54);
+    let network = Network::new(cfg.comms.network.clone(), net_rng, partitions);
     let count = world.len();
     let world = Arc::new(Mutex::new(world));
 
@@ -90,6 +156,8 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     observers.keep = cfg.record;
     let world_cfg = cfg.world;
     let robots = cfg.robots;
+    let stack = cfg.comms.stack.clone();
+    let layer_ids = std::sync::Arc::new(wiring.ids.clone());
     let n_arbiters = cfg.arbiters.max(1);
     system.block_on(async move {
         let mut extra: Vec<Arbiter> = Vec::new();
@@ -100,6 +168,9 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             extra.push(a);
         }
         let motion_manager = MotionManager::new(world.clone()).start().recipient();
+        let network = NetworkActor::new(network, world.clone(), wiring.clone())
+            .start()
+            .recipient();
         let sensor_manager = SensorManager::new(world).start().recipient();
         let arbiter_of = {
             let handles = handles.clone();
@@ -115,16 +186,40 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
                     radius: spec.radius,
                     world: world_cfg.size,
                 };
+                let ids = layer_ids.clone();
                 RobotActor::start_in_arbiter(&arbiter_of(info.id), move |_| {
-                    RobotActor::new(info, algorithm, seed)
+                    RobotActor::new(info, algorithm, seed, ids)
                 })
                 .recipient()
+            })
+            .collect();
+        let layers: Vec<Vec<Recipient<Deliver>>> = (0..count as RobotId)
+            .map(|r| {
+                stack
+                    .iter()
+                    .enumerate()
+                    .map(|(l, spec)| {
+                        let (layer, wiring) = (spec.protocol.instantiate(), wiring.clone());
+                        LayerActor::start_in_arbiter(&arbiter_of(r), move |_| {
+                            LayerActor::new(
+                                r,
+                                l as nekosim_protocols::LayerIx,
+                                layer,
+                                wiring,
+                                count as u32,
+                            )
+                        })
+                        .recipient()
+                    })
+                    .collect()
             })
             .collect();
         let routes = Routes {
             motion_manager,
             sensor_manager,
             robots,
+            network,
+            layers,
             spawn_sensor: Box::new(move |robot, kind| {
                 Sensor::start_in_arbiter(&arbiter_of(robot), move |_| {
                     Sensor::new(robot, kind, seed)

@@ -460,6 +460,73 @@ pub enum Routed {
     },
 }
 
+fn to_layer(target: LayerIx, from: LayerIx, req: Request) -> Routed {
+    match (target, req) {
+        (NET, Request::Send { to, msg }) => Routed::Net {
+            layer: from,
+            to,
+            msg,
+        },
+        (NET, other) => Routed::Layer {
+            to: NET,
+            input: Input::Request { from, req: other },
+        },
+        (t, req) => Routed::Layer {
+            to: t,
+            input: Input::Request { from, req },
+        },
+    }
+}
+
+/// Runs one layer instance's handler (the layer at index `ix` of a stack wired by `wiring`)
+/// and says where each of its effects goes.
+pub fn step_layer(
+    layer: &mut Layer,
+    wiring: &Wiring,
+    ctx: &Ctx,
+    ix: LayerIx,
+    input: Input,
+) -> Vec<Routed> {
+    let mut out = Out::new();
+    layer.proto().dyn_handle(ctx, input, &mut out);
+    let i = ix as usize;
+    let mut routed = Vec::new();
+    for e in out.effects {
+        match e {
+            Effect::Down(req) => routed.push(to_layer(wiring.below[i], ix, req)),
+            Effect::Use { slot, req } => {
+                routed.push(to_layer(wiring.uses[i][slot as usize], ix, req))
+            }
+            Effect::Up { to: Some(APP), ind } => routed.push(Routed::App { layer: ix, ind }),
+            Effect::Up { to: Some(t), ind } => routed.push(Routed::Layer {
+                to: t,
+                input: Input::Indication { from: ix, ind },
+            }),
+            Effect::Up { to: None, ind } => {
+                for &a in &wiring.above[i] {
+                    routed.push(Routed::Layer {
+                        to: a,
+                        input: Input::Indication {
+                            from: ix,
+                            ind: ind.clone(),
+                        },
+                    });
+                }
+                if wiring.app_hears[i] {
+                    routed.push(Routed::App { layer: ix, ind });
+                }
+            }
+            Effect::SetTimer { timer, after } => routed.push(Routed::SetTimer {
+                layer: ix,
+                timer,
+                after,
+            }),
+            Effect::CancelTimer(timer) => routed.push(Routed::CancelTimer { layer: ix, timer }),
+        }
+    }
+    routed
+}
+
 /// One process's stack of protocol instances.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Stack {
@@ -482,64 +549,7 @@ impl Stack {
         layer: LayerIx,
         input: Input,
     ) -> Vec<Routed> {
-        let mut out = Out::new();
-        self.layers[layer as usize]
-            .proto()
-            .dyn_handle(ctx, input, &mut out);
-        let i = layer as usize;
-        let mut routed = Vec::new();
-        for e in out.effects {
-            match e {
-                Effect::Down(req) => routed.push(Self::to_layer(wiring.below[i], layer, req)),
-                Effect::Use { slot, req } => {
-                    routed.push(Self::to_layer(wiring.uses[i][slot as usize], layer, req))
-                }
-                Effect::Up { to: Some(APP), ind } => routed.push(Routed::App { layer, ind }),
-                Effect::Up { to: Some(t), ind } => routed.push(Routed::Layer {
-                    to: t,
-                    input: Input::Indication { from: layer, ind },
-                }),
-                Effect::Up { to: None, ind } => {
-                    for &a in &wiring.above[i] {
-                        routed.push(Routed::Layer {
-                            to: a,
-                            input: Input::Indication {
-                                from: layer,
-                                ind: ind.clone(),
-                            },
-                        });
-                    }
-                    if wiring.app_hears[i] {
-                        routed.push(Routed::App { layer, ind });
-                    }
-                }
-                Effect::SetTimer { timer, after } => routed.push(Routed::SetTimer {
-                    layer,
-                    timer,
-                    after,
-                }),
-                Effect::CancelTimer(timer) => routed.push(Routed::CancelTimer { layer, timer }),
-            }
-        }
-        routed
-    }
-
-    fn to_layer(target: LayerIx, from: LayerIx, req: Request) -> Routed {
-        match (target, req) {
-            (NET, Request::Send { to, msg }) => Routed::Net {
-                layer: from,
-                to,
-                msg,
-            },
-            (NET, other) => Routed::Layer {
-                to: NET,
-                input: Input::Request { from, req: other },
-            },
-            (t, req) => Routed::Layer {
-                to: t,
-                input: Input::Request { from, req },
-            },
-        }
+        step_layer(&mut self.layers[layer as usize], wiring, ctx, layer, input)
     }
 
     /// Runs `input` at `layer` and every hop it causes inside the process, in FIFO order;

@@ -46,6 +46,7 @@ fn random_run(seed: u64, n: usize, world: WorldConfig, until: f64) -> Vec<Record
         arbiters: 1,
         record: true,
         observers: Default::default(),
+        comms: Default::default(),
     })
     .expect("run")
     .records

@@ -54,6 +54,7 @@ pub fn run(
         arbiters: 1,
         record: true,
         observers: Default::default(),
+        comms: Default::default(),
     })
     .expect("run")
 }

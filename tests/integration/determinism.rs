@@ -31,6 +31,7 @@ fn run_with(seed: u64, arbiters: usize) -> RunOutput {
         arbiters,
         record: true,
         observers: Default::default(),
+        comms: Default::default(),
     })
     .expect("run")
 }

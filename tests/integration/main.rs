@@ -4,6 +4,7 @@ mod cancellation;
 mod cli;
 mod collisions;
 mod common;
+mod communication;
 mod determinism;
 mod scale;
 mod sensors;

@@ -36,6 +36,7 @@ fn ten_thousand_robots_run() {
         arbiters: 1,
         record: false,
         observers: Default::default(),
+        comms: Default::default(),
     })
     .expect("run");
     println!("{:?}", out.stats);

@@ -19,6 +19,7 @@ use super::observation::Observation;
 use super::sensor::{SensorKind, SensorQuery, SensorValue, Snapshot};
 use super::{MotionOutcome, Obstacle, RobotId};
 use crate::world::motion::Kinematics;
+use nekosim_protocols::{Indication, Input, LayerIx, Wire};
 
 /// Identity and tie-break key of an event: `(cause, index)`, see the module doc.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -38,6 +39,10 @@ pub enum Target {
     SensorManager,
     Robot(RobotId),
     Sensor(RobotId, SensorKind),
+    /// The simulated network.
+    Network,
+    /// A robot's protocol layer (index in the stack).
+    Layer(RobotId, LayerIx),
 }
 
 /// Eventually-happen or conditional (seed 4.3).
@@ -67,6 +72,9 @@ pub enum Notice {
     },
     /// A timer set by `sleep` fired.
     Timer { ticket: u64 },
+    /// A message or indication for the algorithm: a direct message from the network
+    /// (`layer` is [`nekosim_protocols::NET`]) or an indication of a protocol layer.
+    Incoming { layer: LayerIx, ind: Indication },
     /// The event manager's listing of the robot's future events.
     FutureEvents {
         ticket: u64,
@@ -134,6 +142,28 @@ pub enum Payload {
     Timer { robot: RobotId, ticket: u64 },
     /// Robot -> event manager: list my future events.
     ListEvents { robot: RobotId, ticket: u64 },
+    /// A layer or the application hands a message to the network.
+    NetSend {
+        from: RobotId,
+        layer: LayerIx,
+        to: Vec<RobotId>,
+        msg: Wire,
+    },
+    /// An input for a robot's protocol layer.
+    LayerInput {
+        robot: RobotId,
+        layer: LayerIx,
+        input: Input,
+    },
+    /// A protocol layer's timer (`generation` tells cancelled timers apart).
+    LayerTimer {
+        robot: RobotId,
+        layer: LayerIx,
+        timer: u32,
+        generation: u64,
+    },
+    /// The robot crashes (handled by the event manager, then the motion manager).
+    Crash { robot: RobotId },
 }
 
 impl Payload {
@@ -152,6 +182,10 @@ impl Payload {
             Payload::Notice(_) => "notice",
             Payload::Timer { .. } => "timer",
             Payload::ListEvents { .. } => "list_events",
+            Payload::NetSend { .. } => "net_send",
+            Payload::LayerInput { .. } => "layer_input",
+            Payload::LayerTimer { .. } => "layer_timer",
+            Payload::Crash { .. } => "crash",
         }
     }
 }

@@ -37,6 +37,8 @@ pub enum MotionOutcome {
     Replaced,
     /// The request was invalid; the robot did not move.
     Rejected(String),
+    /// The robot crashed.
+    Crashed,
 }
 
 impl MotionOutcome {
@@ -47,6 +49,7 @@ impl MotionOutcome {
             MotionOutcome::Collided { .. } => "collided",
             MotionOutcome::Replaced => "replaced",
             MotionOutcome::Rejected(_) => "rejected",
+            MotionOutcome::Crashed => "crashed",
         }
     }
 }

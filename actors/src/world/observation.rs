@@ -7,6 +7,7 @@ use super::geometry::Point;
 use super::motion::{Kinematics, Progress, StepKind};
 use super::sensor::{SensorKind, SensorQuery, SensorValue};
 use super::{MotionOutcome, Obstacle, RobotId};
+use nekosim_protocols::{MsgId, Wire};
 
 /// One observation with its instant and sequence number.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -62,6 +63,55 @@ pub enum Observation {
     SensorRequest {
         robot: RobotId,
         query: SensorQuery,
+    },
+    /// A message handed to the network by `layer` ("app" for the algorithm).
+    Send {
+        robot: RobotId,
+        to: Vec<RobotId>,
+        layer: String,
+        msg: Wire,
+    },
+    /// A message arrived from the network at `layer` of `robot`.
+    Receive {
+        robot: RobotId,
+        from: RobotId,
+        layer: String,
+        msg: Wire,
+    },
+    /// A broadcast layer delivered message `id` to the algorithm.
+    Deliver {
+        robot: RobotId,
+        layer: String,
+        id: MsgId,
+        msg: Wire,
+    },
+    /// A consensus layer decided `value` for instance `k`.
+    Decide {
+        robot: RobotId,
+        layer: String,
+        k: u64,
+        value: Wire,
+    },
+    /// A failure detector (or Omega) told the algorithm something about `process`.
+    Suspect {
+        robot: RobotId,
+        layer: String,
+        process: RobotId,
+    },
+    Trust {
+        robot: RobotId,
+        layer: String,
+        process: RobotId,
+    },
+    Leader {
+        robot: RobotId,
+        layer: String,
+        process: RobotId,
+    },
+    /// The robot crashed: it stops moving, sensing and communicating.
+    Crash {
+        robot: RobotId,
+        state: Kinematics,
     },
     /// A sensor's reply; `interrupt` when a push sensor fired on its own.
     SensorReply {

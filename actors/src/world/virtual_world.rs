@@ -125,6 +125,7 @@ struct RobotState {
     cell: Cell,
     push: Option<PushProximity>,
     contact: bool,
+    crashed: bool,
 }
 
 /// The virtual world: all robots' states and the spatial index.
@@ -211,6 +212,7 @@ impl VirtualWorld {
                 cell,
                 push: None,
                 contact: false,
+                crashed: false,
             });
         }
         Ok(world)
@@ -449,11 +451,25 @@ impl VirtualWorld {
     /// Handles an event addressed to the motion manager (seed fig. 4.4 and 4.6-4.8).
     pub fn handle_motion(&mut self, payload: Payload, out: &mut Outbox) {
         match payload {
+            Payload::MotionRequest { robot, .. } if self.robots[robot as usize].crashed => {}
             Payload::MotionRequest {
                 robot,
                 ticket,
                 motion,
             } => self.motion_request(robot, ticket, &motion, out),
+            Payload::Crash { robot } => {
+                let now = out.now();
+                self.end_motion(robot, MotionOutcome::Crashed, out);
+                self.invalidate(robot, out);
+                self.robots[robot as usize].crashed = true;
+                self.robots[robot as usize].push = None;
+                self.robots[robot as usize].contact = false;
+                out.record(Observation::Crash {
+                    robot,
+                    state: self.state_at(robot, now),
+                });
+                self.predict_all(robot, out);
+            }
             Payload::MotionStep { robot, step } => self.motion_step(robot, step, out),
             Payload::Collision { a, b, contact } => self.collision(a, b, contact, out),
             Payload::CellCrossing { robot, offset } => {
@@ -723,6 +739,7 @@ impl VirtualWorld {
     pub fn handle_sensor(&mut self, payload: Payload, out: &mut Outbox) {
         let now = out.now();
         match payload {
+            Payload::SensorRequest { robot, .. } if self.robots[robot as usize].crashed => {}
             Payload::SensorRequest {
                 robot,
                 ticket,

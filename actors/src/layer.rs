@@ -1,0 +1,194 @@
+//! Protocol layer actors (seed 3.5): each microprotocol instance of each robot is hosted by an
+//! actor. The instance is the sans-IO state machine of `nekosim-protocols`; the actor turns
+//! its routed effects into events of the virtual-time scheduler (hops to other layers and to
+//! the network happen "now", timers at now + delay), so every hop is ordered and deterministic.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use actix::prelude::*;
+use nekosim_protocols::stack::{step_layer, Layer, Routed, Wiring};
+use nekosim_protocols::{Ctx, Indication, Input, LayerIx, APP, NET};
+
+use crate::scheduler::Deliver;
+use crate::world::event::{EventClass, Notice, Outbox, Payload, Target};
+use crate::world::observation::Observation;
+use crate::world::RobotId;
+
+/// One protocol instance of one robot.
+#[derive(Debug)]
+pub struct LayerActor {
+    robot: RobotId,
+    ix: LayerIx,
+    layer: Layer,
+    wiring: Arc<Wiring>,
+    ctx: Ctx,
+    /// Current generation of each timer; a firing of an older generation was cancelled.
+    timers: BTreeMap<u32, u64>,
+}
+
+impl LayerActor {
+    /// Hosts `layer`, the `ix`-th layer of `robot`'s stack, among `n` processes.
+    pub fn new(robot: RobotId, ix: LayerIx, layer: Layer, wiring: Arc<Wiring>, n: u32) -> Self {
+        Self {
+            robot,
+            ix,
+            layer,
+            wiring,
+            ctx: Ctx { me: robot, n },
+            timers: BTreeMap::new(),
+        }
+    }
+}
+
+/// Name of a layer for traces: its id, `"net"` or `"app"`.
+pub fn layer_name(wiring: &Wiring, ix: LayerIx) -> String {
+    match ix {
+        NET => "net".into(),
+        APP => "app".into(),
+        i => wiring
+            .ids
+            .get(i as usize)
+            .cloned()
+            .unwrap_or_else(|| format!("layer{i}")),
+    }
+}
+
+/// Carries out routed effects of layer `ix` of `robot`: the shared part of layer actors and of
+/// the robot actor (whose requests go to the network or a layer the same way).
+pub fn route_effects(
+    robot: RobotId,
+    wiring: &Wiring,
+    routed: Vec<Routed>,
+    timers: &mut BTreeMap<u32, u64>,
+    out: &mut Outbox,
+) {
+    let now = out.now();
+    let me = [Some(robot), None];
+    for r in routed {
+        match r {
+            Routed::Layer { to, input } => {
+                out.schedule(
+                    now,
+                    Target::Layer(robot, to),
+                    EventClass::Eventual,
+                    me,
+                    Payload::LayerInput {
+                        robot,
+                        layer: to,
+                        input,
+                    },
+                );
+            }
+            Routed::Net { layer, to, msg } => {
+                out.schedule(
+                    now,
+                    Target::Network,
+                    EventClass::Eventual,
+                    me,
+                    Payload::NetSend {
+                        from: robot,
+                        layer,
+                        to,
+                        msg,
+                    },
+                );
+            }
+            Routed::App { layer, ind } => {
+                let name = layer_name(wiring, layer);
+                match &ind {
+                    Indication::BDeliver { id, msg } => out.record(Observation::Deliver {
+                        robot,
+                        layer: name,
+                        id: *id,
+                        msg: msg.clone(),
+                    }),
+                    Indication::Decide { k, value } => out.record(Observation::Decide {
+                        robot,
+                        layer: name,
+                        k: *k,
+                        value: value.clone(),
+                    }),
+                    Indication::Suspect(p) => out.record(Observation::Suspect {
+                        robot,
+                        layer: name,
+                        process: *p,
+                    }),
+                    Indication::Trust(p) => out.record(Observation::Trust {
+                        robot,
+                        layer: name,
+                        process: *p,
+                    }),
+                    Indication::Leader(p) => out.record(Observation::Leader {
+                        robot,
+                        layer: name,
+                        process: *p,
+                    }),
+                    Indication::Deliver { .. } => {}
+                }
+                out.notify(robot, Notice::Incoming { layer, ind });
+            }
+            Routed::SetTimer {
+                layer,
+                timer,
+                after,
+            } => {
+                let generation = timers.entry(timer).or_insert(0);
+                *generation += 1;
+                out.schedule(
+                    now + after.get().max(0.0),
+                    Target::Layer(robot, layer),
+                    EventClass::Eventual,
+                    me,
+                    Payload::LayerTimer {
+                        robot,
+                        layer,
+                        timer,
+                        generation: *generation,
+                    },
+                );
+            }
+            Routed::CancelTimer { timer, .. } => {
+                *timers.entry(timer).or_insert(0) += 1;
+            }
+        }
+    }
+}
+
+impl Actor for LayerActor {
+    type Context = Context<Self>;
+}
+
+impl Handler<Deliver> for LayerActor {
+    type Result = MessageResult<Deliver>;
+
+    fn handle(&mut self, msg: Deliver, _: &mut Context<Self>) -> Self::Result {
+        let mut out = Outbox::new(msg.now, msg.seq);
+        let input = match msg.event.payload {
+            Payload::LayerInput { input, .. } => {
+                if let Input::Indication {
+                    from: NET,
+                    ind: Indication::Deliver { from, msg },
+                } = &input
+                {
+                    out.record(Observation::Receive {
+                        robot: self.robot,
+                        from: *from,
+                        layer: layer_name(&self.wiring, self.ix),
+                        msg: msg.clone(),
+                    });
+                }
+                Some(input)
+            }
+            Payload::LayerTimer {
+                timer, generation, ..
+            } => (self.timers.get(&timer) == Some(&generation)).then_some(Input::Timer(timer)),
+            _ => None,
+        };
+        if let Some(input) = input {
+            let routed = step_layer(&mut self.layer, &self.wiring, &self.ctx, self.ix, input);
+            route_effects(self.robot, &self.wiring, routed, &mut self.timers, &mut out);
+        }
+        MessageResult(out.into_effects())
+    }
+}

@@ -1,0 +1,94 @@
+//! The network actor (seed 3.4, fig. 3.8): robots and layers hand it messages; it decides with
+//! the scenario's network model when (and whether) each copy arrives and schedules the arrival
+//! at the destination's layer, or at its algorithm for direct messages.
+
+use std::sync::{Arc, Mutex};
+
+use actix::prelude::*;
+use nekosim_protocols::{Indication, Input, APP, NET};
+
+use crate::scheduler::Deliver;
+use crate::world::event::{EventClass, Notice, Outbox, Payload, Target};
+use crate::world::network::Network;
+use crate::world::observation::Observation;
+use crate::world::virtual_world::VirtualWorld;
+
+/// The simulated network.
+#[derive(Debug)]
+pub struct NetworkActor {
+    net: Network,
+    /// Read-only: positions for radio networks.
+    world: Arc<Mutex<VirtualWorld>>,
+    /// Names of the stack's layers, for traces.
+    wiring: Arc<nekosim_protocols::Wiring>,
+}
+
+impl NetworkActor {
+    /// A network actor.
+    pub fn new(
+        net: Network,
+        world: Arc<Mutex<VirtualWorld>>,
+        wiring: Arc<nekosim_protocols::Wiring>,
+    ) -> Self {
+        Self { net, world, wiring }
+    }
+}
+
+impl Actor for NetworkActor {
+    type Context = Context<Self>;
+}
+
+impl Handler<Deliver> for NetworkActor {
+    type Result = MessageResult<Deliver>;
+
+    fn handle(&mut self, m: Deliver, _: &mut Context<Self>) -> Self::Result {
+        let mut out = Outbox::new(m.now, m.seq);
+        if let Payload::NetSend {
+            from,
+            layer,
+            to,
+            msg,
+        } = m.event.payload
+        {
+            out.record(Observation::Send {
+                robot: from,
+                to: to.clone(),
+                layer: crate::layer::layer_name(&self.wiring, layer),
+                msg: msg.clone(),
+            });
+            let world = self.world.lock().expect("world lock");
+            let pos = |id| world.state_at(id, m.now).pos;
+            let copies = self.net.transmit(m.now, from, &to, &pos);
+            drop(world);
+            for (d, at) in copies {
+                let Some(at) = at else { continue };
+                let ind = Indication::Deliver {
+                    from,
+                    msg: msg.clone(),
+                };
+                if layer == APP {
+                    out.schedule(
+                        at,
+                        Target::Robot(d),
+                        EventClass::Eventual,
+                        [Some(d), None],
+                        Payload::Notice(Notice::Incoming { layer: NET, ind }),
+                    );
+                } else {
+                    out.schedule(
+                        at,
+                        Target::Layer(d, layer),
+                        EventClass::Eventual,
+                        [Some(d), None],
+                        Payload::LayerInput {
+                            robot: d,
+                            layer,
+                            input: Input::Indication { from: NET, ind },
+                        },
+                    );
+                }
+            }
+        }
+        MessageResult(out.into_effects())
+    }
+}
