@@ -326,7 +326,6 @@ impl Algorithm for BroadcastLoad {
                 robot.sleep(-cfg.mean_interval * (1.0 - u).ln()).await;
                 layer.broadcast("LOAD", nekosim_protocols::Content::Int(i as i64));
             }
-            drop(layer);
             loop {
                 robot.receive().await;
             }

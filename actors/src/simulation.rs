@@ -143,7 +143,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
         }
     }
     let mut net_rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
-    net_rng.set_stream(0x4E45_54);
+    net_rng.set_stream(0x004E_4554);
     let network = Network::new(cfg.comms.network.clone(), net_rng, partitions);
     let count = world.len();
     let world = Arc::new(Mutex::new(world));
