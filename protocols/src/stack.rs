@@ -175,6 +175,18 @@ pub struct LayerSpec {
     pub uses: Vec<String>,
 }
 
+impl LayerSpec {
+    /// A layer `id` running `protocol` on `below`, using `uses`.
+    pub fn new(id: &str, protocol: ProtocolSpec, below: &str, uses: &[&str]) -> Self {
+        Self {
+            id: id.to_string(),
+            protocol,
+            below: below.to_string(),
+            uses: uses.iter().map(|u| u.to_string()).collect(),
+        }
+    }
+}
+
 /// A wiring mistake; `layer` is the index in the stack list, `field` the offending field.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{message}")]

@@ -178,12 +178,7 @@ impl Cluster {
 }
 
 fn layer(id: &str, protocol: ProtocolSpec, below: &str, uses: &[&str]) -> LayerSpec {
-    LayerSpec {
-        id: id.into(),
-        protocol,
-        below: below.into(),
-        uses: uses.iter().map(|s| s.to_string()).collect(),
-    }
+    LayerSpec::new(id, protocol, below, uses)
 }
 
 fn msg(p: Pid, i: u64) -> Wire {

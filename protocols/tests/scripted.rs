@@ -429,12 +429,7 @@ fn chandra_toueg_round_zero_goes_to_coordinator_zero() {
 }
 
 fn layer(id: &str, protocol: ProtocolSpec, below: &str, uses: &[&str]) -> LayerSpec {
-    LayerSpec {
-        id: id.into(),
-        protocol,
-        below: below.into(),
-        uses: uses.iter().map(|s| s.to_string()).collect(),
-    }
+    LayerSpec::new(id, protocol, below, uses)
 }
 
 #[test]

@@ -14,12 +14,7 @@ use nekosim_protocols::MsgId;
 use crate::common::*;
 
 fn layer(id: &str, protocol: ProtocolSpec, below: &str, uses: &[&str]) -> LayerSpec {
-    LayerSpec {
-        id: id.into(),
-        protocol,
-        below: below.into(),
-        uses: uses.iter().map(|s| s.to_string()).collect(),
-    }
+    LayerSpec::new(id, protocol, below, uses)
 }
 
 fn lamport() -> Vec<LayerSpec> {

@@ -145,32 +145,24 @@ fn advance(
     }
 }
 
-/// First instant `>= now` at which the centres of `a` and `b` come within `reach` of each other
-/// while approaching; `None` if they never do.
-pub fn predict_contact(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64> {
+/// Walks the common time windows of two tracks from `now` on, in time order, and returns the
+/// first instant `on_window` finds. `on_window(s, e, x, y)` sees the window `[s, e]` and the
+/// pieces of `a` and `b` that cover it.
+fn first_in_windows(
+    a: &Track,
+    b: &Track,
+    now: f64,
+    mut on_window: impl FnMut(f64, f64, &Piece, &Piece) -> Option<f64>,
+) -> Option<f64> {
     let pa = a.pieces_from(now);
     let pb = b.pieces_from(now);
     let (mut i, mut j) = (0, 0);
     while i < pa.len() && j < pb.len() {
         let (x, y) = (&pa[i], &pb[j]);
-        let s = x.t0.max(y.t0);
-        let e = x.t1.min(y.t1);
+        let (s, e) = (x.t0.max(y.t0), x.t1.min(y.t1));
         if e >= s {
-            let hit = match (x.shape, y.shape) {
-                (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
-                    let d0 = linear_at(p, u, x.t0, s) - linear_at(q, w, y.t0, s);
-                    first_contact_linear(d0, u - w, reach, e - s).map(|tau| s + tau)
-                }
-                _ => advance(
-                    s,
-                    e,
-                    speed_bound(&x.shape) + speed_bound(&y.shape),
-                    |t| (a.pos_at(t) - b.pos_at(t)).norm() - reach,
-                    |t| (a.pos_at(t) - b.pos_at(t)).dot(&(a.vel_at(t) - b.vel_at(t))) < 0.0,
-                ),
-            };
-            if hit.is_some() {
-                return hit;
+            if let Some(t) = on_window(s, e, x, y) {
+                return Some(t);
             }
         }
         if x.t1 <= y.t1 {
@@ -182,54 +174,53 @@ pub fn predict_contact(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64
     None
 }
 
+/// First instant `>= now` at which the centres of `a` and `b` come within `reach` of each other
+/// while approaching; `None` if they never do.
+pub fn predict_contact(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64> {
+    first_in_windows(a, b, now, |s, e, x, y| match (x.shape, y.shape) {
+        (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
+            let d0 = linear_at(p, u, x.t0, s) - linear_at(q, w, y.t0, s);
+            first_contact_linear(d0, u - w, reach, e - s).map(|tau| s + tau)
+        }
+        _ => advance(
+            s,
+            e,
+            speed_bound(&x.shape) + speed_bound(&y.shape),
+            |t| (a.pos_at(t) - b.pos_at(t)).norm() - reach,
+            |t| (a.pos_at(t) - b.pos_at(t)).dot(&(a.vel_at(t) - b.vel_at(t))) < 0.0,
+        ),
+    })
+}
+
 /// First instant `>= now` at which the centres of `a` and `b`, within `reach` of each other at
 /// `now`, get farther apart than `reach`; `None` if they never do.
 fn predict_exit(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64> {
-    let pa = a.pieces_from(now);
-    let pb = b.pieces_from(now);
-    let (mut i, mut j) = (0, 0);
-    while i < pa.len() && j < pb.len() {
-        let (x, y) = (&pa[i], &pb[j]);
-        let s = x.t0.max(y.t0);
-        let e = x.t1.min(y.t1);
-        if e >= s {
-            let hit = match (x.shape, y.shape) {
-                (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
-                    let d0 = linear_at(p, u, x.t0, s) - linear_at(q, w, y.t0, s);
-                    let dv = u - w;
-                    let (qa, qb, qc) = (
-                        dv.norm_squared(),
-                        2.0 * d0.dot(&dv),
-                        d0.norm_squared() - reach * reach,
-                    );
-                    if qc > 0.0 {
-                        Some(s)
-                    } else if qa == 0.0 {
-                        None
-                    } else {
-                        let tau = (-qb + (qb * qb - 4.0 * qa * qc).max(0.0).sqrt()) / (2.0 * qa);
-                        (tau <= e - s).then_some(s + tau)
-                    }
-                }
-                _ => advance(
-                    s,
-                    e,
-                    speed_bound(&x.shape) + speed_bound(&y.shape),
-                    |t| reach - (a.pos_at(t) - b.pos_at(t)).norm(),
-                    |t| (a.pos_at(t) - b.pos_at(t)).dot(&(a.vel_at(t) - b.vel_at(t))) > 0.0,
-                ),
-            };
-            if hit.is_some() {
-                return hit;
+    first_in_windows(a, b, now, |s, e, x, y| match (x.shape, y.shape) {
+        (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
+            let d0 = linear_at(p, u, x.t0, s) - linear_at(q, w, y.t0, s);
+            let dv = u - w;
+            let (qa, qb, qc) = (
+                dv.norm_squared(),
+                2.0 * d0.dot(&dv),
+                d0.norm_squared() - reach * reach,
+            );
+            if qc > 0.0 {
+                Some(s)
+            } else if qa == 0.0 {
+                None
+            } else {
+                let tau = (-qb + (qb * qb - 4.0 * qa * qc).max(0.0).sqrt()) / (2.0 * qa);
+                (tau <= e - s).then_some(s + tau)
             }
         }
-        if x.t1 <= y.t1 {
-            i += 1;
-        } else {
-            j += 1;
-        }
-    }
-    None
+        _ => advance(
+            s,
+            e,
+            speed_bound(&x.shape) + speed_bound(&y.shape),
+            |t| reach - (a.pos_at(t) - b.pos_at(t)).norm(),
+            |t| (a.pos_at(t) - b.pos_at(t)).dot(&(a.vel_at(t) - b.vel_at(t))) > 0.0,
+        ),
+    })
 }
 
 /// First instant `>= now` at which `b` *enters* the disc of radius `reach` around `a`: if they
