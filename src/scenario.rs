@@ -169,6 +169,12 @@ pub enum AlgorithmSpec {
     },
     /// Seed 5.3: multicast a random GOTO order to all others, obey the first order received.
     AskForHelp,
+    /// Neko's latency test: `count` broadcasts through `layer` at exponential intervals.
+    BroadcastLoad {
+        layer: String,
+        count: u32,
+        mean_interval: f64,
+    },
     /// An algorithm registered in Rust under `name` (see [`Registry`]).
     Custom {
         name: String,
@@ -358,6 +364,30 @@ impl Source {
         Ok(match spec {
             AlgorithmSpec::Idle => Box::new(Idle),
             AlgorithmSpec::AskForHelp => Box::new(nekosim_actors::algorithm::AskForHelp),
+            AlgorithmSpec::BroadcastLoad {
+                layer,
+                count,
+                mean_interval,
+            } => {
+                self.positive(
+                    &format!("{path}.mean_interval"),
+                    "mean interval",
+                    *mean_interval,
+                )?;
+                if !self.scenario.stack.iter().any(|l| &l.id == layer) {
+                    return Err(self.err(
+                        &format!("{path}.layer"),
+                        format!(
+                            "no layer {layer:?} in the stack; expected the id of a broadcast layer"
+                        ),
+                    ));
+                }
+                Box::new(nekosim_actors::algorithm::BroadcastLoad {
+                    layer: layer.clone(),
+                    count: *count,
+                    mean_interval: *mean_interval,
+                })
+            }
             AlgorithmSpec::Script(steps) => {
                 for (k, step) in steps.iter().enumerate() {
                     let p = format!("{path}[0][{k}]");

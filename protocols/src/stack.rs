@@ -163,9 +163,9 @@ impl ProtocolSpec {
     }
 }
 
-/// One layer of a scenario's stack.
+/// One layer of a scenario's stack: `Layer(id: "abcast", protocol: LamportAbcast, below: "fifo")`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, rename = "Layer")]
 pub struct LayerSpec {
     pub id: String,
     pub protocol: ProtocolSpec,

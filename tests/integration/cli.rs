@@ -315,3 +315,44 @@ fn the_collision_examples_show_a_collision_and_a_cancelled_one() {
         .unwrap();
     assert_eq!(collision["t"].as_f64(), Some(22.5));
 }
+
+#[test]
+fn communication_examples_deliver_in_one_order_from_the_trace() {
+    for (file, correct, per_robot) in [
+        (
+            "examples/scenarios/abcast_lamport.ron",
+            vec![0u64, 1, 2, 3],
+            20usize,
+        ),
+        ("examples/scenarios/consensus_abcast.ron", vec![0, 1, 2], 10),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let trace = dir.path().join("t.jsonl");
+        let o = nekosim(&["run", file, "--trace", trace.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let mut seqs: std::collections::BTreeMap<u64, Vec<String>> = Default::default();
+        let mut crashed = Vec::new();
+        for line in std::fs::read_to_string(trace).unwrap().lines() {
+            let v: Value = serde_json::from_str(line).unwrap();
+            match v["kind"].as_str().unwrap() {
+                "deliver" if v["layer"] == "abcast" => seqs
+                    .entry(v["robot"].as_u64().unwrap())
+                    .or_default()
+                    .push(v["msg"].as_str().unwrap().to_string()),
+                "crash" => crashed.push(v["robot"].as_u64().unwrap()),
+                _ => {}
+            }
+        }
+        let first = &seqs[&correct[0]];
+        for p in &correct {
+            assert!(!crashed.contains(p));
+            let s = &seqs[p];
+            assert_eq!(s, first, "{file}: p{p} delivers a different sequence");
+            // Validity: every correct robot's messages are all there, once.
+            for q in &correct {
+                let mine = s.iter().filter(|m| m.starts_with(&format!("{q}:"))).count();
+                assert_eq!(mine, per_robot, "{file}: p{p} has {mine} messages of p{q}");
+            }
+        }
+    }
+}
