@@ -73,6 +73,14 @@ fn one() -> usize {
     1
 }
 
+fn five() -> f64 {
+    5.0
+}
+
+fn ninety() -> f64 {
+    90.0
+}
+
 /// The virtual world (seed 3.2, 6.1).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -169,6 +177,14 @@ pub enum AlgorithmSpec {
     },
     /// Seed 5.3: multicast a random GOTO order to all others, obey the first order received.
     AskForHelp,
+    /// Agreement: propose the own position to consensus `layer`, go to the decided point.
+    MeetingPoint {
+        layer: String,
+        #[serde(default = "five")]
+        move_speed: f64,
+        #[serde(default = "ninety")]
+        turn_speed: f64,
+    },
     /// Neko's latency test: `count` broadcasts through `layer` at exponential intervals.
     BroadcastLoad {
         layer: String,
@@ -364,6 +380,27 @@ impl Source {
         Ok(match spec {
             AlgorithmSpec::Idle => Box::new(Idle),
             AlgorithmSpec::AskForHelp => Box::new(nekosim_actors::algorithm::AskForHelp),
+            AlgorithmSpec::MeetingPoint {
+                layer,
+                move_speed,
+                turn_speed,
+            } => {
+                self.positive(&format!("{path}.move_speed"), "move speed", *move_speed)?;
+                self.positive(&format!("{path}.turn_speed"), "turn speed", *turn_speed)?;
+                if !self.scenario.stack.iter().any(|l| &l.id == layer) {
+                    return Err(self.err(
+                        &format!("{path}.layer"),
+                        format!(
+                            "no layer {layer:?} in the stack; expected the id of a consensus layer"
+                        ),
+                    ));
+                }
+                Box::new(nekosim_actors::algorithm::MeetingPoint {
+                    layer: layer.clone(),
+                    move_speed: *move_speed,
+                    turn_speed: *turn_speed,
+                })
+            }
             AlgorithmSpec::BroadcastLoad {
                 layer,
                 count,

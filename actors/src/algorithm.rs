@@ -332,3 +332,49 @@ impl Algorithm for BroadcastLoad {
         })
     }
 }
+
+/// The agreement example: every robot proposes its own position as the meeting point to a
+/// consensus layer (instance 0), then goes to the decided point. Every correct robot goes to the
+/// same point, even if some robots crash (as many as the consensus tolerates).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeetingPoint {
+    /// Id of the consensus layer.
+    pub layer: String,
+    pub move_speed: f64,
+    pub turn_speed: f64,
+}
+
+impl Algorithm for MeetingPoint {
+    fn name(&self) -> &str {
+        "MeetingPoint"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        let cfg = self.clone();
+        Box::pin(async move {
+            let here = robot.gps().self_position(0.0).await;
+            let Some(consensus) = robot.layer(&cfg.layer) else {
+                tracing::warn!(layer = cfg.layer, "MeetingPoint: no such layer");
+                return;
+            };
+            consensus.propose(
+                0,
+                "MEET",
+                nekosim_protocols::Content::Point(
+                    nekosim_protocols::Real::new(here.x),
+                    nekosim_protocols::Real::new(here.y),
+                ),
+            );
+            loop {
+                let r = robot.receive().await;
+                if let nekosim_protocols::Indication::Decide { k: 0, .. } = r.ind {
+                    if let Some(("MEET", nekosim_protocols::Content::Point(x, y))) = r.app() {
+                        robot
+                            .move_to(Point::new(x.get(), y.get()), cfg.move_speed, cfg.turn_speed)
+                            .await;
+                        return;
+                    }
+                }
+            }
+        })
+    }
+}

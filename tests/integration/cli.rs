@@ -356,3 +356,67 @@ fn communication_examples_deliver_in_one_order_from_the_trace() {
         }
     }
 }
+
+#[test]
+fn every_correct_robot_meets_at_the_same_decided_point_despite_a_crash() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("t.jsonl");
+    let o = nekosim(&[
+        "run",
+        "examples/scenarios/meeting_point.ron",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let mut decided = std::collections::BTreeMap::new();
+    let mut arrived = std::collections::BTreeMap::new();
+    let mut spawn = std::collections::BTreeMap::new();
+    for line in std::fs::read_to_string(trace).unwrap().lines() {
+        let v: Value = serde_json::from_str(line).unwrap();
+        let robot = v["robot"].as_u64();
+        match v["kind"].as_str().unwrap() {
+            "decide" => assert!(
+                decided
+                    .insert(robot.unwrap(), v["value"].as_str().unwrap().to_string())
+                    .is_none(),
+                "decided twice"
+            ),
+            "motion_finish" if v["outcome"] == "arrived" => {
+                arrived.insert(
+                    robot.unwrap(),
+                    (v["pos"][0].as_f64().unwrap(), v["pos"][1].as_f64().unwrap()),
+                );
+            }
+            "spawn" => {
+                spawn.insert(
+                    robot.unwrap(),
+                    format!(
+                        "MEET [{}, {}]",
+                        v["pos"][0].as_f64().unwrap(),
+                        v["pos"][1].as_f64().unwrap()
+                    ),
+                );
+            }
+            _ => {}
+        }
+    }
+    let correct = [1u64, 2, 3, 4];
+    assert!(
+        !decided.contains_key(&0),
+        "the crashed robot decides nothing"
+    );
+    let value = &decided[&1];
+    for p in correct {
+        assert_eq!(&decided[&p], value, "agreement");
+        let (x, y) = arrived[&p];
+        assert!(
+            (arrived[&1].0 - x).abs() < 1e-9 && (arrived[&1].1 - y).abs() < 1e-9,
+            "everybody at the same point"
+        );
+    }
+    // Validity: the decided point is somebody's born position.
+    assert!(
+        spawn.values().any(|s| s == value),
+        "{value} was never proposed"
+    );
+}
