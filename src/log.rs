@@ -205,6 +205,9 @@ impl NekoLog {
             Observation::SensorRequest { robot, query } => {
                 format!("{t} p{robot} SensorRequest: ROBOT# {robot} | {}", query_text(query))
             }
+            Observation::Request { robot, layer, op, msg } => {
+                format!("{t} p{robot} Request: layer {layer} | {op} | {}", wire_text(msg))
+            }
             Observation::Send { robot, to, layer, msg } => {
                 let dests: Vec<String> = to.iter().map(|d| format!("p{d}")).collect();
                 format!("{t} p{robot} messages e s p{robot} {} {} {} [{layer}]", dests.join(","), msg.type_name(), content_text(msg))

@@ -174,6 +174,12 @@ fn execute(command: Command) -> Result<(), Failure> {
                     summary.events_per_second(),
                     summary.cancelled
                 );
+                if let Some(l) = &summary.latency {
+                    println!(
+                        "deliveries: {}, latency mean: {:.3} s, p50: {:.3} s, p99: {:.3} s, throughput: {:.3} deliveries/s",
+                        l.deliveries, l.mean, l.p50, l.p99, l.throughput
+                    );
+                }
             }
             Ok(())
         }

@@ -7,6 +7,7 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use nekosim_actors::scheduler::Observers;
+use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_actors::{SimConfig, SimError};
 
 use crate::log::NekoLog;
@@ -46,6 +47,70 @@ pub struct Summary {
     pub end_time: f64,
     /// Wall-clock time of the run [s] (the only wall-clock reading, outside the simulation).
     pub wall_seconds: f64,
+    /// Delivery latency of messages broadcast by the algorithms, if any were delivered.
+    pub latency: Option<Latency>,
+}
+
+/// Delivery latency and throughput of broadcasts (Neko's latency test), in simulated time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Latency {
+    /// Deliveries counted (one per message per delivering robot).
+    pub deliveries: usize,
+    pub mean: f64,
+    pub p50: f64,
+    pub p99: f64,
+    /// Deliveries per simulated second between the first broadcast and the last delivery.
+    pub throughput: f64,
+}
+
+/// Matches deliveries to the broadcasts that caused them: broadcast number `n` of robot `o`
+/// on a layer is the message with id `o:n` on that layer.
+#[derive(Debug, Default)]
+struct LatencyMeter {
+    counts: std::collections::HashMap<(String, u32), u64>,
+    sent: std::collections::HashMap<(String, u32, u64), f64>,
+    samples: Vec<f64>,
+    first: Option<f64>,
+    last: f64,
+}
+
+impl LatencyMeter {
+    fn observe(&mut self, r: &Record) {
+        match &r.obs {
+            Observation::Request {
+                robot, layer, op, ..
+            } if op == "broadcast" => {
+                let n = self.counts.entry((layer.clone(), *robot)).or_insert(0);
+                self.sent.insert((layer.clone(), *robot, *n), r.t);
+                *n += 1;
+                self.first.get_or_insert(r.t);
+            }
+            Observation::Deliver { layer, id, .. } => {
+                if let Some(t0) = self.sent.get(&(layer.clone(), id.origin, id.n)) {
+                    self.samples.push(r.t - t0);
+                    self.last = r.t;
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn finish(mut self) -> Option<Latency> {
+        if self.samples.is_empty() {
+            return None;
+        }
+        self.samples.sort_by(f64::total_cmp);
+        let n = self.samples.len();
+        let rank = |q: f64| self.samples[((q * n as f64).ceil() as usize).clamp(1, n) - 1];
+        let span = self.last - self.first.unwrap_or(0.0);
+        Some(Latency {
+            deliveries: n,
+            mean: self.samples.iter().sum::<f64>() / n as f64,
+            p50: rank(0.5),
+            p99: rank(0.99),
+            throughput: if span > 0.0 { n as f64 / span } else { 0.0 },
+        })
+    }
 }
 
 impl Summary {
@@ -95,12 +160,18 @@ fn create(path: &Option<PathBuf>) -> Result<Option<AtomicFile>, RunError> {
 pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
     let log = create(&opts.log)?;
     let trace = create(&opts.trace)?;
-    let outputs = Rc::new(RefCell::new((log, trace, NekoLog::new())));
+    let outputs = Rc::new(RefCell::new((
+        log,
+        trace,
+        NekoLog::new(),
+        LatencyMeter::default(),
+    )));
     let sink = {
         let outputs = outputs.clone();
-        Box::new(move |r: &nekosim_actors::world::observation::Record| {
+        Box::new(move |r: &Record| {
             let mut o = outputs.borrow_mut();
-            let (log, trace, neko) = &mut *o;
+            let (log, trace, neko, meter) = &mut *o;
+            meter.observe(r);
             if let Some(f) = log.as_mut() {
                 f.line(&neko.line(r));
             }
@@ -126,7 +197,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         comms: built.comms,
     })?;
     let wall_seconds = started.elapsed().as_secs_f64();
-    let (log, trace, _) = Rc::try_unwrap(outputs)
+    let (log, trace, _, meter) = Rc::try_unwrap(outputs)
         .map_err(|_| SimError::System("an output is still in use".into()))?
         .into_inner();
     for (file, path) in [(log, &opts.log), (trace, &opts.trace)] {
@@ -146,5 +217,6 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         collisions: out.stats.collisions,
         end_time: out.stats.end_time,
         wall_seconds,
+        latency: meter.finish(),
     })
 }

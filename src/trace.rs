@@ -144,6 +144,18 @@ pub fn to_json(r: &Record) -> Value {
             put("sensor", json!(query.kind().name()));
             put("value", query_json(query));
         }
+        Observation::Request {
+            robot,
+            layer,
+            op,
+            msg,
+        } => {
+            put("kind", json!("request"));
+            put("robot", json!(robot));
+            put("layer", json!(layer));
+            put("op", json!(op));
+            put("msg", json!(wire_text(msg)));
+        }
         Observation::Send {
             robot,
             to,

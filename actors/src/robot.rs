@@ -572,17 +572,30 @@ impl Handler<Deliver> for RobotActor {
                         msg: wire,
                     },
                 ),
-                Request::Layer { ix, req } => out.schedule(
-                    msg.now,
-                    Target::Layer(id, ix),
-                    EventClass::Eventual,
-                    me,
-                    Payload::LayerInput {
+                Request::Layer { ix, req } => {
+                    let (op, wire) = match &req {
+                        ProtoRequest::Broadcast { msg } => ("broadcast", msg.clone()),
+                        ProtoRequest::Propose { value, .. } => ("propose", value.clone()),
+                        ProtoRequest::Send { msg, .. } => ("send", msg.clone()),
+                    };
+                    out.record(Observation::Request {
                         robot: id,
-                        layer: ix,
-                        input: Input::Request { from: APP, req },
-                    },
-                ),
+                        layer: self.handle.layer_id(ix),
+                        op: op.into(),
+                        msg: wire,
+                    });
+                    out.schedule(
+                        msg.now,
+                        Target::Layer(id, ix),
+                        EventClass::Eventual,
+                        me,
+                        Payload::LayerInput {
+                            robot: id,
+                            layer: ix,
+                            input: Input::Request { from: APP, req },
+                        },
+                    )
+                }
                 Request::ListEvents { ticket } => out.schedule(
                     msg.now,
                     Target::EventManager,

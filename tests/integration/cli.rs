@@ -420,3 +420,44 @@ fn every_correct_robot_meets_at_the_same_decided_point_despite_a_crash() {
         "{value} was never proposed"
     );
 }
+
+#[test]
+fn broadcast_load_summary_reports_latency_computed_from_the_trace() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("t.jsonl");
+    let o = nekosim(&[
+        "run",
+        "examples/scenarios/abcast_lamport.ron",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // Independent computation: broadcast k of robot o is message "o:k".
+    let mut sent = std::collections::HashMap::new();
+    let mut count = std::collections::HashMap::new();
+    let mut lat = Vec::new();
+    for line in std::fs::read_to_string(trace).unwrap().lines() {
+        let v: Value = serde_json::from_str(line).unwrap();
+        let t = v["t"].as_f64().unwrap();
+        match v["kind"].as_str().unwrap() {
+            "request" if v["op"] == "broadcast" => {
+                let r = v["robot"].as_u64().unwrap();
+                let k = count.entry(r).or_insert(0u64);
+                sent.insert(format!("{r}:{k}"), t);
+                *k += 1;
+            }
+            "deliver" => lat.push(t - sent[v["msg"].as_str().unwrap()]),
+            _ => {}
+        }
+    }
+    assert_eq!(lat.len(), 320);
+    let mean = lat.iter().sum::<f64>() / lat.len() as f64;
+    lat.sort_by(f64::total_cmp);
+    let p50 = lat[159];
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("deliveries: 320,"), "{out}");
+    assert!(
+        out.contains(&format!("latency mean: {mean:.3} s, p50: {p50:.3} s")),
+        "{out}\nmean {mean} p50 {p50}"
+    );
+}

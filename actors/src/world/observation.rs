@@ -64,6 +64,13 @@ pub enum Observation {
         robot: RobotId,
         query: SensorQuery,
     },
+    /// The algorithm asked a protocol layer to `op` ("broadcast", "propose", "send") `msg`.
+    Request {
+        robot: RobotId,
+        layer: String,
+        op: String,
+        msg: Wire,
+    },
     /// A message handed to the network by `layer` ("app" for the algorithm).
     Send {
         robot: RobotId,
