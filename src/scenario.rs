@@ -185,6 +185,14 @@ pub enum AlgorithmSpec {
         #[serde(default = "ninety")]
         turn_speed: f64,
     },
+    /// Reserve each straight path through the total-order `layer` before moving along it.
+    PathReservation {
+        layer: String,
+        #[serde(default = "five")]
+        move_speed: f64,
+        #[serde(default = "ninety")]
+        turn_speed: f64,
+    },
     /// Neko's latency test: `count` broadcasts through `layer` at exponential intervals.
     BroadcastLoad {
         layer: String,
@@ -380,6 +388,26 @@ impl Source {
         Ok(match spec {
             AlgorithmSpec::Idle => Box::new(Idle),
             AlgorithmSpec::AskForHelp => Box::new(nekosim_actors::algorithm::AskForHelp),
+            AlgorithmSpec::PathReservation {
+                layer,
+                move_speed,
+                turn_speed,
+            } => {
+                self.positive(&format!("{path}.move_speed"), "move speed", *move_speed)?;
+                self.positive(&format!("{path}.turn_speed"), "turn speed", *turn_speed)?;
+                let total_order = self.scenario.stack.iter().any(|l| {
+                    &l.id == layer
+                        && l.protocol.provides() == nekosim_protocols::stack::Service::TotalOrder
+                });
+                if !total_order {
+                    return Err(self.err(&format!("{path}.layer"), format!("{layer:?} is not a total-order broadcast layer of the stack; expected the id of one")));
+                }
+                Box::new(nekosim_actors::algorithm::PathReservation {
+                    layer: layer.clone(),
+                    move_speed: *move_speed,
+                    turn_speed: *turn_speed,
+                })
+            }
             AlgorithmSpec::MeetingPoint {
                 layer,
                 move_speed,

@@ -378,3 +378,167 @@ impl Algorithm for MeetingPoint {
         })
     }
 }
+
+/// Path reservation through a total-order broadcast layer: before moving, a robot broadcasts
+/// its intended straight path (from where it stands to a random destination). Every robot
+/// applies reservations in delivery order, which is the same everywhere, so all agree: a path
+/// is granted when the strip it sweeps (the segment widened by both radii) stays clear of
+/// every earlier unreleased path and of every robot's resting spot. A robot moves only along
+/// its granted path, broadcasts a release on arrival, and asks again (a new random path) when
+/// denied, after the next delivery. With collisions on, robots never collide.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathReservation {
+    /// Id of a total-order broadcast layer.
+    pub layer: String,
+    pub move_speed: f64,
+    pub turn_speed: f64,
+}
+
+/// What every robot knows of the reservations, rebuilt identically from the delivered sequence.
+#[derive(Debug, Default)]
+struct Reservations {
+    /// Where each robot rests when it holds no path.
+    rest: std::collections::BTreeMap<u32, Point>,
+    /// Granted, unreleased paths.
+    held: std::collections::BTreeMap<u32, (Point, Point)>,
+}
+
+impl Reservations {
+    /// Applies a request of `who` for `[from, to]`; true when granted.
+    fn request(&mut self, who: u32, from: Point, to: Point, reach: f64) -> bool {
+        use crate::world::geometry::{point_segment_distance, segment_distance};
+        if self.held.contains_key(&who) {
+            return false;
+        }
+        let clear_of_paths = self
+            .held
+            .iter()
+            .all(|(o, (a, b))| *o == who || segment_distance(from, to, *a, *b) > reach);
+        let clear_of_spots = self.rest.iter().all(|(o, p)| {
+            *o == who || self.held.contains_key(o) || point_segment_distance(*p, from, to) > reach
+        });
+        let granted = clear_of_paths && clear_of_spots;
+        if granted {
+            self.held.insert(who, (from, to));
+        }
+        granted
+    }
+
+    fn release(&mut self, who: u32) {
+        if let Some((_, to)) = self.held.remove(&who) {
+            self.rest.insert(who, to);
+        }
+    }
+}
+
+impl Algorithm for PathReservation {
+    fn name(&self) -> &str {
+        "PathReservation"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        use nekosim_protocols::{Content, Real};
+        let cfg = self.clone();
+        Box::pin(async move {
+            let info = robot.info();
+            let me = info.id;
+            // Every robot has the same radius in a reservation group; keep a margin for rounding.
+            let reach = 2.0 * info.radius + 1e-6;
+            let (lo, hi) = destination_area(info.world);
+            let mut book = Reservations::default();
+            for (id, p) in robot.gps().all_positions(0.0).await {
+                book.rest.insert(id, p);
+            }
+            let Some(layer) = robot.layer(&cfg.layer) else {
+                tracing::warn!(layer = cfg.layer, "PathReservation: no such layer");
+                return;
+            };
+            let mut here = book.rest[&me];
+            let mut waiting_for_own: bool;
+            loop {
+                let dest = {
+                    let mut rng = robot.rng();
+                    let r = info.radius;
+                    let (u, v): (f64, f64) = (rng.gen(), rng.gen());
+                    Point::new(
+                        lo.x + r + (hi.x - lo.x - 2.0 * r) * u,
+                        lo.y + r + (hi.y - lo.y - 2.0 * r) * v,
+                    )
+                };
+                let req = Content::List(vec![
+                    Content::Text("REQ".into()),
+                    Content::Int(me as i64),
+                    Content::Point(Real::new(here.x), Real::new(here.y)),
+                    Content::Point(Real::new(dest.x), Real::new(dest.y)),
+                ]);
+                layer.broadcast("RESERVE", req);
+                waiting_for_own = true;
+                // Apply deliveries in order until our own request is decided.
+                let mut granted = false;
+                while waiting_for_own {
+                    let r = robot.receive().await;
+                    let Some((_, Content::List(items))) = r.app() else {
+                        continue;
+                    };
+                    match items.as_slice() {
+                        [Content::Text(t), Content::Int(who), Content::Point(ax, ay), Content::Point(bx, by)]
+                            if t == "REQ" =>
+                        {
+                            let ok = book.request(
+                                *who as u32,
+                                Point::new(ax.get(), ay.get()),
+                                Point::new(bx.get(), by.get()),
+                                reach,
+                            );
+                            if *who as u32 == me {
+                                waiting_for_own = false;
+                                granted = ok;
+                            }
+                        }
+                        [Content::Text(t), Content::Int(who)] if t == "REL" => {
+                            book.release(*who as u32)
+                        }
+                        _ => {}
+                    }
+                }
+                if granted {
+                    robot.move_to(dest, cfg.move_speed, cfg.turn_speed).await;
+                    here = dest;
+                    layer.broadcast(
+                        "RESERVE",
+                        Content::List(vec![Content::Text("REL".into()), Content::Int(me as i64)]),
+                    );
+                    // Wait for our own release before asking again, so every robot sees them in
+                    // this order.
+                    loop {
+                        let r = robot.receive().await;
+                        let Some((_, Content::List(items))) = r.app() else {
+                            continue;
+                        };
+                        match items.as_slice() {
+                            [Content::Text(t), Content::Int(who), Content::Point(ax, ay), Content::Point(bx, by)]
+                                if t == "REQ" =>
+                            {
+                                book.request(
+                                    *who as u32,
+                                    Point::new(ax.get(), ay.get()),
+                                    Point::new(bx.get(), by.get()),
+                                    reach,
+                                );
+                            }
+                            [Content::Text(t), Content::Int(who)] if t == "REL" => {
+                                book.release(*who as u32);
+                                if *who as u32 == me {
+                                    break;
+                                }
+                            }
+                            _ => {}
+                        }
+                    }
+                } else {
+                    // Denied: try another path once something changes.
+                    robot.sleep(1.0).await;
+                }
+            }
+        })
+    }
+}

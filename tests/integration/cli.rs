@@ -461,3 +461,47 @@ fn broadcast_load_summary_reports_latency_computed_from_the_trace() {
         "{out}\nmean {mean} p50 {p50}"
     );
 }
+
+#[test]
+fn path_reservation_avoids_the_collisions_that_random_movement_has() {
+    let text =
+        std::fs::read_to_string(root().join("examples/scenarios/path_reservation.ron")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for seed in ["5", "6", "7"] {
+        let trace = dir.path().join(format!("r{seed}.jsonl"));
+        let o = nekosim(&[
+            "run",
+            "examples/scenarios/path_reservation.ron",
+            "--until",
+            "120",
+            "--seed",
+            seed,
+            "--trace",
+            trace.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert_eq!(summary_count(&o.stdout, "collisions"), 0, "seed {seed}");
+        let arrivals = std::fs::read_to_string(trace)
+            .unwrap()
+            .lines()
+            .filter(|l| l.contains("\"arrived\""))
+            .count();
+        assert!(
+            arrivals >= 20,
+            "seed {seed}: the robots did move ({arrivals} trips)"
+        );
+        // The same robots moving without reservations collide.
+        let free = text.replace(
+            "PathReservation(layer: \"abcast\", move_speed: 8.0)",
+            "RandomMovement(move_speed: (8.0, 8.0))",
+        );
+        let file = dir.path().join(format!("free{seed}.ron"));
+        std::fs::write(&file, free).unwrap();
+        let o = nekosim(&["run", file.to_str().unwrap(), "--until", "120", "--seed", seed]);
+        assert!(
+            summary_count(&o.stdout, "collisions") > 0,
+            "seed {seed}: {}",
+            String::from_utf8_lossy(&o.stdout)
+        );
+    }
+}
