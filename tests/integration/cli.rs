@@ -497,7 +497,14 @@ fn path_reservation_avoids_the_collisions_that_random_movement_has() {
         );
         let file = dir.path().join(format!("free{seed}.ron"));
         std::fs::write(&file, free).unwrap();
-        let o = nekosim(&["run", file.to_str().unwrap(), "--until", "120", "--seed", seed]);
+        let o = nekosim(&[
+            "run",
+            file.to_str().unwrap(),
+            "--until",
+            "120",
+            "--seed",
+            seed,
+        ]);
         assert!(
             summary_count(&o.stdout, "collisions") > 0,
             "seed {seed}: {}",
