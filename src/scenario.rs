@@ -645,9 +645,9 @@ impl Source {
         // Placement: explicit robots, then each group's listed points, then random points.
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(0xB0B0);
-        let mut placed: Vec<Option<(RobotSpec, String)>> = vec![None; total];
+        let mut placed: Vec<Option<RobotSpec>> = vec![None; total];
         let mut algorithms: Vec<Option<Box<dyn Algorithm>>> = (0..total).map(|_| None).collect();
-        let check_spot = |placed: &[Option<(RobotSpec, String)>],
+        let check_spot = |placed: &[Option<RobotSpec>],
                           id: usize,
                           spec: &RobotSpec,
                           path: &str|
@@ -665,9 +665,8 @@ impl Source {
                 }
             }
             for (other, o) in placed.iter().enumerate() {
-                if let Some((o, opath)) = o {
+                if let Some(o) = o {
                     if (o.pose.pos - p).norm() < o.radius + r {
-                        let _ = opath;
                         return Err(self.err(path, format!("robot {id} at ({}, {}) overlaps robot {other} at ({}, {}); expected born points at least the sum of the radii apart", p.x, p.y, o.pose.pos.x, o.pose.pos.y)));
                     }
                 }
@@ -696,7 +695,7 @@ impl Source {
                     },
                 };
                 check_spot(&placed, *id as usize, &spec, &format!("{path}.at"))?;
-                placed[*id as usize] = Some((spec, format!("{path}.at")));
+                placed[*id as usize] = Some(spec);
                 algorithms[*id as usize] =
                     Some(self.algorithm(&format!("{path}.algorithm"), algorithm, registry)?);
             }
@@ -730,7 +729,6 @@ impl Source {
                         ),
                     ));
                 }
-                let mut points = Vec::with_capacity(*count);
                 for (k, &(x, y)) in listed.iter().enumerate() {
                     let pp = format!("{path}.born[0][{k}]");
                     self.finite(&format!("{pp}[0]"), "x", x)?;
@@ -743,8 +741,7 @@ impl Source {
                         },
                     };
                     check_spot(&placed, ids[k], &spec, &pp)?;
-                    placed[ids[k]] = Some((spec, pp));
-                    points.push(Point::new(x, y));
+                    placed[ids[k]] = Some(spec);
                 }
                 let rest = count - listed.len();
                 if rest > 0 {
@@ -752,7 +749,7 @@ impl Source {
                     let occupied: Vec<(Point, f64)> = placed
                         .iter()
                         .flatten()
-                        .map(|(s, _)| (s.pose.pos - lo.coords, s.radius))
+                        .map(|s| (s.pose.pos - lo.coords, s.radius))
                         .collect();
                     let drawn = random_born_points(
                         rest,
@@ -766,25 +763,20 @@ impl Source {
                     for (k, p) in drawn.into_iter().enumerate() {
                         let id = ids[listed.len() + k];
                         let pos = p + lo.coords;
-                        placed[id] = Some((
-                            RobotSpec {
-                                radius: *radius,
-                                pose: Pose { pos, angle: 0.0 },
-                            },
-                            format!("{path}.count"),
-                        ));
-                        points.push(pos);
+                        placed[id] = Some(RobotSpec {
+                            radius: *radius,
+                            pose: Pose { pos, angle: 0.0 },
+                        });
                     }
                 }
-                for (k, id) in ids.iter().enumerate() {
+                for id in &ids {
                     let heading = match angle {
                         Some(a) => *a,
                         None => rng.gen_range(0.0..360.0),
                     };
-                    if let Some((spec, _)) = placed[*id].as_mut() {
+                    if let Some(spec) = placed[*id].as_mut() {
                         spec.pose.angle = heading;
                     }
-                    let _ = k;
                     algorithms[*id] =
                         Some(self.algorithm(&format!("{path}.algorithm"), algorithm, registry)?);
                 }
@@ -795,7 +787,7 @@ impl Source {
             .zip(algorithms)
             .map(|(p, a)| {
                 (
-                    p.expect("every id placed").0,
+                    p.expect("every id placed"),
                     a.expect("every id has an algorithm"),
                 )
             })
@@ -829,9 +821,8 @@ impl Source {
         network
             .check()
             .map_err(|(f, m)| self.err(&format!("network.{f}"), m))?;
-        let wiring = Wiring::check(&s.stack)
+        Wiring::check(&s.stack)
             .map_err(|e| self.err(&format!("stack[{}].{}", e.layer, e.field), e.message))?;
-        let _ = wiring;
         let mut faults = Vec::new();
         let robot_ok = |path: String, r: u32| -> Result<u32, ScenarioError> {
             if (r as usize) < n {

@@ -431,6 +431,43 @@ impl Reservations {
     }
 }
 
+/// What a delivered reservation message did: whose request or release, and whether a request
+/// was granted.
+enum Applied {
+    Request { who: u32, granted: bool },
+    Release { who: u32 },
+    Other,
+}
+
+impl Reservations {
+    /// Applies one delivered message (in delivery order, the same at every robot).
+    fn apply(&mut self, r: &crate::robot::Received, reach: f64) -> Applied {
+        use nekosim_protocols::Content;
+        let Some((_, Content::List(items))) = r.app() else {
+            return Applied::Other;
+        };
+        match items.as_slice() {
+            [Content::Text(t), Content::Int(who), Content::Point(ax, ay), Content::Point(bx, by)]
+                if t == "REQ" =>
+            {
+                let who = *who as u32;
+                let granted = self.request(
+                    who,
+                    Point::new(ax.get(), ay.get()),
+                    Point::new(bx.get(), by.get()),
+                    reach,
+                );
+                Applied::Request { who, granted }
+            }
+            [Content::Text(t), Content::Int(who)] if t == "REL" => {
+                self.release(*who as u32);
+                Applied::Release { who: *who as u32 }
+            }
+            _ => Applied::Other,
+        }
+    }
+}
+
 impl Algorithm for PathReservation {
     fn name(&self) -> &str {
         "PathReservation"
@@ -453,7 +490,6 @@ impl Algorithm for PathReservation {
                 return;
             };
             let mut here = book.rest[&me];
-            let mut waiting_for_own: bool;
             loop {
                 let dest = {
                     let mut rng = robot.rng();
@@ -471,35 +507,16 @@ impl Algorithm for PathReservation {
                     Content::Point(Real::new(dest.x), Real::new(dest.y)),
                 ]);
                 layer.broadcast("RESERVE", req);
-                waiting_for_own = true;
                 // Apply deliveries in order until our own request is decided.
-                let mut granted = false;
-                while waiting_for_own {
-                    let r = robot.receive().await;
-                    let Some((_, Content::List(items))) = r.app() else {
-                        continue;
-                    };
-                    match items.as_slice() {
-                        [Content::Text(t), Content::Int(who), Content::Point(ax, ay), Content::Point(bx, by)]
-                            if t == "REQ" =>
-                        {
-                            let ok = book.request(
-                                *who as u32,
-                                Point::new(ax.get(), ay.get()),
-                                Point::new(bx.get(), by.get()),
-                                reach,
-                            );
-                            if *who as u32 == me {
-                                waiting_for_own = false;
-                                granted = ok;
-                            }
+                let granted = loop {
+                    if let Applied::Request { who, granted } =
+                        book.apply(&robot.receive().await, reach)
+                    {
+                        if who == me {
+                            break granted;
                         }
-                        [Content::Text(t), Content::Int(who)] if t == "REL" => {
-                            book.release(*who as u32)
-                        }
-                        _ => {}
                     }
-                }
+                };
                 if granted {
                     robot.move_to(dest, cfg.move_speed, cfg.turn_speed).await;
                     here = dest;
@@ -509,30 +526,8 @@ impl Algorithm for PathReservation {
                     );
                     // Wait for our own release before asking again, so every robot sees them in
                     // this order.
-                    loop {
-                        let r = robot.receive().await;
-                        let Some((_, Content::List(items))) = r.app() else {
-                            continue;
-                        };
-                        match items.as_slice() {
-                            [Content::Text(t), Content::Int(who), Content::Point(ax, ay), Content::Point(bx, by)]
-                                if t == "REQ" =>
-                            {
-                                book.request(
-                                    *who as u32,
-                                    Point::new(ax.get(), ay.get()),
-                                    Point::new(bx.get(), by.get()),
-                                    reach,
-                                );
-                            }
-                            [Content::Text(t), Content::Int(who)] if t == "REL" => {
-                                book.release(*who as u32);
-                                if *who as u32 == me {
-                                    break;
-                                }
-                            }
-                            _ => {}
-                        }
+                    while !matches!(book.apply(&robot.receive().await, reach), Applied::Release { who } if who == me)
+                    {
                     }
                 } else {
                     // Denied: try another path once something changes.
