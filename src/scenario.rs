@@ -17,7 +17,7 @@ use nekosim_actors::world::motion::Pose;
 use nekosim_actors::world::network::{NetworkSpec, Partition};
 use nekosim_actors::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldSize};
 use nekosim_actors::{Algorithm, Comms, Fault};
-use nekosim_protocols::{LayerSpec, Wiring};
+use nekosim_protocols::{LayerSpec, Protocols, Wiring};
 use rand::{Rng, SeedableRng};
 use serde::Deserialize;
 
@@ -228,16 +228,19 @@ impl fmt::Display for ScenarioError {
 pub type Factory =
     Box<dyn Fn(&BTreeMap<String, f64>) -> Result<Box<dyn Algorithm>, String> + Send + Sync>;
 
-/// Custom algorithms by name, for `Custom(name: ..)` in scenario files.
+/// Custom algorithms and protocols by name, for `Custom(name: ..)` in scenario files.
 #[derive(Default)]
 pub struct Registry {
     factories: BTreeMap<String, Factory>,
+    /// User protocols for the `stack`.
+    pub protocols: Protocols,
 }
 
 impl fmt::Debug for Registry {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Registry")
             .field("names", &self.factories.keys().collect::<Vec<_>>())
+            .field("protocols", &self.protocols)
             .finish()
     }
 }
@@ -258,6 +261,18 @@ impl Registry {
             + 'static,
     ) -> &mut Self {
         self.factories.insert(name.to_string(), Box::new(factory));
+        self
+    }
+
+    /// Registers the microprotocol `name` for `Custom(name: ..)` in a scenario's `stack`:
+    /// what it provides and needs, and how to build it from the layer's `params`.
+    pub fn register_protocol<P: nekosim_protocols::Microprotocol>(
+        &mut self,
+        name: &str,
+        shape: nekosim_protocols::Shape,
+        factory: impl Fn(&BTreeMap<String, f64>) -> Result<P, String> + Send + Sync + 'static,
+    ) -> &mut Self {
+        self.protocols.register(name, shape, factory);
         self
     }
 }
@@ -397,7 +412,9 @@ impl Source {
                 self.positive(&format!("{path}.turn_speed"), "turn speed", *turn_speed)?;
                 let total_order = self.scenario.stack.iter().any(|l| {
                     &l.id == layer
-                        && l.protocol.provides() == nekosim_protocols::stack::Service::TotalOrder
+                        && l.protocol.shape(&registry.protocols).is_ok_and(|sh| {
+                            sh.provides == nekosim_protocols::stack::Service::TotalOrder
+                        })
                 });
                 if !total_order {
                     return Err(self.err(&format!("{path}.layer"), format!("{layer:?} is not a total-order broadcast layer of the stack; expected the id of one")));
@@ -795,7 +812,7 @@ impl Source {
         // The kernel's own checks, as a second net.
         let specs: Vec<RobotSpec> = robots.iter().map(|r| r.0).collect();
         VirtualWorld::new(world, &specs).map_err(|e| self.err("robots", e.to_string()))?;
-        let comms = self.comms(total)?;
+        let comms = self.comms(total, registry)?;
         let name = s.name.clone().unwrap_or_else(|| {
             Path::new(&self.file)
                 .file_stem()
@@ -815,13 +832,13 @@ impl Source {
 
 impl Source {
     /// Network, stack and faults, checked against `n` robots.
-    fn comms(&self, n: usize) -> Result<Comms, ScenarioError> {
+    fn comms(&self, n: usize, registry: &Registry) -> Result<Comms, ScenarioError> {
         let s = &self.scenario;
         let network = s.network.clone().unwrap_or_default();
         network
             .check()
             .map_err(|(f, m)| self.err(&format!("network.{f}"), m))?;
-        Wiring::check(&s.stack)
+        Wiring::check_with(&s.stack, &registry.protocols)
             .map_err(|e| self.err(&format!("stack[{}].{}", e.layer, e.field), e.message))?;
         let mut faults = Vec::new();
         let robot_ok = |path: String, r: u32| -> Result<u32, ScenarioError> {
@@ -874,6 +891,7 @@ impl Source {
             network,
             stack: s.stack.clone(),
             faults,
+            protocols: registry.protocols.clone(),
         })
     }
 }

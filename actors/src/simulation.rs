@@ -18,7 +18,7 @@ use crate::world::event::{EventClass, Payload, Target};
 use crate::world::network::{Network, NetworkSpec, Partition};
 use crate::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldError};
 use crate::world::RobotId;
-use nekosim_protocols::{Input, LayerSpec, Wiring};
+use nekosim_protocols::{Input, LayerSpec, Protocols, Wiring};
 use rand::SeedableRng;
 
 /// Everything a run needs.
@@ -48,6 +48,8 @@ pub struct Comms {
     /// Every robot gets this stack; the algorithm sits on top.
     pub stack: Vec<LayerSpec>,
     pub faults: Vec<Fault>,
+    /// User protocols the stack may name (`Custom(name: ..)`).
+    pub protocols: Protocols,
 }
 
 /// A fault injected into a run.
@@ -108,7 +110,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     }
     let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
     let world = VirtualWorld::new(cfg.world, &specs)?;
-    let wiring = std::sync::Arc::new(Wiring::check(&cfg.comms.stack)?);
+    let wiring = std::sync::Arc::new(Wiring::check_with(&cfg.comms.stack, &cfg.comms.protocols)?);
     let mut setup = Outbox::new(0.0, 0);
     // Protocol layers start first, bottom-up, then the algorithms; crashes are scheduled.
     for r in 0..specs.len() as RobotId {
@@ -156,7 +158,18 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     observers.keep = cfg.record;
     let world_cfg = cfg.world;
     let robots = cfg.robots;
-    let stack = cfg.comms.stack.clone();
+    // Every robot's instances, built before the actors start (a factory may refuse).
+    let mut instances = Vec::with_capacity(specs.len());
+    for _ in 0..specs.len() {
+        let stack =
+            nekosim_protocols::Stack::with_protocols(&cfg.comms.stack, &cfg.comms.protocols)
+                .map_err(|message| nekosim_protocols::StackError {
+                    layer: 0,
+                    field: "protocol",
+                    message,
+                })?;
+        instances.push(stack.layers);
+    }
     let layer_ids = std::sync::Arc::new(wiring.ids.clone());
     let n_arbiters = cfg.arbiters.max(1);
     system.block_on(async move {
@@ -195,11 +208,11 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             .collect();
         let layers: Vec<Vec<Recipient<Deliver>>> = (0..count as RobotId)
             .map(|r| {
-                stack
-                    .iter()
+                std::mem::take(&mut instances[r as usize])
+                    .into_iter()
                     .enumerate()
-                    .map(|(l, spec)| {
-                        let (layer, wiring) = (spec.protocol.instantiate(), wiring.clone());
+                    .map(|(l, layer)| {
+                        let wiring = wiring.clone();
                         LayerActor::start_in_arbiter(&arbiter_of(r), move |_| {
                             LayerActor::new(
                                 r,

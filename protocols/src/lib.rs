@@ -6,10 +6,12 @@
 //!   indications, inputs and effects; [`protocol`]: the [`Microprotocol`] trait.
 //! - Protocols: [`fifo`], [`retransmit`], [`rbroadcast`], [`lamport`], [`sequencer`],
 //!   [`heartbeat`], [`omega`], [`consensus`] (Chandra-Toueg), [`consensus_abcast`].
-//! - [`stack`]: composition by name, wiring checks and effect routing.
+//! - [`stack`]: composition by name, wiring checks and effect routing; [`custom`]: user
+//!   protocols registered by name.
 
 pub mod consensus;
 pub mod consensus_abcast;
+pub mod custom;
 pub mod fifo;
 pub mod heartbeat;
 pub mod lamport;
@@ -22,6 +24,7 @@ pub mod service;
 pub mod stack;
 pub mod wire;
 
+pub use custom::{CustomLayer, Protocols, Shape};
 pub use protocol::Microprotocol;
 pub use service::{Ctx, Effect, Indication, Input, LayerIx, Out, Request, APP, NET};
 pub use stack::{Layer, LayerSpec, ProtocolSpec, Routed, Stack, StackError, Wiring};

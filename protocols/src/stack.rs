@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::consensus::ChandraToueg;
 use crate::consensus_abcast::ConsensusAbcast;
+use crate::custom::{CustomLayer, Params, Protocols, Shape};
 use crate::fifo::Fifo;
 use crate::heartbeat::Heartbeat;
 use crate::lamport::LamportAbcast;
@@ -44,6 +45,12 @@ pub enum ProtocolSpec {
     Omega,
     ChandraToueg,
     ConsensusAbcast,
+    /// A protocol registered in Rust under `name` (see [`Protocols`]), with its parameters.
+    Custom {
+        name: String,
+        #[serde(default)]
+        params: Params,
+    },
 }
 
 /// A service a layer provides or needs.
@@ -70,7 +77,8 @@ impl Service {
             || (self == Service::TotalOrder && need == Service::Broadcast)
     }
 
-    fn name(self) -> &'static str {
+    /// What the service is, in words.
+    pub fn name(self) -> &'static str {
         match self {
             Service::P2p => "point-to-point messages",
             Service::FifoP2p => "FIFO point-to-point messages",
@@ -84,9 +92,10 @@ impl Service {
 }
 
 impl ProtocolSpec {
-    /// Service provided to the layers above.
-    pub fn provides(&self) -> Service {
-        match self {
+    /// What the protocol provides and needs; custom protocols are looked up in `protocols`.
+    pub fn shape(&self, protocols: &Protocols) -> Result<Shape, String> {
+        let provides = match self {
+            ProtocolSpec::Custom { name, .. } => return protocols.shape(name).cloned(),
             ProtocolSpec::Fifo => Service::FifoP2p,
             ProtocolSpec::Retransmit { .. } => Service::P2p,
             ProtocolSpec::ReliableBroadcast => Service::Broadcast,
@@ -96,25 +105,22 @@ impl ProtocolSpec {
             ProtocolSpec::Heartbeat { .. } => Service::FailureDetector,
             ProtocolSpec::Omega => Service::Leader,
             ProtocolSpec::ChandraToueg => Service::Consensus,
-        }
-    }
-
-    /// Service needed from the layer below.
-    pub fn needs_below(&self) -> Service {
-        match self {
+        };
+        let needs_below = match self {
             ProtocolSpec::LamportAbcast => Service::FifoP2p,
             ProtocolSpec::ConsensusAbcast => Service::Broadcast,
             _ => Service::P2p,
-        }
-    }
-
-    /// Services needed from used layers, in `uses` order.
-    pub fn needs_uses(&self) -> &'static [Service] {
-        match self {
-            ProtocolSpec::Omega | ProtocolSpec::ChandraToueg => &[Service::FailureDetector],
-            ProtocolSpec::ConsensusAbcast => &[Service::Consensus],
-            _ => &[],
-        }
+        };
+        let needs_uses = match self {
+            ProtocolSpec::Omega | ProtocolSpec::ChandraToueg => vec![Service::FailureDetector],
+            ProtocolSpec::ConsensusAbcast => vec![Service::Consensus],
+            _ => vec![],
+        };
+        Ok(Shape {
+            provides,
+            needs_below,
+            needs_uses,
+        })
     }
 
     /// Checks parameters: `Err` names the field and what is expected.
@@ -143,23 +149,24 @@ impl ProtocolSpec {
         }
     }
 
-    /// A fresh instance.
-    pub fn instantiate(&self) -> Layer {
-        match *self {
+    /// A fresh instance; custom protocols are built by their factory in `protocols`.
+    pub fn instantiate(&self, protocols: &Protocols) -> Result<Layer, String> {
+        Ok(match self {
+            ProtocolSpec::Custom { name, params } => Layer::Custom(protocols.build(name, params)?),
             ProtocolSpec::Fifo => Layer::Fifo(Fifo::default()),
-            ProtocolSpec::Retransmit { period } => Layer::Retransmit(Retransmit::new(period)),
+            ProtocolSpec::Retransmit { period } => Layer::Retransmit(Retransmit::new(*period)),
             ProtocolSpec::ReliableBroadcast => {
                 Layer::ReliableBroadcast(ReliableBroadcast::default())
             }
             ProtocolSpec::LamportAbcast => Layer::LamportAbcast(LamportAbcast::default()),
             ProtocolSpec::FixedSequencer => Layer::FixedSequencer(FixedSequencer::new(0)),
             ProtocolSpec::Heartbeat { period, timeout } => {
-                Layer::Heartbeat(Heartbeat::new(period, timeout))
+                Layer::Heartbeat(Heartbeat::new(*period, *timeout))
             }
             ProtocolSpec::Omega => Layer::Omega(Omega::default()),
             ProtocolSpec::ChandraToueg => Layer::ChandraToueg(ChandraToueg::default()),
             ProtocolSpec::ConsensusAbcast => Layer::ConsensusAbcast(ConsensusAbcast::default()),
-        }
+        })
     }
 }
 
@@ -209,11 +216,14 @@ pub enum Layer {
     Omega(Omega),
     ChandraToueg(ChandraToueg),
     ConsensusAbcast(ConsensusAbcast),
+    /// A registered user protocol.
+    Custom(CustomLayer),
 }
 
 impl Layer {
     fn proto(&mut self) -> &mut dyn DynHandle {
         match self {
+            Layer::Custom(p) => p,
             Layer::Fifo(p) => p,
             Layer::Retransmit(p) => p,
             Layer::ReliableBroadcast(p) => p,
@@ -238,6 +248,7 @@ impl Layer {
             Layer::Omega(p) => p.name(),
             Layer::ChandraToueg(p) => p.name(),
             Layer::ConsensusAbcast(p) => p.name(),
+            Layer::Custom(p) => p.name(),
         }
     }
 }
@@ -250,6 +261,12 @@ trait DynHandle {
 impl<P: Microprotocol> DynHandle for P {
     fn dyn_handle(&mut self, ctx: &Ctx, input: Input, out: &mut Out) {
         self.handle(ctx, input, out)
+    }
+}
+
+impl DynHandle for CustomLayer {
+    fn dyn_handle(&mut self, ctx: &Ctx, input: Input, out: &mut Out) {
+        self.protocol_mut().handle(ctx, input, out)
     }
 }
 
@@ -266,9 +283,15 @@ pub struct Wiring {
 }
 
 impl Wiring {
-    /// Checks a stack: unique ids, known `below`/`uses`, no cycles, every layer served by
-    /// what it sits on and uses, parameters in range.
+    /// Checks a stack of built-in protocols (see [`Wiring::check_with`]).
     pub fn check(specs: &[LayerSpec]) -> Result<Wiring, StackError> {
+        Self::check_with(specs, &Protocols::new())
+    }
+
+    /// Checks a stack: unique ids, known protocols, `below`/`uses` and ids, no cycles, every
+    /// layer served by what it sits on and uses, parameters in range (a custom protocol's
+    /// factory judges its parameters).
+    pub fn check_with(specs: &[LayerSpec], protocols: &Protocols) -> Result<Wiring, StackError> {
         let err = |layer, field, message: String| StackError {
             layer,
             field,
@@ -302,6 +325,19 @@ impl Wiring {
                 message: m,
             })?;
         }
+        let mut shapes = Vec::new();
+        for (i, s) in specs.iter().enumerate() {
+            let shape = s
+                .protocol
+                .shape(protocols)
+                .map_err(|m| err(i, "protocol", m))?;
+            if let ProtocolSpec::Custom { name, params } = &s.protocol {
+                protocols
+                    .build(name, params)
+                    .map_err(|m| err(i, "protocol", m))?;
+            }
+            shapes.push(shape);
+        }
         let resolve = |i: usize, field: &'static str, name: &str| -> Result<LayerIx, StackError> {
             if name == "net" {
                 return Ok(NET);
@@ -324,7 +360,7 @@ impl Wiring {
             if ix == NET {
                 Service::P2p
             } else {
-                specs[ix as usize].protocol.provides()
+                shapes[ix as usize].provides
             }
         };
         let mut below = Vec::new();
@@ -334,7 +370,7 @@ impl Wiring {
             if b as usize == i {
                 return Err(err(i, "below", format!("layer {:?} sits on itself", s.id)));
             }
-            let need = s.protocol.needs_below();
+            let need = shapes[i].needs_below;
             if !provides(b).serves(need) {
                 return Err(err(
                     i,
@@ -349,7 +385,7 @@ impl Wiring {
                     ),
                 ));
             }
-            let needs = s.protocol.needs_uses();
+            let needs = &shapes[i].needs_uses;
             if s.uses.len() != needs.len() {
                 return Err(err(
                     i,
@@ -546,11 +582,23 @@ pub struct Stack {
 }
 
 impl Stack {
-    /// Fresh instances of every layer.
+    /// Fresh instances of every layer of a stack of built-in protocols.
+    ///
+    /// # Panics
+    /// If a layer is a custom protocol (use [`Stack::with_protocols`]).
     pub fn new(specs: &[LayerSpec]) -> Self {
-        Self {
-            layers: specs.iter().map(|s| s.protocol.instantiate()).collect(),
-        }
+        Self::with_protocols(specs, &Protocols::new())
+            .expect("Stack::new builds built-in protocols only")
+    }
+
+    /// Fresh instances of every layer; custom protocols are built from `protocols`.
+    pub fn with_protocols(specs: &[LayerSpec], protocols: &Protocols) -> Result<Self, String> {
+        Ok(Self {
+            layers: specs
+                .iter()
+                .map(|s| s.protocol.instantiate(protocols))
+                .collect::<Result<_, _>>()?,
+        })
     }
 
     /// Runs one layer's handler and routes its effects.

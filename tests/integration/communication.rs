@@ -81,6 +81,7 @@ fn run_load(
             network,
             stack,
             faults,
+            protocols: Default::default(),
         },
     })
     .expect("run")
