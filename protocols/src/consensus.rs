@@ -3,7 +3,8 @@
 //!
 //! Assumes: reliable links, fewer than n/2 crashes, a ◇S detector (used layer 0).
 //! Guarantees: uniform agreement (no two processes decide differently), validity (a decided
-//! value was proposed), integrity (each instance decides once) and, with ◇S, termination for
+//! value was proposed), integrity (each instance decides once: the decision is indicated once,
+//! also to a process that proposes after it learnt the decision) and, with ◇S, termination for
 //! every correct process. Round `r` of an instance is coordinated by process `r mod n`: every
 //! process sends it its estimate; with a majority of estimates it proposes the one with the
 //! latest timestamp; each process acks the proposal (adopting it) or nacks when it suspects
@@ -227,11 +228,9 @@ impl Microprotocol for ChandraToueg {
         let Request::Propose { k, value } = req else {
             return;
         };
-        if let Some(v) = self.decided.get(&k) {
-            out.up(Indication::Decide {
-                k,
-                value: v.clone(),
-            });
+        if self.decided.contains_key(&k) {
+            // Already decided and indicated (a decision can arrive before the local proposal);
+            // indicating it again would break integrity.
             return;
         }
         let inst = self.instances.entry(k).or_default();

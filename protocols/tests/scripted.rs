@@ -428,6 +428,62 @@ fn chandra_toueg_round_zero_goes_to_coordinator_zero() {
     assert_eq!(e, vec![send(vec![0], Wire::CtNack { k: 4, r: 0 })]);
 }
 
+#[test]
+fn chandra_toueg_indicates_a_decision_once_even_when_proposing_afterwards() {
+    let mut ct = ChandraToueg::default();
+    // The decision of instance 2 arrives from p0 before p1 proposes: relay to p2, decide.
+    let e = effects(&mut ct, C3, |p, c, o| {
+        p.on_indication(
+            c,
+            0,
+            deliver(
+                0,
+                Wire::CtDecide {
+                    k: 2,
+                    value: Box::new(m(5)),
+                },
+            ),
+            o,
+        )
+    });
+    assert_eq!(
+        e,
+        vec![
+            send(
+                vec![2],
+                Wire::CtDecide {
+                    k: 2,
+                    value: Box::new(m(5))
+                }
+            ),
+            Effect::Up {
+                to: None,
+                ind: Indication::Decide { k: 2, value: m(5) }
+            }
+        ]
+    );
+    // Proposing afterwards, or hearing the decision again, does nothing more.
+    let e = effects(&mut ct, C3, |p, c, o| {
+        p.on_request(c, 9, Request::Propose { k: 2, value: m(7) }, o)
+    });
+    assert_eq!(e, vec![]);
+    let e = effects(&mut ct, C3, |p, c, o| {
+        p.on_indication(
+            c,
+            0,
+            deliver(
+                2,
+                Wire::CtDecide {
+                    k: 2,
+                    value: Box::new(m(5)),
+                },
+            ),
+            o,
+        )
+    });
+    assert_eq!(e, vec![]);
+}
+
 fn layer(id: &str, protocol: ProtocolSpec, below: &str, uses: &[&str]) -> LayerSpec {
     LayerSpec::new(id, protocol, below, uses)
 }

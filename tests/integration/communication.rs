@@ -286,3 +286,182 @@ fn radio_networks_only_reach_robots_in_range() {
         }
     }
 }
+
+/// Proposes `id * 10 + k` to consensus instances `0..instances` at random moments, then
+/// listens (decisions are recorded as they reach the algorithm).
+#[derive(Clone, Debug)]
+struct Proposer {
+    instances: u64,
+}
+
+impl Algorithm for Proposer {
+    fn name(&self) -> &str {
+        "Proposer"
+    }
+
+    fn run(&self, robot: nekosim::Robot) -> nekosim::AlgorithmFuture {
+        let instances = self.instances;
+        Box::pin(async move {
+            use rand::Rng;
+            for k in 0..instances {
+                let pause = robot.rng().gen_range(0.0..3.0);
+                robot.sleep(pause).await;
+                let c = robot.layer("consensus").expect("consensus layer");
+                c.propose(
+                    k,
+                    "V",
+                    nekosim_protocols::Content::Int(robot.id() as i64 * 10 + k as i64),
+                );
+            }
+            loop {
+                robot.receive().await;
+            }
+        })
+    }
+}
+
+fn consensus_stack(links: &str) -> Vec<LayerSpec> {
+    let mut s = Vec::new();
+    if links != "net" {
+        s.push(layer(
+            links,
+            ProtocolSpec::Retransmit { period: 1.0 },
+            "net",
+            &[],
+        ));
+    }
+    s.push(layer(
+        "fd",
+        ProtocolSpec::Heartbeat {
+            period: 5.0,
+            timeout: 40.0,
+        },
+        "net",
+        &[],
+    ));
+    s.push(layer(
+        "consensus",
+        ProtocolSpec::ChandraToueg,
+        links,
+        &["fd"],
+    ));
+    s
+}
+
+/// Chandra-Toueg with up to f = 2 of 5 robots crashing at random moments, over many seeds and
+/// every network model: uniform agreement, validity, integrity and termination of every
+/// instance, checked from the trace.
+#[test]
+fn consensus_properties_with_f_crashes_over_every_network() {
+    use rand::{Rng, SeedableRng};
+    let n = 5u32;
+    let instances = 3u64;
+    let mut nets: Vec<(NetworkSpec, &str)> = networks().into_iter().map(|x| (x, "net")).collect();
+    // Lossy links made reliable by Retransmit under the consensus layer.
+    nets.push((
+        NetworkSpec::Lossy {
+            p: 0.2,
+            over: Box::new(NetworkSpec::RandomDelay { lambda: 1.0 }),
+        },
+        "rt",
+    ));
+    let mut runs = 0;
+    for (net, links) in &nets {
+        for f in 0..=2u32 {
+            for seed in 0..6u64 {
+                let what = format!("{net:?} f={f} seed={seed}");
+                // Victims and crash times drawn from the test's own seeded stream.
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed * 31 + f as u64);
+                let mut victims: Vec<u32> = Vec::new();
+                while victims.len() < f as usize {
+                    let v = rng.gen_range(0..n);
+                    if !victims.contains(&v) {
+                        victims.push(v);
+                    }
+                }
+                let faults = victims
+                    .iter()
+                    .map(|&robot| Fault::Crash {
+                        robot,
+                        at: rng.gen_range(0.0..15.0),
+                    })
+                    .collect();
+                let robots = (0..n)
+                    .map(|i| {
+                        let a: Box<dyn Algorithm> = Box::new(Proposer { instances });
+                        (spec(20.0 * i as f64, 0.0, 0.0, 1.0), a)
+                    })
+                    .collect::<Vec<_>>();
+                let records = nekosim::run(SimConfig {
+                    seed,
+                    until: 3000.0,
+                    world: infinite(),
+                    robots,
+                    arbiters: 1,
+                    record: true,
+                    observers: Default::default(),
+                    comms: Comms {
+                        network: net.clone(),
+                        stack: consensus_stack(links),
+                        faults,
+                        protocols: Default::default(),
+                    },
+                })
+                .expect("run")
+                .records;
+                runs += 1;
+                let mut proposed: BTreeMap<u64, BTreeSet<String>> = BTreeMap::new();
+                let mut decided: BTreeMap<(u32, u64), Vec<String>> = BTreeMap::new();
+                let mut crashed = BTreeSet::new();
+                for r in &records {
+                    match &r.obs {
+                        Observation::Request { op, msg, layer, .. }
+                            if op == "propose" && layer == "consensus" =>
+                        {
+                            let v = format!("{:?}", msg.app_part());
+                            // The instance is encoded in the value: id * 10 + k.
+                            let kk = match msg.app_part() {
+                                Some((_, nekosim_protocols::Content::Int(x))) => (*x % 10) as u64,
+                                other => panic!("{what}: unexpected proposal {other:?}"),
+                            };
+                            proposed.entry(kk).or_default().insert(v);
+                        }
+                        Observation::Decide {
+                            robot, k, value, ..
+                        } => decided
+                            .entry((*robot, *k))
+                            .or_default()
+                            .push(format!("{:?}", value.app_part())),
+                        Observation::Crash { robot, .. } => {
+                            crashed.insert(*robot);
+                        }
+                        _ => {}
+                    }
+                }
+                assert_eq!(crashed.len(), f as usize, "{what}: crashes happened");
+                for k in 0..instances {
+                    let values: BTreeSet<&String> = decided
+                        .iter()
+                        .filter(|((_, kk), _)| *kk == k)
+                        .flat_map(|(_, v)| v)
+                        .collect();
+                    assert!(values.len() <= 1, "{what}: agreement on {k}: {values:?}");
+                    for v in values {
+                        assert!(
+                            proposed.get(&k).is_some_and(|p| p.contains(v)),
+                            "{what}: validity on {k}: {v} was never proposed"
+                        );
+                    }
+                    for p in 0..n {
+                        let d = decided.get(&(p, k)).map_or(0, Vec::len);
+                        assert!(d <= 1, "{what}: integrity: p{p} decided {k} {d} times");
+                        if !crashed.contains(&p) {
+                            assert_eq!(d, 1, "{what}: termination: p{p} never decided {k}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert_eq!(runs, 4 * 3 * 6);
+}
