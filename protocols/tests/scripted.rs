@@ -547,3 +547,161 @@ fn wiring_mistakes_are_named() {
     .unwrap();
     assert_eq!(ok.app_hears, vec![false, false, false, true]);
 }
+
+#[test]
+fn retransmit_numbers_per_destination_acks_and_resends_until_acked() {
+    use nekosim_protocols::retransmit::Retransmit;
+    let mut rt = Retransmit::new(2.0);
+    let data = |seq, i| Wire::RtData {
+        seq,
+        up: 5,
+        inner: Box::new(m(i)),
+    };
+    let e = effects(&mut rt, C3, |p, c, o| {
+        p.on_request(
+            c,
+            5,
+            Request::Send {
+                to: vec![0, 2],
+                msg: m(1),
+            },
+            o,
+        )
+    });
+    assert_eq!(
+        e,
+        vec![
+            send(vec![0], data(0, 1)),
+            send(vec![2], data(0, 1)),
+            Effect::SetTimer {
+                timer: 1,
+                after: Real::new(2.0)
+            }
+        ]
+    );
+    // p0 acknowledges; the timer resends only to p2 and re-arms.
+    let e = effects(&mut rt, C3, |p, c, o| {
+        p.on_indication(c, NET, deliver(0, Wire::RtAck { seq: 0 }), o)
+    });
+    assert_eq!(e, vec![]);
+    let e = effects(&mut rt, C3, |p, c, o| p.on_timer(c, 1, o));
+    assert_eq!(
+        e,
+        vec![
+            send(vec![2], data(0, 1)),
+            Effect::SetTimer {
+                timer: 1,
+                after: Real::new(2.0)
+            }
+        ]
+    );
+    // Once everything is acknowledged, the timer stops.
+    effects(&mut rt, C3, |p, c, o| {
+        p.on_indication(c, NET, deliver(2, Wire::RtAck { seq: 0 }), o)
+    });
+    assert_eq!(effects(&mut rt, C3, |p, c, o| p.on_timer(c, 1, o)), vec![]);
+    // Receiving: ack every copy, deliver once, to the layer that sent it.
+    for round in 0..2 {
+        let e = effects(&mut rt, C3, |p, c, o| {
+            p.on_indication(c, NET, deliver(2, data(0, 9)), o)
+        });
+        let mut want = vec![send(vec![2], Wire::RtAck { seq: 0 })];
+        if round == 0 {
+            want.push(Effect::Up {
+                to: Some(5),
+                ind: deliver(2, m(9)),
+            });
+        }
+        assert_eq!(e, want, "copy {round}");
+    }
+}
+
+#[test]
+fn consensus_abcast_proposes_pending_batches_and_delivers_decisions_in_order() {
+    use nekosim_protocols::consensus_abcast::ConsensusAbcast;
+    let mut ab = ConsensusAbcast::default();
+    let id = |origin, n| MsgId { origin, n };
+    // A broadcast goes down to the reliable broadcast layer.
+    let e = effects(&mut ab, C3, |p, c, o| {
+        p.on_request(c, 9, Request::Broadcast { msg: m(1) }, o)
+    });
+    assert_eq!(e, vec![Effect::Down(Request::Broadcast { msg: m(1) })]);
+    // R-delivered messages are proposed to instance 0; a second waits for the decision.
+    let e = effects(&mut ab, C3, |p, c, o| {
+        p.on_indication(
+            c,
+            0,
+            Indication::BDeliver {
+                id: id(2, 0),
+                msg: m(20),
+            },
+            o,
+        )
+    });
+    let propose = |k, batch: Vec<(MsgId, Wire)>| Effect::Use {
+        slot: 0,
+        req: Request::Propose {
+            k,
+            value: Wire::Batch(batch),
+        },
+    };
+    assert_eq!(e, vec![propose(0, vec![(id(2, 0), m(20))])]);
+    let e = effects(&mut ab, C3, |p, c, o| {
+        p.on_indication(
+            c,
+            0,
+            Indication::BDeliver {
+                id: id(1, 0),
+                msg: m(10),
+            },
+            o,
+        )
+    });
+    assert_eq!(e, vec![]);
+    // Instance 1's decision arrives early: kept until instance 0 decides.
+    let e = effects(&mut ab, C3, |p, c, o| {
+        p.on_indication(
+            c,
+            1,
+            Indication::Decide {
+                k: 1,
+                value: Wire::Batch(vec![(id(1, 0), m(10))]),
+            },
+            o,
+        )
+    });
+    assert_eq!(e, vec![]);
+    // Instance 0 decides another process's batch: deliver it in id order, then instance 1's.
+    let e = effects(&mut ab, C3, |p, c, o| {
+        p.on_indication(
+            c,
+            1,
+            Indication::Decide {
+                k: 0,
+                value: Wire::Batch(vec![(id(2, 0), m(20)), (id(0, 0), m(0))]),
+            },
+            o,
+        )
+    });
+    let bd = |i: MsgId, msg| Effect::Up {
+        to: None,
+        ind: Indication::BDeliver { id: i, msg },
+    };
+    assert_eq!(
+        e,
+        vec![bd(id(0, 0), m(0)), bd(id(2, 0), m(20)), bd(id(1, 0), m(10)),]
+    );
+    // A late R-delivery of something already ordered is ignored.
+    let e = effects(&mut ab, C3, |p, c, o| {
+        p.on_indication(
+            c,
+            0,
+            Indication::BDeliver {
+                id: id(0, 0),
+                msg: m(0),
+            },
+            o,
+        )
+    });
+    assert_eq!(e, vec![]);
+}

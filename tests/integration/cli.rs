@@ -325,6 +325,7 @@ fn communication_examples_deliver_in_one_order_from_the_trace() {
             20usize,
         ),
         ("examples/scenarios/consensus_abcast.ron", vec![0, 1, 2], 10),
+        ("examples/scenarios/lossy_abcast.ron", vec![0, 1, 2, 3], 10),
     ] {
         let dir = tempfile::tempdir().unwrap();
         let trace = dir.path().join("t.jsonl");
@@ -354,6 +355,94 @@ fn communication_examples_deliver_in_one_order_from_the_trace() {
                 assert_eq!(mine, per_robot, "{file}: p{p} has {mine} messages of p{q}");
             }
         }
+    }
+}
+
+#[test]
+fn lossy_example_loses_copies_that_retransmit_recovers() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("t.jsonl");
+    let o = nekosim(&[
+        "run",
+        "examples/scenarios/lossy_abcast.ron",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (mut copies, mut received) = (0usize, 0usize);
+    for line in std::fs::read_to_string(trace).unwrap().lines() {
+        let v: Value = serde_json::from_str(line).unwrap();
+        match v["kind"].as_str().unwrap() {
+            "send" => copies += v["to"].as_array().unwrap().len(),
+            "receive" => received += 1,
+            _ => {}
+        }
+    }
+    // p = 0.2: about a fifth of the copies are lost (binomial, thousands of copies).
+    let lost = 1.0 - received as f64 / copies as f64;
+    assert!(
+        (0.15..0.25).contains(&lost),
+        "{received} of {copies} copies arrived"
+    );
+}
+
+#[test]
+fn partition_blocks_the_minority_until_it_heals_then_everybody_agrees() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("t.jsonl");
+    let o = nekosim(&[
+        "run",
+        "examples/scenarios/partition_consensus.ron",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let mut decided = std::collections::BTreeMap::new();
+    let mut arrived = std::collections::BTreeMap::new();
+    let mut crossing = 0;
+    let side = |r: u64| r < 2;
+    for line in std::fs::read_to_string(trace).unwrap().lines() {
+        let v: Value = serde_json::from_str(line).unwrap();
+        let robot = v["robot"].as_u64();
+        let t = v["t"].as_f64().unwrap();
+        match v["kind"].as_str().unwrap() {
+            "decide" => assert!(decided
+                .insert(
+                    robot.unwrap(),
+                    (t, v["value"].as_str().unwrap().to_string())
+                )
+                .is_none()),
+            "motion_finish" if v["outcome"] == "arrived" => {
+                arrived.insert(
+                    robot.unwrap(),
+                    (v["pos"][0].as_f64().unwrap(), v["pos"][1].as_f64().unwrap()),
+                );
+            }
+            // Nothing crosses the cut while it lasts.
+            "receive" if t < 30.0 && side(robot.unwrap()) != side(v["from"].as_u64().unwrap()) => {
+                crossing += 1
+            }
+            _ => {}
+        }
+    }
+    assert_eq!(crossing, 0, "messages crossed the partition");
+    assert_eq!(decided.len(), 5, "everybody decides: {decided:?}");
+    let value = &decided[&2].1;
+    for (p, (t, v)) in &decided {
+        assert_eq!(v, value, "agreement");
+        if side(*p) {
+            assert!(*t >= 30.0, "p{p} decided at {t}, inside the partition");
+        } else {
+            assert!(
+                *t < 30.0,
+                "the majority decides during the partition (p{p} at {t})"
+            );
+        }
+        let (a, b) = (arrived[p], arrived[&2]);
+        assert!(
+            (a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9,
+            "p{p} meets the others: {a:?} vs {b:?}"
+        );
     }
 }
 
