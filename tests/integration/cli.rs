@@ -358,20 +358,62 @@ fn communication_examples_deliver_in_one_order_from_the_trace() {
     }
 }
 
-#[test]
-fn lossy_example_loses_copies_that_retransmit_recovers() {
+/// Runs an example scenario with `--trace` and returns the trace's objects.
+fn example_trace(file: &str) -> Vec<Value> {
     let dir = tempfile::tempdir().unwrap();
     let trace = dir.path().join("t.jsonl");
-    let o = nekosim(&[
-        "run",
-        "examples/scenarios/lossy_abcast.ron",
-        "--trace",
-        trace.to_str().unwrap(),
-    ]);
+    let o = nekosim(&["run", file, "--trace", trace.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    std::fs::read_to_string(trace)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+/// Each robot's decision (time, value; at most one) and arrival point, from a trace.
+type Decisions = std::collections::BTreeMap<u64, (f64, String)>;
+fn decisions_and_arrivals(
+    trace: &[Value],
+) -> (Decisions, std::collections::BTreeMap<u64, (f64, f64)>) {
+    let mut decided = Decisions::new();
+    let mut arrived = std::collections::BTreeMap::new();
+    for v in trace {
+        let robot = v["robot"].as_u64();
+        match v["kind"].as_str().unwrap() {
+            "decide" => assert!(
+                decided
+                    .insert(
+                        robot.unwrap(),
+                        (
+                            v["t"].as_f64().unwrap(),
+                            v["value"].as_str().unwrap().to_string()
+                        )
+                    )
+                    .is_none(),
+                "decided twice"
+            ),
+            "motion_finish" if v["outcome"] == "arrived" => {
+                arrived.insert(
+                    robot.unwrap(),
+                    (v["pos"][0].as_f64().unwrap(), v["pos"][1].as_f64().unwrap()),
+                );
+            }
+            _ => {}
+        }
+    }
+    (decided, arrived)
+}
+
+fn same_point(a: (f64, f64), b: (f64, f64)) -> bool {
+    (a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9
+}
+
+#[test]
+fn lossy_example_loses_copies_that_retransmit_recovers() {
+    let trace = example_trace("examples/scenarios/lossy_abcast.ron");
     let (mut copies, mut received) = (0usize, 0usize);
-    for line in std::fs::read_to_string(trace).unwrap().lines() {
-        let v: Value = serde_json::from_str(line).unwrap();
+    for v in &trace {
         match v["kind"].as_str().unwrap() {
             "send" => copies += v["to"].as_array().unwrap().len(),
             "receive" => received += 1,
@@ -388,44 +430,19 @@ fn lossy_example_loses_copies_that_retransmit_recovers() {
 
 #[test]
 fn partition_blocks_the_minority_until_it_heals_then_everybody_agrees() {
-    let dir = tempfile::tempdir().unwrap();
-    let trace = dir.path().join("t.jsonl");
-    let o = nekosim(&[
-        "run",
-        "examples/scenarios/partition_consensus.ron",
-        "--trace",
-        trace.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let mut decided = std::collections::BTreeMap::new();
-    let mut arrived = std::collections::BTreeMap::new();
-    let mut crossing = 0;
+    let trace = example_trace("examples/scenarios/partition_consensus.ron");
     let side = |r: u64| r < 2;
-    for line in std::fs::read_to_string(trace).unwrap().lines() {
-        let v: Value = serde_json::from_str(line).unwrap();
-        let robot = v["robot"].as_u64();
-        let t = v["t"].as_f64().unwrap();
-        match v["kind"].as_str().unwrap() {
-            "decide" => assert!(decided
-                .insert(
-                    robot.unwrap(),
-                    (t, v["value"].as_str().unwrap().to_string())
-                )
-                .is_none()),
-            "motion_finish" if v["outcome"] == "arrived" => {
-                arrived.insert(
-                    robot.unwrap(),
-                    (v["pos"][0].as_f64().unwrap(), v["pos"][1].as_f64().unwrap()),
-                );
-            }
-            // Nothing crosses the cut while it lasts.
-            "receive" if t < 30.0 && side(robot.unwrap()) != side(v["from"].as_u64().unwrap()) => {
-                crossing += 1
-            }
-            _ => {}
-        }
-    }
+    // Nothing crosses the cut while it lasts.
+    let crossing = trace
+        .iter()
+        .filter(|v| {
+            v["kind"] == "receive"
+                && v["t"].as_f64().unwrap() < 30.0
+                && side(v["robot"].as_u64().unwrap()) != side(v["from"].as_u64().unwrap())
+        })
+        .count();
     assert_eq!(crossing, 0, "messages crossed the partition");
+    let (decided, arrived) = decisions_and_arrivals(&trace);
     assert_eq!(decided.len(), 5, "everybody decides: {decided:?}");
     let value = &decided[&2].1;
     for (p, (t, v)) in &decided {
@@ -438,76 +455,39 @@ fn partition_blocks_the_minority_until_it_heals_then_everybody_agrees() {
                 "the majority decides during the partition (p{p} at {t})"
             );
         }
-        let (a, b) = (arrived[p], arrived[&2]);
-        assert!(
-            (a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9,
-            "p{p} meets the others: {a:?} vs {b:?}"
-        );
+        assert!(same_point(arrived[p], arrived[&2]), "p{p} meets the others");
     }
 }
 
 #[test]
 fn every_correct_robot_meets_at_the_same_decided_point_despite_a_crash() {
-    let dir = tempfile::tempdir().unwrap();
-    let trace = dir.path().join("t.jsonl");
-    let o = nekosim(&[
-        "run",
-        "examples/scenarios/meeting_point.ron",
-        "--trace",
-        trace.to_str().unwrap(),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let mut decided = std::collections::BTreeMap::new();
-    let mut arrived = std::collections::BTreeMap::new();
-    let mut spawn = std::collections::BTreeMap::new();
-    for line in std::fs::read_to_string(trace).unwrap().lines() {
-        let v: Value = serde_json::from_str(line).unwrap();
-        let robot = v["robot"].as_u64();
-        match v["kind"].as_str().unwrap() {
-            "decide" => assert!(
-                decided
-                    .insert(robot.unwrap(), v["value"].as_str().unwrap().to_string())
-                    .is_none(),
-                "decided twice"
-            ),
-            "motion_finish" if v["outcome"] == "arrived" => {
-                arrived.insert(
-                    robot.unwrap(),
-                    (v["pos"][0].as_f64().unwrap(), v["pos"][1].as_f64().unwrap()),
-                );
-            }
-            "spawn" => {
-                spawn.insert(
-                    robot.unwrap(),
-                    format!(
-                        "MEET [{}, {}]",
-                        v["pos"][0].as_f64().unwrap(),
-                        v["pos"][1].as_f64().unwrap()
-                    ),
-                );
-            }
-            _ => {}
-        }
-    }
-    let correct = [1u64, 2, 3, 4];
+    let trace = example_trace("examples/scenarios/meeting_point.ron");
+    let (decided, arrived) = decisions_and_arrivals(&trace);
+    let spawn: Vec<String> = trace
+        .iter()
+        .filter(|v| v["kind"] == "spawn")
+        .map(|v| {
+            format!(
+                "MEET [{}, {}]",
+                v["pos"][0].as_f64().unwrap(),
+                v["pos"][1].as_f64().unwrap()
+            )
+        })
+        .collect();
     assert!(
         !decided.contains_key(&0),
         "the crashed robot decides nothing"
     );
-    let value = &decided[&1];
-    for p in correct {
-        assert_eq!(&decided[&p], value, "agreement");
-        let (x, y) = arrived[&p];
+    let value = &decided[&1].1;
+    for p in [1u64, 2, 3, 4] {
+        assert_eq!(&decided[&p].1, value, "agreement");
         assert!(
-            (arrived[&1].0 - x).abs() < 1e-9 && (arrived[&1].1 - y).abs() < 1e-9,
+            same_point(arrived[&p], arrived[&1]),
             "everybody at the same point"
         );
     }
     // Validity: the decided point is somebody's born position.
-    assert!(
-        spawn.values().any(|s| s == value),
-        "{value} was never proposed"
-    );
+    assert!(spawn.contains(value), "{value} was never proposed");
 }
 
 #[test]

@@ -59,15 +59,28 @@ fn run_load(
     faults: Vec<Fault>,
     until: f64,
 ) -> Vec<Record> {
-    let robots = (0..n)
-        .map(|i| {
-            let a: Box<dyn Algorithm> = Box::new(BroadcastLoad {
-                layer: "abcast".into(),
-                count: 5,
-                mean_interval: 1.0,
-            });
-            (spec(20.0 * i as f64, 0.0, 0.0, 1.0), a)
+    let load = || -> Box<dyn Algorithm> {
+        Box::new(BroadcastLoad {
+            layer: "abcast".into(),
+            count: 5,
+            mean_interval: 1.0,
         })
+    };
+    run_line(seed, n, load, network, stack, faults, until)
+}
+
+/// `n` robots 20 apart on a line, each running `algorithm()`; the trace.
+fn run_line(
+    seed: u64,
+    n: u32,
+    algorithm: impl Fn() -> Box<dyn Algorithm>,
+    network: NetworkSpec,
+    stack: Vec<LayerSpec>,
+    faults: Vec<Fault>,
+    until: f64,
+) -> Vec<Record> {
+    let robots = (0..n)
+        .map(|i| (spec(20.0 * i as f64, 0.0, 0.0, 1.0), algorithm()))
         .collect::<Vec<(RobotSpec, Box<dyn Algorithm>)>>();
     nekosim::run(SimConfig {
         seed,
@@ -386,29 +399,15 @@ fn consensus_properties_with_f_crashes_over_every_network() {
                         at: rng.gen_range(0.0..15.0),
                     })
                     .collect();
-                let robots = (0..n)
-                    .map(|i| {
-                        let a: Box<dyn Algorithm> = Box::new(Proposer { instances });
-                        (spec(20.0 * i as f64, 0.0, 0.0, 1.0), a)
-                    })
-                    .collect::<Vec<_>>();
-                let records = nekosim::run(SimConfig {
+                let records = run_line(
                     seed,
-                    until: 3000.0,
-                    world: infinite(),
-                    robots,
-                    arbiters: 1,
-                    record: true,
-                    observers: Default::default(),
-                    comms: Comms {
-                        network: net.clone(),
-                        stack: consensus_stack(links),
-                        faults,
-                        protocols: Default::default(),
-                    },
-                })
-                .expect("run")
-                .records;
+                    n,
+                    || Box::new(Proposer { instances }),
+                    net.clone(),
+                    consensus_stack(links),
+                    faults,
+                    3000.0,
+                );
                 runs += 1;
                 let mut proposed: BTreeMap<u64, BTreeSet<String>> = BTreeMap::new();
                 let mut decided: BTreeMap<(u32, u64), Vec<String>> = BTreeMap::new();
