@@ -15,6 +15,8 @@ pub mod model;
 pub mod property;
 pub mod registry;
 
-pub use model::{build, run, CheckModel, ModelError, NetworkKind, Options, Outcome, Target, Verdict};
+pub use model::{
+    build, run, CheckModel, Exploration, ModelError, NetworkKind, Options, Outcome, Target, Verdict,
+};
 pub use property::Family;
 pub use registry::{find, ModelDef, MODELS};

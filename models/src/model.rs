@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use nekosim_protocols::{Content, LayerSpec, Pid, ProtocolSpec, Request, Stack, Wire, Wiring};
 use stateright::actor::{ActorModel, ActorModelAction, LossyNetwork, Network};
-use stateright::{Checker, Expectation, Model, Path};
+use stateright::{Checker, Expectation, HasDiscoveries, Model, Path};
 
 use crate::adapter::{ClientRequest, ModelTimer, NetMsg, ProcessActor, Shared};
 use crate::property::{properties, Family, State};
@@ -55,8 +55,9 @@ pub struct Options {
     pub network: NetworkKind,
     /// Protocol timer firings allowed per process.
     pub timer_budget: u32,
-    /// Chandra-Toueg rounds explored per instance: states with a message of a later round are
-    /// outside the model.
+    /// Last Chandra-Toueg round explored in each instance: states with a message of a later
+    /// round are outside the model. Round 1 is the least that lets round 0 decide, as a
+    /// process that acks round 0 moves on to round 1 in the same step.
     pub max_round: u64,
 }
 
@@ -68,7 +69,7 @@ impl Default for Options {
             crashes: 0,
             network: NetworkKind::Unordered,
             timer_budget: 1,
-            max_round: 3,
+            max_round: 1,
         }
     }
 }
@@ -298,13 +299,37 @@ impl Outcome {
     }
 }
 
-/// Explores `model` breadth-first with `threads` threads, down to `depth` steps if given.
-pub fn run(model: CheckModel, threads: usize, depth: Option<usize>) -> Outcome {
+/// How to explore.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Exploration {
+    pub threads: usize,
+    /// Explore paths of at most this many steps.
+    pub depth: Option<usize>,
+    /// Stop at the first counterexample instead of settling every property.
+    pub first_counterexample: bool,
+}
+
+impl Default for Exploration {
+    fn default() -> Self {
+        Self {
+            threads: 1,
+            depth: None,
+            first_counterexample: false,
+        }
+    }
+}
+
+/// Explores `model` breadth-first (so each counterexample is a shortest one when single
+/// threaded).
+pub fn run(model: CheckModel, how: Exploration) -> Outcome {
     let props = model.properties();
     let start = Instant::now();
-    let mut builder = model.checker().threads(threads.max(1));
-    if let Some(d) = depth {
+    let mut builder = model.checker().threads(how.threads.max(1));
+    if let Some(d) = how.depth {
         builder = builder.target_max_depth(d);
+    }
+    if how.first_counterexample {
+        builder = builder.finish_when(HasDiscoveries::AnyFailures);
     }
     let checker = builder.spawn_bfs().join();
     let seconds = start.elapsed().as_secs_f64();

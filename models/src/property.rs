@@ -32,11 +32,7 @@ pub enum Family {
 }
 
 /// A property: how it is checked, its name and its condition.
-pub type Prop = (
-    Expectation,
-    &'static str,
-    fn(&CheckModel, &State) -> bool,
-);
+pub type Prop = (Expectation, &'static str, fn(&CheckModel, &State) -> bool);
 
 /// The properties of a family for a model with `crashes` crashes allowed and the given
 /// proposers (consensus only).
@@ -89,8 +85,7 @@ fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
 /// the survivors to make progress), so a run cut by the timer budget is never at rest.
 pub fn at_rest(m: &CheckModel, s: &State) -> bool {
     let crashed_any = s.crashed.iter().any(|c| *c);
-    if s
-        .network
+    if s.network
         .iter_deliverable()
         .any(|e| !s.crashed[usize::from(e.dst)])
     {
@@ -217,7 +212,9 @@ fn consensus_validity(m: &CheckModel, s: &State) -> bool {
         .requests
         .iter()
         .enumerate()
-        .filter(|(g, (p, _))| s.actor_states[*p as usize].issued * m.cfg.n as usize > g - *p as usize)
+        .filter(|(g, (p, _))| {
+            s.actor_states[*p as usize].issued * m.cfg.n as usize > g - *p as usize
+        })
         .filter_map(|(_, (_, r))| match r {
             Request::Propose { k, value } => Some((*k, value)),
             _ => None,

@@ -70,7 +70,12 @@ pub fn consensus_abcast() -> Target {
             heartbeat(),
             layer("rb", ProtocolSpec::ReliableBroadcast, "net", &[]),
             layer("consensus", ProtocolSpec::ChandraToueg, "net", &["fd"]),
-            layer("abcast", ProtocolSpec::ConsensusAbcast, "rb", &["consensus"]),
+            layer(
+                "abcast",
+                ProtocolSpec::ConsensusAbcast,
+                "rb",
+                &["consensus"],
+            ),
         ],
         entry: "abcast".into(),
         family: Family::Abcast,
