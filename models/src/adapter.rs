@@ -234,7 +234,9 @@ impl ProcessActor {
         state
     }
 
-    /// Delivers a network message.
+    /// Delivers a network message. A delivery that changes nothing (a late ack, a second
+    /// copy of a relayed message) leaves the state borrowed, which stateright takes as no
+    /// transition: the message stays in flight but never branches the exploration.
     pub fn receive(
         &self,
         id: Id,
@@ -247,14 +249,15 @@ impl ProcessActor {
         if state.zombie {
             return;
         }
-        let s = state.to_mut();
+        let mut next = (**state).clone();
+        let mut out = Out::new();
         let from = usize::from(src) as Pid;
         log.push(Happening::Receive {
             from,
             layer: msg.layer,
             msg: msg.msg.clone(),
         });
-        let routed = s.stack.step_local(
+        let routed = next.stack.step_local(
             &self.shared.wiring,
             &self.ctx(id),
             msg.layer,
@@ -263,7 +266,12 @@ impl ProcessActor {
                 ind: Indication::Deliver { from, msg: msg.msg },
             },
         );
-        self.emit(s, routed, o, log);
+        self.emit(&mut next, routed, &mut out, log);
+        if out.is_empty() && next == **state {
+            return;
+        }
+        *state = Cow::Owned(next);
+        o.append(&mut out);
     }
 
     /// Fires a timer.

@@ -59,6 +59,10 @@ pub struct Options {
     /// round are outside the model. Round 1 is the least that lets round 0 decide, as a
     /// process that acks round 0 moves on to round 1 in the same step.
     pub max_round: u64,
+    /// With crashes, a multicast leaves one message at a time, so a crash can cut it short
+    /// (what reliable broadcast must survive). Off, a multicast leaves at once, which keeps
+    /// heartbeat-driven stacks with crashes small enough to explore.
+    pub partial_multicasts: bool,
 }
 
 impl Default for Options {
@@ -70,6 +74,7 @@ impl Default for Options {
             network: NetworkKind::Unordered,
             timer_budget: 1,
             max_round: 1,
+            partial_multicasts: true,
         }
     }
 }
@@ -183,7 +188,7 @@ pub fn build(
         muted,
         wiring,
         timer_budget: opts.timer_budget,
-        staged_sends: opts.crashes > 0,
+        staged_sends: opts.crashes > 0 && opts.partial_multicasts,
     });
     let actors: Vec<ProcessActor> = (0..n)
         .map(|p| {

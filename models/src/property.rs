@@ -8,10 +8,11 @@
 //! a false counterexample; it only narrows what is explored. The `sometimes` properties give a
 //! witness that the good outcome is reachable at all.
 
+use std::borrow::Cow;
 use std::collections::BTreeSet;
 
 use nekosim_protocols::{MsgId, Pid, Request, Wire};
-use stateright::actor::ActorModelState;
+use stateright::actor::{ActorModelState, Network, Out};
 use stateright::Expectation;
 
 use crate::adapter::{ModelTimer, ProcessActor};
@@ -79,26 +80,43 @@ fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
     (0..s.actor_states.len()).filter(|&i| !s.crashed[i])
 }
 
-/// Nothing is left to happen: no delivery to a live process, no client request or staged send
-/// pending, no protocol timer that a live process may still fire. After a crash, a pending
-/// protocol timer always counts as something left (a failure detector must keep running for
-/// the survivors to make progress), so a run cut by the timer budget is never at rest.
+/// Nothing is left to happen: no client request or staged send pending, no protocol timer
+/// that a live process may still fire, no delivery to a live process that would change
+/// anything (on an ordered network: no delivery at all). After a crash, a pending protocol timer always counts as something left (a
+/// failure detector must keep running for the survivors to make progress), so a run cut by
+/// the timer budget is never at rest.
 pub fn at_rest(m: &CheckModel, s: &State) -> bool {
     let crashed_any = s.crashed.iter().any(|c| *c);
-    if s.network
-        .iter_deliverable()
-        .any(|e| !s.crashed[usize::from(e.dst)])
-    {
-        return false;
-    }
-    live(s).all(|i| {
+    let timers_done = live(s).all(|i| {
         s.timers_set[i].iter().all(|t| match t {
             ModelTimer::Client | ModelTimer::Flush => false,
             ModelTimer::Layer { .. } => {
                 !crashed_any && s.actor_states[i].fired >= m.cfg.timer_budget
             }
         })
-    })
+    });
+    timers_done
+        && s.network.iter_deliverable().all(|e| {
+            let i = usize::from(e.dst);
+            if s.crashed[i] {
+                return true;
+            }
+            // On an ordered network, even a useless message is a step: it unblocks the
+            // messages queued behind it.
+            if matches!(s.network, Network::Ordered(_)) {
+                return false;
+            }
+            let mut state = Cow::Borrowed(&*s.actor_states[i]);
+            m.actors[i].receive(
+                e.dst,
+                &mut state,
+                e.src,
+                e.msg.clone(),
+                &mut Out::new(),
+                &mut Vec::new(),
+            );
+            matches!(state, Cow::Borrowed(_))
+        })
 }
 
 /// The global index of the broadcast `id` (process `p`'s `i`-th request is request
