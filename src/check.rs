@@ -56,12 +56,6 @@ pub fn list() -> String {
     MODELS.iter().map(|m| format!("{}\n", m.name)).collect()
 }
 
-/// The timer budget a model gets unless told otherwise: stacks whose only timers are a
-/// heartbeat detector's get one firing per process (every pattern of early suspicions).
-fn default_timers(_model: &str) -> u32 {
-    Options::default().timer_budget
-}
-
 /// Runs a check and prints its report on `out`; `Ok(true)` when every property holds.
 pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> {
     let def = find(&args.model).ok_or_else(|| CheckError::UnknownModel {
@@ -74,7 +68,7 @@ pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> 
         requests: args.requests,
         crashes: args.crashes,
         network: args.network,
-        timer_budget: args.timers.unwrap_or_else(|| default_timers(def.name)),
+        timer_budget: args.timers.unwrap_or(defaults.timer_budget),
         max_round: args.rounds.unwrap_or(defaults.max_round),
         partial_multicasts: defaults.partial_multicasts,
     };
