@@ -4,6 +4,7 @@
 
 pub use nekosim_actors::*;
 
+pub mod check;
 pub mod log;
 pub mod output;
 pub mod runner;

@@ -1,15 +1,17 @@
-//! The `nekosim` command: run or validate a scenario file.
+//! The `nekosim` command: run or validate a scenario file, or model-check a protocol stack.
 //!
 //! Exit codes: 0 success, 2 invalid input (the message names FILE:LINE:COL where it can),
-//! 1 internal error.
+//! 1 internal error, or for `check` a counterexample found.
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use nekosim::check::{self, CheckArgs};
 use nekosim::runner::{self, RunError, RunOptions};
 use nekosim::scenario::{Overrides, Registry, Source};
+use nekosim_models::NetworkKind;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -49,6 +51,49 @@ enum Command {
         /// The scenario file (RON).
         scenario: PathBuf,
     },
+    /// Model-check a protocol stack with stateright (exit 1 when a property fails).
+    Check {
+        /// The model (see --list).
+        #[arg(required_unless_present = "list")]
+        model: Option<String>,
+        /// Print the model names, one per line.
+        #[arg(long, conflicts_with = "model")]
+        list: bool,
+        /// Number of processes.
+        #[arg(long, default_value_t = 3)]
+        processes: u32,
+        /// Client requests (broadcasts or proposals), handed out round-robin.
+        #[arg(long, default_value_t = 2)]
+        requests: u32,
+        /// Processes that may crash.
+        #[arg(long, default_value_t = 0)]
+        crashes: u32,
+        /// Network semantics.
+        #[arg(long, value_enum, default_value_t = NetArg::Unordered)]
+        network: NetArg,
+        /// Explore paths of at most this many steps.
+        #[arg(long)]
+        depth: Option<usize>,
+        /// Checker threads.
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Write the counterexample (or a witness) here as a JSONL trace.
+        #[arg(long)]
+        trace: Option<PathBuf>,
+        /// Protocol timer firings allowed per process.
+        #[arg(long)]
+        timers: Option<u32>,
+        /// Last Chandra-Toueg round explored.
+        #[arg(long)]
+        rounds: Option<u64>,
+    },
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum NetArg {
+    Unordered,
+    Ordered,
+    Lossy,
 }
 
 /// A failure and its exit code.
@@ -82,7 +127,7 @@ fn main() -> ExitCode {
         eprintln!("nekosim: internal error: {info}");
     }));
     match std::panic::catch_unwind(|| execute(cli.command)) {
-        Ok(Ok(())) => ExitCode::SUCCESS,
+        Ok(Ok(code)) => ExitCode::from(code),
         Ok(Err(f)) => {
             // Invalid input starts with FILE:LINE:COL, like a compiler's diagnostics.
             if f.code == 2 {
@@ -96,9 +141,46 @@ fn main() -> ExitCode {
     }
 }
 
-fn execute(command: Command) -> Result<(), Failure> {
+/// Runs a command; `Ok` carries the exit code (a check's counterexample is 1).
+fn execute(command: Command) -> Result<u8, Failure> {
     let registry = Registry::new();
     match command {
+        Command::Check { list: true, .. } => {
+            print!("{}", check::list());
+            Ok(0)
+        }
+        Command::Check {
+            model,
+            processes,
+            requests,
+            crashes,
+            network,
+            depth,
+            threads,
+            trace,
+            timers,
+            rounds,
+            ..
+        } => {
+            let args = CheckArgs {
+                model: model.unwrap_or_default(),
+                processes,
+                requests,
+                crashes,
+                network: match network {
+                    NetArg::Unordered => NetworkKind::Unordered,
+                    NetArg::Ordered => NetworkKind::Ordered,
+                    NetArg::Lossy => NetworkKind::Lossy,
+                },
+                depth,
+                threads,
+                trace,
+                timers,
+                rounds,
+            };
+            let holds = check::check(&args, &mut std::io::stdout().lock()).map_err(invalid)?;
+            Ok(if holds { 0 } else { 1 })
+        }
         Command::Validate { scenario } => {
             let source = Source::load(&scenario).map_err(invalid)?;
             let built = source
@@ -110,7 +192,7 @@ fn execute(command: Command) -> Result<(), Failure> {
                 built.name,
                 built.robots.len()
             );
-            Ok(())
+            Ok(0)
         }
         Command::Run {
             scenario,
@@ -181,7 +263,7 @@ fn execute(command: Command) -> Result<(), Failure> {
                     );
                 }
             }
-            Ok(())
+            Ok(0)
         }
     }
 }

@@ -1,2 +1,22 @@
-//! Stateright models that explore the interleavings of the protocols in `nekosim-protocols`
-//! (the same code the simulator runs). Filled by the model-checking issue.
+//! Stateright models that explore every interleaving of the protocols in `nekosim-protocols`:
+//! the very code the simulator runs, not a re-implementation.
+//!
+//! - [`adapter`]: one process's stack as one stateright actor.
+//! - [`model`]: network semantics, crashes, bounds, and running the checker.
+//! - [`property`]: the properties of each protocol family.
+//! - [`registry`]: the models `nekosim check` knows by name.
+//! - [`explain`]: a path of the checker as a sequence of messages, deliveries and decisions.
+//!
+//! See docs/model-checking.md for what is checked and under which assumptions.
+
+pub mod adapter;
+pub mod explain;
+pub mod model;
+pub mod property;
+pub mod registry;
+
+pub use model::{
+    build, run, CheckModel, Exploration, ModelError, NetworkKind, Options, Outcome, Target, Verdict,
+};
+pub use property::Family;
+pub use registry::{find, ModelDef, MODELS};

@@ -1,6 +1,7 @@
 //! All integration tests, one binary; modules are named by behaviour.
 
 mod cancellation;
+mod check;
 mod cli;
 mod collisions;
 mod common;

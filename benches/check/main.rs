@@ -1,0 +1,57 @@
+//! Model-checking benchmarks (`cargo bench --bench check`): states generated per second by a
+//! full breadth-first check, single threaded, of
+//! - `check/lamport-abcast n=3 k=2`: our Lamport abcast model (the protocol code the
+//!   simulator runs, hosted by the adapter), and
+//! - `check/paxos 2 clients 3 servers`: stateright's own Single Decree Paxos example, in the
+//!   same run for comparison.
+//!
+//! Criterion's throughput line (elem/s) is the states/s figure; the element count is the
+//! number of states one check generates (duplicates included, as stateright counts them).
+
+mod paxos;
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use nekosim_models::{build, find, run, Exploration, Options};
+use stateright::actor::Network;
+use stateright::{Checker, Model};
+
+fn lamport() -> nekosim_models::CheckModel {
+    let def = find("lamport-abcast").expect("registered");
+    build(&def.target(), &Options::default(), |_, _| {}).expect("valid")
+}
+
+fn paxos() -> paxos::PaxosModel {
+    paxos::PaxosModelCfg {
+        client_count: 2,
+        server_count: 3,
+        network: Network::new_unordered_nonduplicating([]),
+    }
+    .into_model()
+}
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("check");
+    g.sample_size(10);
+
+    let states = run(lamport(), Exploration::default()).states;
+    g.throughput(Throughput::Elements(states as u64));
+    g.bench_function("lamport-abcast n=3 k=2", |b| {
+        b.iter(|| {
+            let o = run(lamport(), Exploration::default());
+            assert_eq!(o.states, states);
+        })
+    });
+
+    let states = paxos().checker().spawn_bfs().join().state_count();
+    g.throughput(Throughput::Elements(states as u64));
+    g.bench_function("paxos 2 clients 3 servers", |b| {
+        b.iter(|| {
+            let c = paxos().checker().spawn_bfs().join();
+            assert_eq!(c.unique_state_count(), 16_668);
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,367 @@
+//! The adapter: one process's composed protocol stack ([`Stack`], the same layers and wiring a
+//! scenario's `stack` builds) hosted as one stateright [`Actor`].
+//!
+//! - A hop between two layers of one process is applied inside the actor's step
+//!   ([`Stack::step_local`]); only what leaves the process becomes a stateright command.
+//! - A message between processes is a stateright network message ([`NetMsg`]), so the checker
+//!   explores every order of deliveries the chosen network allows.
+//! - A protocol timer is a stateright timer: it fires whenever the checker likes. Each process
+//!   may fire at most [`Shared::timer_budget`] protocol timers, which keeps heartbeat-driven
+//!   stacks finite; afterwards its timers are inert (the step is a no-op).
+//! - Client requests (broadcasts or proposals) are issued one by one by a `Client` timer, so
+//!   they interleave with deliveries.
+//! - With crashes allowed, a process's sends leave one message at a time (a `Flush` timer), so a
+//!   crash can cut a multicast short, as in the simulator where a crashed robot's unsent
+//!   messages are lost.
+
+use std::borrow::Cow;
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use nekosim_protocols::service::TimerId;
+use nekosim_protocols::{
+    Ctx, Indication, Input, LayerIx, MsgId, Pid, Request, Routed, Stack, Wire, Wiring, APP, NET,
+};
+use stateright::actor::{model_timeout, Actor, Id, Out};
+
+/// A message between processes: `msg` travels from a layer to the same layer (`layer`) of the
+/// destination.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct NetMsg {
+    pub layer: LayerIx,
+    pub msg: Wire,
+}
+
+/// A stateright timer of one process.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum ModelTimer {
+    /// Issue the process's next client request.
+    Client,
+    /// Hand the next staged message to the network (only with crashes).
+    Flush,
+    /// A protocol layer's timer.
+    Layer { layer: LayerIx, timer: TimerId },
+}
+
+/// What a process has done so far: its stack plus what reached its application.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct ProcessState {
+    pub stack: Stack,
+    /// Client requests issued so far (a prefix of [`ProcessActor::requests`]).
+    pub issued: usize,
+    /// Protocol timers fired so far.
+    pub fired: u32,
+    /// Broadcast deliveries to the application, in order.
+    pub delivered: Vec<(MsgId, Wire)>,
+    /// Consensus decisions reaching the application, in order (a repeat is kept, so
+    /// integrity can be checked).
+    pub decided: Vec<(u64, Wire)>,
+    /// Messages waiting to leave (destination, message); only with crashes.
+    pub outbox: VecDeque<(Pid, NetMsg)>,
+    /// Restarted after a crash. Protocols here are crash-stop, so such a process is inert, and
+    /// the model's boundary excludes every state that has one (stateright always offers a
+    /// recovery after a crash).
+    pub zombie: bool,
+}
+
+/// What never changes during a check and is the same for every process.
+#[derive(Debug)]
+pub struct Shared {
+    pub n: u32,
+    pub wiring: Wiring,
+    /// Protocol timer firings allowed per process.
+    pub timer_budget: u32,
+    /// Sends leave one message at a time (so a crash can cut a multicast).
+    pub staged_sends: bool,
+    /// Layers whose messages are not sent: their messages only feed their own timers, and
+    /// no timer may fire (a zero budget), so sending them could change nothing but the
+    /// number of states.
+    pub muted: Vec<LayerIx>,
+}
+
+/// A client request of the model: `req` issued by the application to `layer`.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct ClientRequest {
+    pub layer: LayerIx,
+    pub req: Request,
+}
+
+/// One process of a model.
+#[derive(Clone, Debug)]
+pub struct ProcessActor {
+    pub shared: Arc<Shared>,
+    /// The stack at start (a deliberately broken variant may have replaced a layer).
+    pub init: Stack,
+    /// This process's client requests, in issue order.
+    pub requests: Vec<ClientRequest>,
+}
+
+/// What one step of a process did, for explaining a path.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Happening {
+    /// The application issued `req` to `layer`.
+    Request { layer: LayerIx, req: Request },
+    /// The application skipped a proposal for an instance it has already seen decided.
+    Skipped { layer: LayerIx, req: Request },
+    /// `msg` from `from` arrived at `layer`.
+    Receive {
+        from: Pid,
+        layer: LayerIx,
+        msg: Wire,
+    },
+    /// A protocol timer fired.
+    Timer { layer: LayerIx, timer: TimerId },
+    /// `layer` handed `msg` for `to` to the network (or to the outbox, with crashes).
+    Send {
+        layer: LayerIx,
+        to: Vec<Pid>,
+        msg: Wire,
+    },
+    /// One staged message left for `to`.
+    Flush { to: Pid, msg: NetMsg },
+    /// An indication reached the application.
+    App { layer: LayerIx, ind: Indication },
+}
+
+/// The storage a process saves at start: a later `on_start` with storage is a recovery.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Started;
+
+impl ProcessActor {
+    fn ctx(&self, id: Id) -> Ctx {
+        Ctx {
+            me: usize::from(id) as Pid,
+            n: self.shared.n,
+        }
+    }
+
+    /// Turns what left the stack into stateright commands and application observations.
+    fn emit(
+        &self,
+        state: &mut ProcessState,
+        routed: Vec<Routed>,
+        o: &mut Out<Self>,
+        log: &mut Vec<Happening>,
+    ) {
+        for r in routed {
+            match r {
+                Routed::Net { layer, .. } if self.shared.muted.contains(&layer) => {}
+                Routed::Net { layer, to, msg } => {
+                    for &d in &to {
+                        let m = NetMsg {
+                            layer,
+                            msg: msg.clone(),
+                        };
+                        if self.shared.staged_sends {
+                            state.outbox.push_back((d, m));
+                        } else {
+                            o.send(Id::from(d as usize), m);
+                        }
+                    }
+                    log.push(Happening::Send { layer, to, msg });
+                }
+                Routed::App { layer, ind } => {
+                    match &ind {
+                        Indication::BDeliver { id, msg } => {
+                            state.delivered.push((*id, msg.clone()))
+                        }
+                        Indication::Decide { k, value } => state.decided.push((*k, value.clone())),
+                        _ => {}
+                    }
+                    log.push(Happening::App { layer, ind });
+                }
+                Routed::SetTimer { layer, timer, .. } => {
+                    o.set_timer(ModelTimer::Layer { layer, timer }, model_timeout())
+                }
+                Routed::CancelTimer { layer, timer } => {
+                    o.cancel_timer(ModelTimer::Layer { layer, timer })
+                }
+                Routed::Layer { to, input } => {
+                    // `step_local` keeps every hop to a layer; what is left is a request to
+                    // the network other than a send, which `Wiring::check` rules out.
+                    panic!("the network only carries sends; layer {to} got {input:?}")
+                }
+            }
+        }
+        if !state.outbox.is_empty() {
+            o.set_timer(ModelTimer::Flush, model_timeout());
+        }
+    }
+
+    /// Issues the next client request.
+    fn issue(&self, id: Id, state: &mut ProcessState, o: &mut Out<Self>, log: &mut Vec<Happening>) {
+        let ClientRequest { layer, req } = self.requests[state.issued].clone();
+        state.issued += 1;
+        if state.issued < self.requests.len() {
+            o.set_timer(ModelTimer::Client, model_timeout());
+        }
+        // An application does not propose to an instance it has seen decided.
+        if let Request::Propose { k, .. } = &req {
+            if state.decided.iter().any(|(d, _)| d == k) {
+                log.push(Happening::Skipped { layer, req });
+                return;
+            }
+        }
+        log.push(Happening::Request {
+            layer,
+            req: req.clone(),
+        });
+        let routed = state.stack.step_local(
+            &self.shared.wiring,
+            &self.ctx(id),
+            layer,
+            Input::Request { from: APP, req },
+        );
+        self.emit(state, routed, o, log);
+    }
+
+    /// A fresh process: its layers started, its first client request armed.
+    pub fn start(&self, id: Id, o: &mut Out<Self>, log: &mut Vec<Happening>) -> ProcessState {
+        let mut state = ProcessState {
+            stack: self.init.clone(),
+            issued: 0,
+            fired: 0,
+            delivered: Vec::new(),
+            decided: Vec::new(),
+            outbox: VecDeque::new(),
+            zombie: false,
+        };
+        let routed = state.stack.start_all(&self.shared.wiring, &self.ctx(id));
+        self.emit(&mut state, routed, o, log);
+        if !self.requests.is_empty() {
+            o.set_timer(ModelTimer::Client, model_timeout());
+        }
+        state
+    }
+
+    /// Delivers a network message. A delivery that changes nothing (a late ack, a second
+    /// copy of a relayed message) leaves the state borrowed, which stateright takes as no
+    /// transition: the message stays in flight but never branches the exploration.
+    pub fn receive(
+        &self,
+        id: Id,
+        state: &mut Cow<ProcessState>,
+        src: Id,
+        msg: NetMsg,
+        o: &mut Out<Self>,
+        log: &mut Vec<Happening>,
+    ) {
+        if state.zombie {
+            return;
+        }
+        let mut next = (**state).clone();
+        let mut out = Out::new();
+        let from = usize::from(src) as Pid;
+        log.push(Happening::Receive {
+            from,
+            layer: msg.layer,
+            msg: msg.msg.clone(),
+        });
+        let routed = next.stack.step_local(
+            &self.shared.wiring,
+            &self.ctx(id),
+            msg.layer,
+            Input::Indication {
+                from: NET,
+                ind: Indication::Deliver { from, msg: msg.msg },
+            },
+        );
+        self.emit(&mut next, routed, &mut out, log);
+        if out.is_empty() && next == **state {
+            return;
+        }
+        *state = Cow::Owned(next);
+        o.append(&mut out);
+    }
+
+    /// Fires a timer.
+    pub fn fire(
+        &self,
+        id: Id,
+        state: &mut Cow<ProcessState>,
+        timer: &ModelTimer,
+        o: &mut Out<Self>,
+        log: &mut Vec<Happening>,
+    ) {
+        if state.zombie {
+            return;
+        }
+        match timer {
+            ModelTimer::Client => self.issue(id, state.to_mut(), o, log),
+            ModelTimer::Flush => {
+                let s = state.to_mut();
+                if let Some((to, m)) = s.outbox.pop_front() {
+                    o.send(Id::from(to as usize), m.clone());
+                    log.push(Happening::Flush { to, msg: m });
+                }
+                if !s.outbox.is_empty() {
+                    o.set_timer(ModelTimer::Flush, model_timeout());
+                }
+            }
+            &ModelTimer::Layer { layer, timer: t } => {
+                if state.fired >= self.shared.timer_budget {
+                    // Spent: keep the timer and change nothing, which stateright treats as
+                    // no transition at all.
+                    o.set_timer(timer.clone(), model_timeout());
+                    return;
+                }
+                let s = state.to_mut();
+                s.fired += 1;
+                log.push(Happening::Timer { layer, timer: t });
+                let routed =
+                    s.stack
+                        .step_local(&self.shared.wiring, &self.ctx(id), layer, Input::Timer(t));
+                self.emit(s, routed, o, log);
+            }
+        }
+    }
+}
+
+impl Actor for ProcessActor {
+    type Msg = NetMsg;
+    type Timer = ModelTimer;
+    type State = ProcessState;
+    type Storage = Started;
+    type Random = ();
+
+    fn on_start(&self, id: Id, storage: &Option<Started>, o: &mut Out<Self>) -> ProcessState {
+        if storage.is_some() {
+            return ProcessState {
+                stack: self.init.clone(),
+                issued: 0,
+                fired: 0,
+                delivered: Vec::new(),
+                decided: Vec::new(),
+                outbox: VecDeque::new(),
+                zombie: true,
+            };
+        }
+        o.save(Started);
+        self.start(id, o, &mut Vec::new())
+    }
+
+    fn on_msg(
+        &self,
+        id: Id,
+        state: &mut Cow<ProcessState>,
+        src: Id,
+        msg: NetMsg,
+        o: &mut Out<Self>,
+    ) {
+        self.receive(id, state, src, msg, o, &mut Vec::new());
+    }
+
+    fn on_timeout(
+        &self,
+        id: Id,
+        state: &mut Cow<ProcessState>,
+        timer: &ModelTimer,
+        o: &mut Out<Self>,
+    ) {
+        self.fire(id, state, timer, o, &mut Vec::new());
+    }
+
+    fn name(&self) -> String {
+        String::from("process")
+    }
+}

@@ -1,0 +1,296 @@
+//! The properties, stated once per protocol family and attached to every model of the family.
+//!
+//! Safety properties are `always` conditions on every reachable state. The liveness-flavoured
+//! ones (validity, agreement) are checked `always` at the states where the system is **at
+//! rest**: nothing can be delivered to a live process, no client request or staged send is
+//! pending, and no live process can still fire a protocol timer. A state cut by a bound (the
+//! timer budget, the round bound of Chandra-Toueg) is never at rest, so a bound never produces
+//! a false counterexample; it only narrows what is explored. The `sometimes` properties give a
+//! witness that the good outcome is reachable at all.
+
+use std::borrow::Cow;
+use std::collections::BTreeSet;
+
+use nekosim_protocols::{MsgId, Pid, Request, Wire};
+use stateright::actor::{ActorModelState, Network, Out};
+use stateright::Expectation;
+
+use crate::adapter::{ModelTimer, ProcessActor};
+use crate::model::CheckModel;
+
+/// A state of a model.
+pub type State = ActorModelState<ProcessActor, ()>;
+
+/// What a protocol promises, which decides the properties checked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Family {
+    /// Total-order (atomic) broadcast.
+    Abcast,
+    /// Reliable broadcast (no order).
+    Broadcast,
+    /// Consensus.
+    Consensus,
+}
+
+/// A property: how it is checked, its name and its condition.
+pub type Prop = (Expectation, &'static str, fn(&CheckModel, &State) -> bool);
+
+/// The properties of a family for a model with `crashes` crashes allowed and the given
+/// proposers (consensus only).
+pub fn properties(family: Family, n: u32, crashes: u32, proposers: u32) -> Vec<Prop> {
+    use Expectation::{Always, Sometimes};
+    match family {
+        Family::Abcast => vec![
+            (Always, "total order", total_order),
+            (Always, "integrity", broadcast_integrity),
+            (Always, "uniform agreement", uniform_agreement),
+            (Always, "validity", validity),
+            (Sometimes, "everything delivered", everything_delivered),
+        ],
+        Family::Broadcast => vec![
+            (Always, "integrity", broadcast_integrity),
+            (Always, "agreement", agreement),
+            (Always, "validity", validity),
+            (Sometimes, "everything delivered", everything_delivered),
+        ],
+        Family::Consensus => {
+            let mut v: Vec<Prop> = vec![
+                (Always, "agreement", consensus_agreement),
+                (Always, "validity", consensus_validity),
+                (Always, "integrity", consensus_integrity),
+                (Sometimes, "termination", termination),
+            ];
+            if crashes > 0 {
+                let majority = n / 2 + 1;
+                for p in 0..n.min(TERMINATION_WITHOUT.len() as u32) {
+                    // Termination needs proposals from a majority of live processes.
+                    let live_proposers = proposers - u32::from(p < proposers);
+                    if live_proposers >= majority {
+                        let (name, f) = TERMINATION_WITHOUT[p as usize];
+                        v.push((Sometimes, name, f));
+                    }
+                }
+            }
+            v
+        }
+    }
+}
+
+fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
+    (0..s.actor_states.len()).filter(|&i| !s.crashed[i])
+}
+
+/// Nothing is left to happen: no client request or staged send pending, no protocol timer
+/// that a live process may still fire, no delivery to a live process that would change
+/// anything (on an ordered network: no delivery at all). After a crash, a pending protocol timer always counts as something left (a
+/// failure detector must keep running for the survivors to make progress), so a run cut by
+/// the timer budget is never at rest.
+pub fn at_rest(m: &CheckModel, s: &State) -> bool {
+    let crashed_any = s.crashed.iter().any(|c| *c);
+    let timers_done = live(s).all(|i| {
+        s.timers_set[i].iter().all(|t| match t {
+            ModelTimer::Client | ModelTimer::Flush => false,
+            ModelTimer::Layer { .. } => {
+                !crashed_any && s.actor_states[i].fired >= m.cfg.timer_budget
+            }
+        })
+    });
+    timers_done
+        && s.network.iter_deliverable().all(|e| {
+            let i = usize::from(e.dst);
+            if s.crashed[i] {
+                return true;
+            }
+            // On an ordered network, even a useless message is a step: it unblocks the
+            // messages queued behind it.
+            if matches!(s.network, Network::Ordered(_)) {
+                return false;
+            }
+            let mut state = Cow::Borrowed(&*s.actor_states[i]);
+            m.actors[i].receive(
+                e.dst,
+                &mut state,
+                e.src,
+                e.msg.clone(),
+                &mut Out::new(),
+                &mut Vec::new(),
+            );
+            matches!(state, Cow::Borrowed(_))
+        })
+}
+
+/// The global index of the broadcast `id` (process `p`'s `i`-th request is request
+/// `p + i * n`), if it is one.
+fn request_of(m: &CheckModel, id: MsgId) -> Option<usize> {
+    let g = id.origin as usize + id.n as usize * m.cfg.n as usize;
+    (id.origin < m.cfg.n && g < m.cfg.requests.len()).then_some(g)
+}
+
+/// Any two processes' delivery sequences are prefixes of one another (crashed processes
+/// included: the order is uniform).
+fn total_order(_: &CheckModel, s: &State) -> bool {
+    let seqs: Vec<Vec<MsgId>> = s
+        .actor_states
+        .iter()
+        .map(|a| a.delivered.iter().map(|(id, _)| *id).collect())
+        .collect();
+    seqs.iter().all(|a| {
+        seqs.iter().all(|b| {
+            let k = a.len().min(b.len());
+            a[..k] == b[..k]
+        })
+    })
+}
+
+/// No process delivers a message twice, and every delivered message was broadcast, by its
+/// origin, with that content.
+fn broadcast_integrity(m: &CheckModel, s: &State) -> bool {
+    s.actor_states.iter().all(|a| {
+        let ids: BTreeSet<MsgId> = a.delivered.iter().map(|(id, _)| *id).collect();
+        ids.len() == a.delivered.len()
+            && a.delivered.iter().all(|(id, msg)| {
+                request_of(m, *id).is_some_and(|g| {
+                    let (p, req) = &m.cfg.requests[g];
+                    *p == id.origin
+                        && matches!(req, Request::Broadcast { msg: sent } if sent == msg)
+                        && s.actor_states[*p as usize].issued * m.cfg.n as usize > g - *p as usize
+                })
+            })
+    })
+}
+
+/// At rest, whatever any process (crashed or not) delivered, every live process delivered.
+fn uniform_agreement(m: &CheckModel, s: &State) -> bool {
+    let all: BTreeSet<MsgId> = s
+        .actor_states
+        .iter()
+        .flat_map(|a| a.delivered.iter().map(|(id, _)| *id))
+        .collect();
+    delivered_everywhere(s, &all) || !at_rest(m, s)
+}
+
+/// At rest, whatever a live process delivered, every live process delivered.
+fn agreement(m: &CheckModel, s: &State) -> bool {
+    let all: BTreeSet<MsgId> = live(s)
+        .flat_map(|i| s.actor_states[i].delivered.iter().map(|(id, _)| *id))
+        .collect();
+    delivered_everywhere(s, &all) || !at_rest(m, s)
+}
+
+fn delivered_everywhere(s: &State, ids: &BTreeSet<MsgId>) -> bool {
+    live(s).all(|i| {
+        let got: BTreeSet<MsgId> = s.actor_states[i]
+            .delivered
+            .iter()
+            .map(|(id, _)| *id)
+            .collect();
+        ids.is_subset(&got)
+    })
+}
+
+/// At rest, every live process delivered each message it broadcast.
+fn validity(m: &CheckModel, s: &State) -> bool {
+    live(s).all(|i| {
+        let a = &s.actor_states[i];
+        (0..a.issued as u64).all(|n| {
+            let id = MsgId {
+                origin: i as Pid,
+                n,
+            };
+            a.delivered.iter().any(|(d, _)| *d == id)
+        })
+    }) || !at_rest(m, s)
+}
+
+/// A witness: every process delivered every request.
+fn everything_delivered(m: &CheckModel, s: &State) -> bool {
+    s.actor_states
+        .iter()
+        .all(|a| a.delivered.len() == m.cfg.requests.len())
+}
+
+/// No two processes (crashed ones included) decide differently.
+fn consensus_agreement(_: &CheckModel, s: &State) -> bool {
+    let mut seen: Vec<(u64, &Wire)> = Vec::new();
+    for a in &s.actor_states {
+        for (k, v) in &a.decided {
+            if seen.iter().any(|(k2, v2)| k2 == k && *v2 != v) {
+                return false;
+            }
+            seen.push((*k, v));
+        }
+    }
+    true
+}
+
+/// A decided value was proposed (by a process that has issued that proposal).
+fn consensus_validity(m: &CheckModel, s: &State) -> bool {
+    let proposed: Vec<(u64, &Wire)> = m
+        .cfg
+        .requests
+        .iter()
+        .enumerate()
+        .filter(|(g, (p, _))| {
+            s.actor_states[*p as usize].issued * m.cfg.n as usize > g - *p as usize
+        })
+        .filter_map(|(_, (_, r))| match r {
+            Request::Propose { k, value } => Some((*k, value)),
+            _ => None,
+        })
+        .collect();
+    s.actor_states
+        .iter()
+        .all(|a| a.decided.iter().all(|(k, v)| proposed.contains(&(*k, v))))
+}
+
+/// No process decides an instance twice.
+fn consensus_integrity(_: &CheckModel, s: &State) -> bool {
+    s.actor_states.iter().all(|a| {
+        let ks: BTreeSet<u64> = a.decided.iter().map(|(k, _)| *k).collect();
+        ks.len() == a.decided.len()
+    })
+}
+
+fn instances(m: &CheckModel) -> BTreeSet<u64> {
+    m.cfg
+        .requests
+        .iter()
+        .filter_map(|(_, r)| match r {
+            Request::Propose { k, .. } => Some(*k),
+            _ => None,
+        })
+        .collect()
+}
+
+fn decided_all(m: &CheckModel, s: &State, i: usize) -> bool {
+    let ks: BTreeSet<u64> = s.actor_states[i].decided.iter().map(|(k, _)| *k).collect();
+    instances(m).is_subset(&ks)
+}
+
+/// A witness: every live process decided every instance.
+fn termination(m: &CheckModel, s: &State) -> bool {
+    live(s).all(|i| decided_all(m, s, i))
+}
+
+/// A witness: with process `P` crashed before deciding, every live process decided.
+fn termination_without<const P: usize>(m: &CheckModel, s: &State) -> bool {
+    P < s.crashed.len()
+        && s.crashed[P]
+        && s.actor_states[P].decided.is_empty()
+        && live(s).all(|i| decided_all(m, s, i))
+}
+
+type Condition = fn(&CheckModel, &State) -> bool;
+
+/// One termination witness per crash pattern of one process (names are `'static`, as
+/// stateright wants them).
+const TERMINATION_WITHOUT: [(&str, Condition); 8] = [
+    ("termination with p0 crashed", termination_without::<0>),
+    ("termination with p1 crashed", termination_without::<1>),
+    ("termination with p2 crashed", termination_without::<2>),
+    ("termination with p3 crashed", termination_without::<3>),
+    ("termination with p4 crashed", termination_without::<4>),
+    ("termination with p5 crashed", termination_without::<5>),
+    ("termination with p6 crashed", termination_without::<6>),
+    ("termination with p7 crashed", termination_without::<7>),
+];

@@ -1,0 +1,312 @@
+//! `nekosim check MODEL`: model-check a protocol stack with stateright (the protocol code the
+//! simulator runs), print the checker's figures and each property's verdict, explain every
+//! counterexample step by step, and optionally write it (or a witness) as a JSONL trace with
+//! `seq` as the step number. Models and properties: docs/model-checking.md.
+
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+use nekosim_actors::world::observation::{Observation, Record};
+use nekosim_models::adapter::Happening;
+use nekosim_models::explain::{describe, explain, layer_name, Event, Step};
+use nekosim_models::{
+    build, find, run, CheckModel, Exploration, ModelError, NetworkKind, Options, Outcome, MODELS,
+};
+use nekosim_protocols::{Indication, Request};
+use serde_json::{json, Map, Value};
+use stateright::Expectation;
+
+use crate::log::wire_text;
+use crate::output::AtomicFile;
+
+/// What the command was asked to check.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CheckArgs {
+    pub model: String,
+    pub processes: u32,
+    pub requests: u32,
+    pub crashes: u32,
+    pub network: NetworkKind,
+    pub depth: Option<usize>,
+    pub threads: usize,
+    pub trace: Option<PathBuf>,
+    /// Protocol timer firings per process; the model's default when `None`.
+    pub timers: Option<u32>,
+    /// Last Chandra-Toueg round explored.
+    pub rounds: Option<u64>,
+}
+
+/// Why a check could not run.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CheckError {
+    /// Bad arguments (exit 2).
+    #[error("unknown model {name:?}; expected one of {known}")]
+    UnknownModel { name: String, known: String },
+    /// Bad arguments (exit 2).
+    #[error("{0}")]
+    Model(#[from] ModelError),
+    /// The trace file could not be written (exit 2, like any output the user names).
+    #[error("cannot write the trace {}: {source}", path.display())]
+    Trace { path: PathBuf, source: io::Error },
+}
+
+/// The model names, one per line.
+pub fn list() -> String {
+    MODELS.iter().map(|m| format!("{}\n", m.name)).collect()
+}
+
+/// Runs a check and prints its report on `out`; `Ok(true)` when every property holds.
+pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> {
+    let def = find(&args.model).ok_or_else(|| CheckError::UnknownModel {
+        name: args.model.clone(),
+        known: MODELS.iter().map(|m| m.name).collect::<Vec<_>>().join(", "),
+    })?;
+    let defaults = Options::default();
+    let opts = Options {
+        processes: args.processes,
+        requests: args.requests,
+        crashes: args.crashes,
+        network: args.network,
+        timer_budget: args.timers.unwrap_or(defaults.timer_budget),
+        max_round: args.rounds.unwrap_or(defaults.max_round),
+        partial_multicasts: defaults.partial_multicasts,
+    };
+    let model = build(&def.target(), &opts, |_, _| {})?;
+    let outcome = run(
+        model.clone(),
+        Exploration {
+            threads: args.threads,
+            depth: args.depth,
+            first_counterexample: false,
+        },
+    );
+    let network = NetworkKind::NAMES[match args.network {
+        NetworkKind::Unordered => 0,
+        NetworkKind::Ordered => 1,
+        NetworkKind::Lossy => 2,
+    }];
+    let w = |out: &mut dyn Write, s: String| {
+        let _ = writeln!(out, "{s}");
+    };
+    w(
+        out,
+        format!(
+            "model: {} ({}): {} processes, {} requests, {} crashes, {network} network, timer budget {}, last round {}{}",
+            def.name,
+            def.about,
+            opts.processes,
+            opts.requests,
+            opts.crashes,
+            opts.timer_budget,
+            opts.max_round,
+            args.depth.map_or(String::new(), |d| format!(", depth bound {d}")),
+        ),
+    );
+    w(
+        out,
+        format!(
+            "states: {}, unique states: {}, depth: {}, seconds: {:.3}, states/s: {:.0}",
+            outcome.states,
+            outcome.unique_states,
+            outcome.max_depth,
+            outcome.seconds,
+            outcome.states_per_second()
+        ),
+    );
+    for v in &outcome.verdicts {
+        let how = match v.expectation {
+            Expectation::Always => "always",
+            Expectation::Sometimes => "sometimes",
+            Expectation::Eventually => "eventually",
+        };
+        let detail = match (&v.expectation, &v.path) {
+            (Expectation::Sometimes, Some(p)) => {
+                format!(": witness in {} steps", p.clone().into_actions().len())
+            }
+            (Expectation::Sometimes, None) => ": never reached".to_string(),
+            (_, Some(p)) => format!(
+                ": counterexample in {} steps",
+                p.clone().into_actions().len()
+            ),
+            (_, None) => String::new(),
+        };
+        w(
+            out,
+            format!(
+                "  {} {} ({how}){detail}",
+                if v.holds { "holds " } else { "FAILS " },
+                v.name
+            ),
+        );
+    }
+    for v in outcome.verdicts.iter().filter(|v| !v.holds) {
+        if let Some(path) = &v.path {
+            w(out, format!("counterexample of {:?}:", v.name));
+            for step in explain(&model, path) {
+                for (i, e) in step.events.iter().enumerate() {
+                    let head = if i == 0 {
+                        format!("step {:>3}:", step.index)
+                    } else {
+                        " ".repeat(9)
+                    };
+                    w(out, format!("  {head} {}", describe(&model, e)));
+                }
+            }
+        }
+    }
+    if let Some(path) = &args.trace {
+        write_trace(&model, &outcome, path).map_err(|source| CheckError::Trace {
+            path: path.clone(),
+            source,
+        })?;
+    }
+    Ok(outcome.all_hold())
+}
+
+/// The path the trace shows: the first counterexample, else the first witness.
+fn traced(outcome: &Outcome) -> Option<&nekosim_models::Verdict> {
+    outcome
+        .verdicts
+        .iter()
+        .find(|v| !v.holds && v.path.is_some())
+        .or_else(|| {
+            outcome
+                .verdicts
+                .iter()
+                .find(|v| v.expectation == Expectation::Sometimes && v.path.is_some())
+        })
+}
+
+/// Writes the traced path as JSONL (schema: docs/trace.md); no path, no file.
+fn write_trace(model: &CheckModel, outcome: &Outcome, path: &Path) -> io::Result<()> {
+    let Some(v) = traced(outcome) else {
+        return Ok(());
+    };
+    let steps = explain(model, v.path.as_ref().expect("traced paths exist"));
+    let mut file = AtomicFile::create(path)?;
+    for line in trace_lines(model, &steps) {
+        file.line(&line);
+    }
+    file.commit()
+}
+
+/// One JSON object per event; `t` and `seq` are the step number.
+pub fn trace_lines(model: &CheckModel, steps: &[Step]) -> Vec<String> {
+    let wiring = &model.actors[0].shared.wiring;
+    let staged = model.actors[0].shared.staged_sends;
+    let name = |l: u16| layer_name(wiring, l).to_string();
+    let mut lines = Vec::new();
+    for step in steps {
+        let seq = step.index as u64;
+        let t = step.index as f64;
+        let record = |obs: Observation| crate::trace::to_json(&Record { t, seq, obs }).to_string();
+        let custom = |kind: &str, fields: Vec<(&str, Value)>| {
+            let mut m = Map::new();
+            m.insert("t".into(), json!(t));
+            m.insert("seq".into(), json!(seq));
+            m.insert("kind".into(), json!(kind));
+            for (k, v) in fields {
+                m.insert(k.into(), v);
+            }
+            Value::Object(m).to_string()
+        };
+        for e in &step.events {
+            let line = match e {
+                Event::Crash(p) => Some(custom("crash", vec![("robot", json!(p))])),
+                Event::Drop { from, to, msg } => Some(custom(
+                    "drop",
+                    vec![
+                        ("robot", json!(from)),
+                        ("to", json!([to])),
+                        ("layer", json!(name(msg.layer))),
+                        ("msg", json!(wire_text(&msg.msg))),
+                        ("type", json!(msg.msg.type_name())),
+                    ],
+                )),
+                Event::At { process: p, what } => match what {
+                    Happening::Request { layer, req } => {
+                        let (op, msg) = match req {
+                            Request::Broadcast { msg } => ("broadcast", msg.clone()),
+                            Request::Propose { value, .. } => ("propose", value.clone()),
+                            Request::Send { msg, .. } => ("send", msg.clone()),
+                        };
+                        Some(record(Observation::Request {
+                            robot: *p,
+                            layer: name(*layer),
+                            op: op.into(),
+                            msg,
+                        }))
+                    }
+                    Happening::Skipped { .. } => None,
+                    Happening::Receive { from, layer, msg } => Some(record(Observation::Receive {
+                        robot: *p,
+                        from: *from,
+                        layer: name(*layer),
+                        msg: msg.clone(),
+                    })),
+                    Happening::Timer { layer, timer } => Some(custom(
+                        "timer",
+                        vec![
+                            ("robot", json!(p)),
+                            ("layer", json!(name(*layer))),
+                            ("timer", json!(timer)),
+                        ],
+                    )),
+                    Happening::Send { layer, to, msg } if !staged => {
+                        Some(record(Observation::Send {
+                            robot: *p,
+                            to: to.clone(),
+                            layer: name(*layer),
+                            msg: msg.clone(),
+                        }))
+                    }
+                    Happening::Send { .. } => None,
+                    Happening::Flush { to, msg } => Some(record(Observation::Send {
+                        robot: *p,
+                        to: vec![*to],
+                        layer: name(msg.layer),
+                        msg: msg.msg.clone(),
+                    })),
+                    Happening::App { layer, ind } => {
+                        let layer = name(*layer);
+                        match ind {
+                            Indication::BDeliver { id, msg } => {
+                                Some(record(Observation::Deliver {
+                                    robot: *p,
+                                    layer,
+                                    id: *id,
+                                    msg: msg.clone(),
+                                }))
+                            }
+                            Indication::Decide { k, value } => Some(record(Observation::Decide {
+                                robot: *p,
+                                layer,
+                                k: *k,
+                                value: value.clone(),
+                            })),
+                            Indication::Suspect(q) => Some(record(Observation::Suspect {
+                                robot: *p,
+                                layer,
+                                process: *q,
+                            })),
+                            Indication::Trust(q) => Some(record(Observation::Trust {
+                                robot: *p,
+                                layer,
+                                process: *q,
+                            })),
+                            Indication::Leader(q) => Some(record(Observation::Leader {
+                                robot: *p,
+                                layer,
+                                process: *q,
+                            })),
+                            Indication::Deliver { .. } => None,
+                        }
+                    }
+                },
+            };
+            lines.extend(line);
+        }
+    }
+    lines
+}
