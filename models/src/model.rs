@@ -2,7 +2,6 @@
 //! the bounds and the family's properties) and running the checker on it.
 
 use std::sync::Arc;
-use std::time::Instant;
 
 use nekosim_protocols::{Content, LayerSpec, Pid, ProtocolSpec, Request, Stack, Wire, Wiring};
 use stateright::actor::{ActorModel, ActorModelAction, LossyNetwork, Network};
@@ -282,17 +281,11 @@ pub struct Outcome {
     pub states: usize,
     pub unique_states: usize,
     pub max_depth: usize,
-    pub seconds: f64,
     /// In the model's property order.
     pub verdicts: Vec<Verdict>,
 }
 
 impl Outcome {
-    /// States generated per second.
-    pub fn states_per_second(&self) -> f64 {
-        self.states as f64 / self.seconds.max(1e-9)
-    }
-
     /// Whether every property holds.
     pub fn all_hold(&self) -> bool {
         self.verdicts.iter().all(|v| v.holds)
@@ -328,7 +321,6 @@ impl Default for Exploration {
 /// threaded).
 pub fn run(model: CheckModel, how: Exploration) -> Outcome {
     let props = model.properties();
-    let start = Instant::now();
     let mut builder = model.checker().threads(how.threads.max(1));
     if let Some(d) = how.depth {
         builder = builder.target_max_depth(d);
@@ -337,7 +329,6 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
         builder = builder.finish_when(HasDiscoveries::AnyFailures);
     }
     let checker = builder.spawn_bfs().join();
-    let seconds = start.elapsed().as_secs_f64();
     let mut discoveries = checker.discoveries();
     let verdicts = props
         .iter()
@@ -359,7 +350,6 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
         states: checker.state_count(),
         unique_states: checker.unique_state_count(),
         max_depth: checker.max_depth(),
-        seconds,
         verdicts,
     }
 }
