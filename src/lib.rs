@@ -6,6 +6,7 @@ pub use nekosim_actors::*;
 
 pub mod log;
 pub mod output;
+pub mod recording;
 pub mod runner;
 pub mod scenario;
 pub mod trace;

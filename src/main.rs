@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use nekosim::recording::{RecordingError, Target};
 use nekosim::runner::{self, RunError, RunOptions};
 use nekosim::scenario::{Overrides, Registry, Source};
 
@@ -40,6 +41,12 @@ enum Command {
         /// Write the JSON Lines trace here.
         #[arg(long)]
         trace: Option<PathBuf>,
+        /// Save a Rerun recording here (open it with `rerun FILE`).
+        #[arg(long, value_name = "FILE")]
+        rrd: Option<PathBuf>,
+        /// Stream to a running Rerun viewer (default: the SDK's local viewer URL).
+        #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
+        connect: Option<String>,
         /// Print nothing on success.
         #[arg(long, short)]
         quiet: bool,
@@ -118,8 +125,17 @@ fn execute(command: Command) -> Result<(), Failure> {
             until,
             log,
             trace,
+            rrd,
+            connect,
             quiet,
         } => {
+            if (rrd.is_some() || connect.is_some()) && !cfg!(feature = "rerun") {
+                return Err(invalid(RecordingError::Unsupported));
+            }
+            let recording = Target {
+                rrd,
+                connect: connect.map(|u| (!u.is_empty()).then_some(u)),
+            };
             let source = Source::load(&scenario).map_err(invalid)?;
             let built = source
                 .build(Overrides { seed, until }, &registry)
@@ -148,6 +164,7 @@ fn execute(command: Command) -> Result<(), Failure> {
                 RunOptions {
                     log,
                     trace,
+                    recording,
                     progress,
                 },
             );
@@ -155,7 +172,12 @@ fn execute(command: Command) -> Result<(), Failure> {
                 b.finish_and_clear();
             }
             let summary = result.map_err(|e| match e {
-                RunError::CreateOutput { .. } => invalid(e),
+                RunError::CreateOutput { .. }
+                | RunError::Recording(
+                    RecordingError::Create { .. }
+                    | RecordingError::Url { .. }
+                    | RecordingError::Unsupported,
+                ) => invalid(e),
                 other => Failure {
                     code: 1,
                     message: format!("{:#}", anyhow::Error::from(other)),
