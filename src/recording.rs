@@ -341,24 +341,21 @@ impl<C: Canvas> Recorder<C> {
         self.next_sample += 1;
     }
 
-    /// Draws the animation up to `end` (the run's end time) and a last metric sample.
+    /// Draws the animation up to `end` (the run's end time, frames at `end` included) and a
+    /// last metric sample at `end` unless one falls there already.
     pub fn finish(&mut self, end: f64) {
-        let end = end.max(self.last_t);
-        if end.is_finite() {
-            // Frames at `end` itself are included.
-            self.advance(end + f64::EPSILON * end.abs().max(1.0));
+        let end = if end.is_finite() {
+            end.max(self.last_t)
+        } else {
+            self.last_t
+        };
+        self.advance(end + f64::EPSILON * end.abs().max(1.0));
+        let last_sample = (self.next_sample - 1) as f64 * self.period;
+        if last_sample < end || self.next_sample == 1 {
+            self.metrics.events_per_second = self.events_in_period as f64 / self.period;
+            self.canvas
+                .metrics(Stamp { t: end, seq: None }, &self.metrics);
         }
-        let m = self.metrics;
-        self.canvas.metrics(
-            Stamp {
-                t: if end.is_finite() { end } else { self.last_t },
-                seq: None,
-            },
-            &Metrics {
-                events_per_second: self.events_in_period as f64 / self.period,
-                ..m
-            },
-        );
     }
 
     fn pos_now(&self, robot: RobotId, t: f64) -> Point {
@@ -500,10 +497,10 @@ impl<C: Canvas> Recorder<C> {
             }
             Observation::SensorReply {
                 robot,
-                sensor,
+                sensor: SensorKind::View | SensorKind::Proximity,
                 interrupt: false,
                 ..
-            } if matches!(sensor, SensorKind::View | SensorKind::Proximity) => {
+            } => {
                 self.canvas.query(at, *robot, None);
             }
             Observation::Send {
@@ -715,7 +712,6 @@ mod tests {
                 "1.5#2 dest p0 None",
                 // At rest from 1.5 s on: no more frames, only metric samples.
                 "1.5 metrics c0 f0 d0 e2",
-                "2 metrics c0 f0 d0 e0",
                 "2 metrics c0 f0 d0 e0",
             ]
         );

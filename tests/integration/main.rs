@@ -6,6 +6,8 @@ mod collisions;
 mod common;
 mod communication;
 mod determinism;
+#[cfg(feature = "rerun")]
+mod rerun_reader;
 mod scale;
 mod sensors;
 mod smoke;
