@@ -176,6 +176,7 @@ fn execute(command: Command) -> Result<(), Failure> {
                 | RunError::Recording(
                     RecordingError::Create { .. }
                     | RecordingError::Url { .. }
+                    | RecordingError::Unreachable { .. }
                     | RecordingError::Unsupported,
                 ) => invalid(e),
                 other => Failure {

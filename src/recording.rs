@@ -55,6 +55,9 @@ pub enum RecordingError {
     /// The viewer URL is not a Rerun gRPC proxy URL: the user's input.
     #[error("{url}: not a Rerun viewer URL ({message}); expected e.g. rerun+http://127.0.0.1:9876/proxy")]
     Url { url: String, message: String },
+    /// No viewer answered at the URL (none running, or another address): the user's input.
+    #[error("{url}: cannot stream to the Rerun viewer: {message}; start one with `rerun` or check --connect")]
+    Unreachable { url: String, message: String },
     /// Rerun refused data or could not finish the file (an internal error).
     #[error("recording: {0}")]
     Rerun(String),

@@ -127,6 +127,8 @@ pub struct RerunCanvas {
     /// Flush everything at every whole simulated second (a viewer is connected).
     live: bool,
     next_live_flush: f64,
+    /// The viewer's URL, when streaming to one.
+    url: Option<String>,
     /// `(temporary file, target)` of the .rrd being written.
     file: Option<(PathBuf, PathBuf)>,
     error: Option<RecordingError>,
@@ -169,6 +171,7 @@ impl RerunCanvas {
         let builder = RecordingStreamBuilder::new("nekosim").recording_name(name);
         let mut sinks: Vec<Box<dyn rerun::sink::LogSink>> = Vec::new();
         let mut file = None;
+        let mut viewer = None;
         if let Some(path) = &target.rrd {
             let temp = temp_path(path).map_err(|e| RecordingError::Create {
                 path: path.display().to_string(),
@@ -185,6 +188,7 @@ impl RerunCanvas {
             let url = url
                 .clone()
                 .unwrap_or_else(|| rerun::DEFAULT_CONNECT_URL.to_string());
+            viewer = Some(url.clone());
             let uri = match url.parse::<rerun::external::re_uri::RedapUri>() {
                 Ok(rerun::external::re_uri::RedapUri::Proxy(uri)) => uri,
                 Ok(_) => {
@@ -211,7 +215,8 @@ impl RerunCanvas {
             robots: Vec::new(),
             log: Rows::default(),
             metrics: Rows::default(),
-            live: target.connect.is_some(),
+            live: viewer.is_some(),
+            url: viewer,
             next_live_flush: 1.0,
             file,
             error: None,
@@ -412,7 +417,16 @@ impl RerunCanvas {
             self.flush_all();
             let rec = self.rec.take().expect("checked");
             if let Err(e) = rec.flush_blocking() {
-                self.error.get_or_insert(rerun_err(e));
+                // The file sink cannot fail to flush short of an I/O error, which it reports
+                // when written; a failed flush is the viewer not answering.
+                let e = match &self.url {
+                    Some(url) => RecordingError::Unreachable {
+                        url: url.clone(),
+                        message: e.to_string(),
+                    },
+                    None => rerun_err(e),
+                };
+                self.error.get_or_insert(e);
             }
             // Dropping the last handle joins the file writer, which writes the footer.
             drop(rec);
