@@ -6,6 +6,7 @@ mod collisions;
 mod common;
 mod communication;
 mod determinism;
+mod recording;
 #[cfg(feature = "rerun")]
 mod rerun_reader;
 mod scale;
