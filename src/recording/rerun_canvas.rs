@@ -1,18 +1,22 @@
 //! The [`Canvas`] that writes Rerun entities (docs/visualization.md), to an .rrd file, a
 //! running viewer, or both.
 //!
-//! Robots produce most of the rows (a pose per event and per animation frame), so their
-//! entities are buffered as columns and sent with `send_columns` in chunks of [`FLUSH_ROWS`]
-//! rows: one chunk per entity per flush instead of one message per row. Rare drawings
-//! (spawns, collisions, messages, queries) are logged row by row. When a viewer is connected,
-//! every buffer is also flushed each simulated second so the live view keeps up.
+//! Robots produce most of the rows (a pose per event and per animation frame). Each robot is
+//! one entity carrying several archetypes (marker, heading, trail, sensor), buffered as columns
+//! and sent with `send_columns` in chunks of up to [`FLUSH_ROWS`] rows: a chunk costs a fixed
+//! overhead in time and bytes, so a 1k-robot run must not make thousands of them per entity
+//! family. A row only carries what changed; the other components are null there, so Rerun's
+//! latest-at keeps showing their earlier values. Collision markers are grouped in entities of
+//! [`COLLISION_GROUP`]. Rare drawings (messages, queries) are logged row by row. When a viewer
+//! is connected, every buffer is also flushed each simulated second so the live view keeps up.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use nekosim_actors::world::geometry::{heading_vector, Point};
 use nekosim_actors::world::RobotId;
-use rerun::external::arrow::array::{ArrayRef, Float64Array};
+use rerun::external::arrow::array::{ArrayRef, Float64Array, ListArray};
+use rerun::external::arrow::buffer::NullBuffer;
 use rerun::{
     archetypes, blueprint, ComponentDescriptor, RecordingStream, RecordingStreamBuilder,
     SerializedComponentBatch, SerializedComponentColumn, TimeColumn,
@@ -90,28 +94,105 @@ impl<T> Rows<T> {
     }
 }
 
-/// One robot's buffered entities; frame rows are on `sim_time` only, so they are kept apart
-/// from the event rows, which are on both timelines.
+/// Style of a robot's drawings: radius, colour, label.
+#[derive(Clone, Debug)]
+struct Style {
+    radius: f64,
+    colour: Rgb,
+}
+
+/// What one row of a robot's entity changes; `None` leaves a component null on that row.
+#[derive(Clone, Debug, Default)]
+struct RobotRow {
+    pose: Option<(Point, f64)>,
+    style: Option<Style>,
+    /// The trail's corners.
+    path: Option<Vec<Point>>,
+    /// The current motion's destination (`Some(None)`: no motion).
+    dest: Option<Option<Point>>,
+    /// A push sensor's reach (`Some(None)`: none active).
+    sensor: Option<Option<(Point, f64)>>,
+}
+
+/// One robot's buffered rows: event rows (on both timelines) and animation frames (on
+/// `sim_time` only) are kept apart, since a chunk's rows share their timelines.
 #[derive(Debug, Default)]
 struct RobotRows {
-    pose: Rows<(Point, f64)>,
-    pose_frames: Rows<(Point, f64)>,
-    sensor: Rows<Option<(Point, f64)>>,
-    sensor_frames: Rows<Option<(Point, f64)>>,
-    path: Rows<Vec<Point>>,
-    dest: Rows<Option<Point>>,
+    events: Rows<RobotRow>,
+    frames: Rows<RobotRow>,
     radius: f64,
 }
 
 impl RobotRows {
     fn len(&self) -> usize {
-        self.pose.len()
-            + self.pose_frames.len()
-            + self.sensor.len()
-            + self.sensor_frames.len()
-            + self.path.len()
-            + self.dest.len()
+        self.events.len() + self.frames.len()
     }
+
+    /// The row for `at`: the buffer's last row if it is for the same instant and event.
+    fn row(&mut self, at: Stamp) -> &mut RobotRow {
+        let rows = if at.seq.is_some() {
+            &mut self.events
+        } else {
+            &mut self.frames
+        };
+        let same = rows.sim.last() == Some(&at.t)
+            && (at.seq.is_none() || rows.seq.last() == at.seq.map(|s| s as i64).as_ref());
+        if !same {
+            rows.push(at, RobotRow::default());
+        }
+        rows.data.last_mut().expect("a row")
+    }
+}
+
+/// Collision markers per entity (`world/collisions/<k / COLLISION_GROUP>`): each row shows the
+/// group's markers so far, so every marker stays visible from its instant on.
+pub const COLLISION_GROUP: u64 = 64;
+
+/// A column with a value (possibly an empty list) on rows where `present`, null elsewhere.
+fn sparse(
+    column: Result<SerializedComponentColumn, rerun::SerializationError>,
+    present: &[bool],
+) -> Result<SerializedComponentColumn, rerun::SerializationError> {
+    let column = column?;
+    let (field, offsets, values, _) = column.list_array.into_parts();
+    let list = ListArray::try_new(
+        field,
+        offsets,
+        values,
+        Some(NullBuffer::from(present.to_vec())),
+    )
+    .map_err(|e| rerun::SerializationError::Context {
+        location: "sparse column".into(),
+        source: Box::new(e.into()),
+    })?;
+    Ok(SerializedComponentColumn {
+        list_array: list,
+        descriptor: column.descriptor,
+    })
+}
+
+/// The components of one archetype field: its batch, and how many instances each row has.
+fn parts<T>(
+    rows: &[RobotRow],
+    pick: impl Fn(&RobotRow) -> Option<Vec<T>>,
+) -> (Vec<T>, Vec<usize>, Vec<bool>) {
+    let mut all = Vec::new();
+    let mut lengths = Vec::with_capacity(rows.len());
+    let mut present = Vec::with_capacity(rows.len());
+    for r in rows {
+        match pick(r) {
+            Some(v) => {
+                lengths.push(v.len());
+                present.push(true);
+                all.extend(v);
+            }
+            None => {
+                lengths.push(0);
+                present.push(false);
+            }
+        }
+    }
+    (all, lengths, present)
 }
 
 fn p32(p: Point) -> [f32; 2] {
@@ -124,6 +205,10 @@ pub struct RerunCanvas {
     robots: Vec<RobotRows>,
     log: Rows<String>,
     metrics: Rows<Metrics>,
+    /// Markers of the current collision group so far, and its rows.
+    collision_group: Vec<([f32; 2], String)>,
+    collision_count: u64,
+    collisions: Rows<Vec<([f32; 2], String)>>,
     /// Flush everything at every whole simulated second (a viewer is connected).
     live: bool,
     next_live_flush: f64,
@@ -215,6 +300,9 @@ impl RerunCanvas {
             robots: Vec::new(),
             log: Rows::default(),
             metrics: Rows::default(),
+            collision_group: Vec::new(),
+            collision_count: 0,
+            collisions: Rows::default(),
             live: viewer.is_some(),
             url: viewer,
             next_live_flush: 1.0,
@@ -260,100 +348,45 @@ impl RerunCanvas {
         self.keep(r);
     }
 
-    fn flush_poses(&mut self, i: usize, frames: bool) {
-        let rows = &mut self.robots[i];
-        let (times, data) = if frames {
-            rows.pose_frames.take()
-        } else {
-            rows.pose.take()
-        };
-        if data.is_empty() {
-            return;
-        }
-        let radius = rows.radius;
-        let positions: Vec<[f32; 2]> = data.iter().map(|(p, _)| p32(*p)).collect();
-        let exact: Vec<f64> = data.iter().flat_map(|(p, a)| [p.x, p.y, *a]).collect();
-        let exact = SerializedComponentBatch::new(
-            Arc::new(Float64Array::from(exact)) as ArrayRef,
-            pose_descriptor(),
-        )
-        .partitioned(std::iter::repeat_n(3, data.len()));
-        let points = archetypes::Points2D::update_fields()
-            .with_positions(positions.clone())
-            .columns_of_unit_batches()
-            .map(|c| c.collect::<Vec<_>>());
-        let columns = points.and_then(|mut c| {
-            c.push(exact?);
-            Ok(c)
-        });
-        let id = i as RobotId;
-        self.send(&robot_entity(id), times.clone(), columns);
-        let vectors: Vec<[f32; 2]> = data
-            .iter()
-            .map(|(_, a)| {
-                let v = heading_vector(*a) * (1.5 * radius);
-                [v.x as f32, v.y as f32]
-            })
-            .collect();
-        let arrows = archetypes::Arrows2D::update_fields()
-            .with_origins(positions)
-            .with_vectors(vectors)
-            .columns_of_unit_batches()
-            .map(|c| c.collect());
-        self.send(&format!("world/headings/{id}"), times, arrows);
-    }
-
-    fn flush_circles(&mut self, i: usize, frames: bool) {
-        let rows = &mut self.robots[i];
-        let (times, data) = if frames {
-            rows.sensor_frames.take()
-        } else {
-            rows.sensor.take()
-        };
-        if data.is_empty() {
-            return;
-        }
-        let lengths: Vec<usize> = data.iter().map(|c| usize::from(c.is_some())).collect();
-        let (centers, half): (Vec<[f32; 2]>, Vec<[f32; 2]>) = data
-            .iter()
-            .flatten()
-            .map(|(p, r)| (p32(*p), [*r as f32, *r as f32]))
-            .unzip();
-        let columns = archetypes::Ellipses2D::update_fields()
-            .with_centers(centers)
-            .with_half_sizes(half)
-            .columns(lengths)
-            .map(|c| c.collect());
-        self.send(&format!("world/sensors/{i}"), times, columns);
-    }
-
     fn flush_robot(&mut self, i: usize) {
-        self.flush_poses(i, false);
-        self.flush_poses(i, true);
-        self.flush_circles(i, false);
-        self.flush_circles(i, true);
-        let (times, data) = self.robots[i].path.take();
-        if !data.is_empty() {
-            let strips: Vec<Vec<[f32; 2]>> = data
-                .iter()
-                .map(|s| s.iter().map(|p| p32(*p)).collect())
-                .collect();
-            let columns = archetypes::LineStrips2D::update_fields()
-                .with_strips(strips)
-                .columns_of_unit_batches()
-                .map(|c| c.collect());
-            self.send(&format!("world/paths/{i}"), times, columns);
+        for frames in [false, true] {
+            let rows = &mut self.robots[i];
+            let radius = rows.radius;
+            let (times, data) = if frames {
+                rows.frames.take()
+            } else {
+                rows.events.take()
+            };
+            if data.is_empty() {
+                continue;
+            }
+            let columns = robot_columns(i as RobotId, &data, radius);
+            self.send(&robot_entity(i as RobotId), times, columns);
         }
-        let (times, data) = self.robots[i].dest.take();
-        if !data.is_empty() {
-            let lengths: Vec<usize> = data.iter().map(|d| usize::from(d.is_some())).collect();
-            let points: Vec<[f32; 2]> = data.iter().flatten().map(|p| p32(*p)).collect();
-            let columns = archetypes::Points2D::update_fields()
-                .with_positions(points)
-                .columns(lengths)
-                .map(|c| c.collect());
-            self.send(&format!("world/destinations/{i}"), times, columns);
+    }
+
+    fn flush_collisions(&mut self, group: u64) {
+        let (times, data) = self.collisions.take();
+        if data.is_empty() {
+            return;
         }
+        let lengths: Vec<usize> = data.iter().map(Vec::len).collect();
+        let (points, labels): (Vec<[f32; 2]>, Vec<String>) = data.into_iter().flatten().unzip();
+        let columns = archetypes::Points2D::update_fields()
+            .with_positions(points)
+            .with_labels(labels)
+            .columns(lengths)
+            .map(|c| c.collect::<Vec<_>>());
+        let style = archetypes::Points2D::update_fields()
+            .with_colors([[255, 40, 40]])
+            .with_radii([2.0]);
+        let entity = format!("world/collisions/{group}");
+        let r = self
+            .rec()
+            .log_static(entity.as_str(), &style)
+            .map_err(rerun_err);
+        self.keep(r);
+        self.send(&entity, times, columns);
     }
 
     fn flush_log(&mut self) {
@@ -394,6 +427,9 @@ impl RerunCanvas {
         }
         self.flush_log();
         self.flush_metrics();
+        if let Some(k) = self.collision_count.checked_sub(1) {
+            self.flush_collisions(k / COLLISION_GROUP);
+        }
     }
 
     fn robot(&mut self, robot: RobotId) -> &mut RobotRows {
@@ -452,6 +488,95 @@ impl Drop for RerunCanvas {
     }
 }
 
+/// The columns of a robot's rows: marker (`Points2D`), heading (`Arrows2D`), trail and route
+/// to the destination (`LineStrips2D`), push sensor (`Ellipses2D`) and the exact pose.
+fn robot_columns(
+    id: RobotId,
+    rows: &[RobotRow],
+    radius: f64,
+) -> Result<Vec<SerializedComponentColumn>, rerun::SerializationError> {
+    let mut out = Vec::new();
+    let (positions, lengths, present) = parts(rows, |r| r.pose.map(|(p, _)| vec![p32(p)]));
+    let points = archetypes::Points2D::update_fields().with_positions(positions.clone());
+    for c in points.columns(lengths.clone())? {
+        out.push(sparse(Ok(c), &present)?);
+    }
+    let (vectors, _, _) = parts(rows, |r| {
+        r.pose.map(|(_, a)| {
+            let v = heading_vector(a) * (1.5 * radius);
+            vec![[v.x as f32, v.y as f32]]
+        })
+    });
+    let arrows = archetypes::Arrows2D::update_fields()
+        .with_origins(positions)
+        .with_vectors(vectors);
+    for c in arrows.columns(lengths.clone())? {
+        out.push(sparse(Ok(c), &present)?);
+    }
+    let (exact, _, _) = parts(rows, |r| r.pose.map(|(p, a)| vec![p.x, p.y, a]));
+    let exact = SerializedComponentBatch::new(
+        Arc::new(Float64Array::from(exact)) as ArrayRef,
+        pose_descriptor(),
+    )
+    .partitioned(lengths.iter().map(|n| 3 * n));
+    out.push(sparse(exact, &present)?);
+
+    let (styles, lengths, present) = parts(rows, |r| r.style.clone().map(|s| vec![s]));
+    if !styles.is_empty() {
+        let radii: Vec<f32> = styles.iter().map(|s| s.radius as f32).collect();
+        let colours: Vec<Rgb> = styles.iter().map(|s| s.colour).collect();
+        let labels = vec![format!("p{id}"); styles.len()];
+        let points = archetypes::Points2D::update_fields()
+            .with_labels(labels)
+            .with_radii(radii.clone())
+            .with_colors(colours.clone());
+        for c in points.columns(lengths.clone())? {
+            out.push(sparse(Ok(c), &present)?);
+        }
+        let arrows = archetypes::Arrows2D::update_fields().with_colors(colours.clone());
+        for c in arrows.columns(lengths.clone())? {
+            out.push(sparse(Ok(c), &present)?);
+        }
+        let strips = archetypes::LineStrips2D::update_fields()
+            .with_colors(colours)
+            .with_radii(radii.iter().map(|r| r / 10.0).collect::<Vec<_>>());
+        for c in strips.columns(lengths)? {
+            out.push(sparse(Ok(c), &present)?);
+        }
+    }
+
+    let (strips, lengths, present) = parts(rows, |r| {
+        r.path.as_ref().map(|trail| {
+            let mut v = vec![trail.iter().map(|p| p32(*p)).collect::<Vec<_>>()];
+            if let (Some(Some(dest)), Some(last)) = (r.dest, trail.last()) {
+                v.push(vec![p32(*last), p32(dest)]);
+            }
+            v
+        })
+    });
+    if present.contains(&true) {
+        let strips = archetypes::LineStrips2D::update_fields().with_strips(strips);
+        for c in strips.columns(lengths)? {
+            out.push(sparse(Ok(c), &present)?);
+        }
+    }
+
+    let (circles, lengths, present) = parts(rows, |r| r.sensor.map(|c| c.into_iter().collect()));
+    if present.contains(&true) {
+        let (centers, half): (Vec<[f32; 2]>, Vec<[f32; 2]>) = circles
+            .iter()
+            .map(|(p, r)| (p32(*p), [*r as f32, *r as f32]))
+            .unzip();
+        let ellipses = archetypes::Ellipses2D::update_fields()
+            .with_centers(centers)
+            .with_half_sizes(half);
+        for c in ellipses.columns(lengths)? {
+            out.push(sparse(Ok(c), &present)?);
+        }
+    }
+    Ok(out)
+}
+
 fn temp_path(target: &Path) -> std::io::Result<PathBuf> {
     let dir = target
         .parent()
@@ -488,77 +613,36 @@ impl Canvas for RerunCanvas {
     }
 
     fn spawn(&mut self, at: Stamp, robot: RobotId, radius: f64, colour: Rgb) {
-        self.robot(robot).radius = radius;
-        let label = format!("p{robot}");
-        self.log_at(
-            at,
-            &robot_entity(robot),
-            &archetypes::Points2D::update_fields()
-                .with_radii([radius as f32])
-                .with_colors([colour])
-                .with_labels([label]),
-        );
-        self.log_at(
-            at,
-            &format!("world/headings/{robot}"),
-            &archetypes::Arrows2D::update_fields().with_colors([colour]),
-        );
-        self.log_at(
-            at,
-            &format!("world/paths/{robot}"),
-            &archetypes::LineStrips2D::update_fields()
-                .with_colors([colour])
-                .with_radii([(radius / 10.0) as f32]),
-        );
-        self.log_at(
-            at,
-            &format!("world/destinations/{robot}"),
-            &archetypes::Points2D::update_fields()
-                .with_colors([colour])
-                .with_radii([(radius / 3.0) as f32]),
-        );
+        let rows = self.robot(robot);
+        rows.radius = radius;
+        rows.row(at).style = Some(Style { radius, colour });
+        self.maybe_flush(robot);
     }
 
     fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64) {
-        let rows = self.robot(robot);
-        if at.seq.is_some() {
-            rows.pose.push(at, (pos, angle));
-        } else {
-            rows.pose_frames.push(at, (pos, angle));
-        }
+        self.robot(robot).row(at).pose = Some((pos, angle));
         self.maybe_flush(robot);
     }
 
     fn colour(&mut self, at: Stamp, robot: RobotId, colour: Rgb) {
-        self.log_at(
-            at,
-            &robot_entity(robot),
-            &archetypes::Points2D::update_fields().with_colors([colour]),
-        );
-        self.log_at(
-            at,
-            &format!("world/headings/{robot}"),
-            &archetypes::Arrows2D::update_fields().with_colors([colour]),
-        );
+        let rows = self.robot(robot);
+        let radius = rows.radius;
+        rows.row(at).style = Some(Style { radius, colour });
+        self.maybe_flush(robot);
     }
 
     fn path(&mut self, at: Stamp, robot: RobotId, corners: &[Point]) {
-        self.robot(robot).path.push(at, corners.to_vec());
+        self.robot(robot).row(at).path = Some(corners.to_vec());
         self.maybe_flush(robot);
     }
 
     fn destination(&mut self, at: Stamp, robot: RobotId, dest: Option<Point>) {
-        self.robot(robot).dest.push(at, dest);
+        self.robot(robot).row(at).dest = Some(dest);
         self.maybe_flush(robot);
     }
 
     fn sensor(&mut self, at: Stamp, robot: RobotId, circle: Option<(Point, f64)>) {
-        let rows = self.robot(robot);
-        if at.seq.is_some() {
-            rows.sensor.push(at, circle);
-        } else {
-            rows.sensor_frames.push(at, circle);
-        }
+        self.robot(robot).row(at).sensor = Some(circle);
         self.maybe_flush(robot);
     }
 
@@ -576,14 +660,14 @@ impl Canvas for RerunCanvas {
     }
 
     fn collision(&mut self, at: Stamp, k: u64, point: Point, label: &str) {
-        self.log_at(
-            at,
-            &format!("world/collisions/{k}"),
-            &archetypes::Points2D::new([p32(point)])
-                .with_colors([[255, 40, 40]])
-                .with_radii([2.0])
-                .with_labels([label]),
-        );
+        let group = k / COLLISION_GROUP;
+        if k % COLLISION_GROUP == 0 && k > 0 {
+            self.flush_collisions(group - 1);
+            self.collision_group.clear();
+        }
+        self.collision_group.push((p32(point), label.to_string()));
+        self.collisions.push(at, self.collision_group.clone());
+        self.collision_count = k + 1;
     }
 
     fn messages(&mut self, at: Stamp, layer: &str, colour: Rgb, flights: &[Flight]) {
