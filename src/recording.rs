@@ -92,7 +92,7 @@ impl Target {
 pub const DEFAULT_FRAMERATE: f64 = 25.0;
 
 /// Corners of a robot's path kept in its trail.
-pub const TRAIL: usize = 32;
+pub const TRAIL: usize = 16;
 
 /// When a drawing holds: a simulated instant [s], and the trace `seq` of the record that caused
 /// it (`None` for animation frames and metric samples, which lie between events).
