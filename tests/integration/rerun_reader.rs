@@ -77,7 +77,7 @@ fn recordings_read_back_with_the_official_reader_match_the_trace() {
     let py = python();
     let dir = tempfile::tempdir().unwrap();
     // A collision; messages over a random network; many robots colliding; total-order
-    // broadcast (many messages, robots at rest).
+    // broadcast (many messages, robots at rest); consensus with a crashed robot.
     for (scenario, extra) in [
         ("examples/scenarios/collision.ron", &[][..]),
         (

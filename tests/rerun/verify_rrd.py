@@ -11,6 +11,7 @@ Independently of nekosim's code, it checks that:
   semantics at animation-frame instants (all robots) and event instants (the robots the event
   is about); the drawn 32-bit marker agrees with it to float precision;
 - the number of collision markers equals the number of `collision` records of the trace;
+- a crashed robot is grey from its crash on;
 - every `send` record has a message-arrow row at its event with at least one arrow per receiver;
 - the text log has one line per trace record.
 
@@ -196,6 +197,14 @@ def main() -> None:
         at_event = [cols for _, ev, _, cols in rows.by_entity.get(entity, []) if ev == s["seq"]]
         if not at_event or len(at_event[-1].get("Arrows2D:vectors", [])) < len(s["to"]):
             fail(f"send #{s['seq']} on {s['layer']}: no arrow per receiver in {entity}")
+
+    # Crashed robots are grey from their crash on.
+    grey = 0x808080FF
+    for c in (r for r in trace if r["kind"] == "crash"):
+        entity = f"/world/robots/{c['robot']}"
+        colour = rows.latest_at(entity, "Points2D:colors", ns(c["t"]))
+        if colour != [grey]:
+            fail(f"{entity} crashed at {c['t']} but its colour is {colour}")
 
     log_rows = sum(1 for _, ev, _, cols in rows.by_entity.get("/log", []) if "TextLog:text" in cols)
     if log_rows != len(trace):
