@@ -92,7 +92,7 @@ fn run_patrol() -> (String, String) {
         RunOptions {
             log: Some(log.clone()),
             trace: Some(trace.clone()),
-            progress: None,
+            ..RunOptions::default()
         },
     )
     .expect("run");

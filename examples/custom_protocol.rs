@@ -155,6 +155,7 @@ fn run(scenario: &str) -> Result<(String, String), String> {
             log: Some(log.clone()),
             trace: Some(trace.clone()),
             progress: None,
+            recording: Default::default(),
         },
     )
     .map_err(|e| e.to_string())?;

@@ -7,6 +7,7 @@ pub use nekosim_actors::*;
 pub mod check;
 pub mod log;
 pub mod output;
+pub mod recording;
 pub mod runner;
 pub mod scenario;
 pub mod trace;

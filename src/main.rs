@@ -9,6 +9,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use nekosim::check::{self, CheckArgs};
+use nekosim::recording::{RecordingError, Target};
 use nekosim::runner::{self, RunError, RunOptions};
 use nekosim::scenario::{Overrides, Registry, Source};
 use nekosim_models::NetworkKind;
@@ -42,6 +43,12 @@ enum Command {
         /// Write the JSON Lines trace here.
         #[arg(long)]
         trace: Option<PathBuf>,
+        /// Save a Rerun recording here (open it with `rerun FILE`).
+        #[arg(long, value_name = "FILE")]
+        rrd: Option<PathBuf>,
+        /// Stream to a running Rerun viewer (default: the SDK's local viewer URL).
+        #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
+        connect: Option<String>,
         /// Print nothing on success.
         #[arg(long, short)]
         quiet: bool,
@@ -200,8 +207,17 @@ fn execute(command: Command) -> Result<u8, Failure> {
             until,
             log,
             trace,
+            rrd,
+            connect,
             quiet,
         } => {
+            if (rrd.is_some() || connect.is_some()) && !cfg!(feature = "rerun") {
+                return Err(invalid(RecordingError::Unsupported));
+            }
+            let recording = Target {
+                rrd,
+                connect: connect.map(|u| (!u.is_empty()).then_some(u)),
+            };
             let source = Source::load(&scenario).map_err(invalid)?;
             let built = source
                 .build(Overrides { seed, until }, &registry)
@@ -230,6 +246,7 @@ fn execute(command: Command) -> Result<u8, Failure> {
                 RunOptions {
                     log,
                     trace,
+                    recording,
                     progress,
                 },
             );
@@ -237,7 +254,13 @@ fn execute(command: Command) -> Result<u8, Failure> {
                 b.finish_and_clear();
             }
             let summary = result.map_err(|e| match e {
-                RunError::CreateOutput { .. } => invalid(e),
+                RunError::CreateOutput { .. }
+                | RunError::Recording(
+                    RecordingError::Create { .. }
+                    | RecordingError::Url { .. }
+                    | RecordingError::Unreachable { .. }
+                    | RecordingError::Unsupported,
+                ) => invalid(e),
                 other => Failure {
                     code: 1,
                     message: format!("{:#}", anyhow::Error::from(other)),

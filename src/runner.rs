@@ -1,5 +1,7 @@
 //! Running a built scenario with its outputs: the Neko log and the JSONL trace are streamed to
-//! files that appear only when the run succeeded (see [`crate::output`]).
+//! files that appear only when the run succeeded (see [`crate::output`]); a Rerun recording
+//! ([`crate::recording`]) is drawn from the same records and is complete whenever the run
+//! started, also when it failed.
 
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -12,6 +14,7 @@ use nekosim_actors::{SimConfig, SimError};
 
 use crate::log::NekoLog;
 use crate::output::AtomicFile;
+use crate::recording::{RecordingError, Target};
 use crate::scenario::Built;
 use crate::trace::to_json;
 
@@ -20,6 +23,8 @@ use crate::trace::to_json;
 pub struct RunOptions {
     pub log: Option<PathBuf>,
     pub trace: Option<PathBuf>,
+    /// Where a Rerun recording goes, if anywhere.
+    pub recording: Target,
     /// Called with the virtual time now and then.
     pub progress: Option<Box<dyn FnMut(f64)>>,
 }
@@ -29,6 +34,7 @@ impl std::fmt::Debug for RunOptions {
         f.debug_struct("RunOptions")
             .field("log", &self.log)
             .field("trace", &self.trace)
+            .field("recording", &self.recording)
             .finish()
     }
 }
@@ -143,6 +149,9 @@ pub enum RunError {
     /// The simulation failed.
     #[error(transparent)]
     Sim(#[from] SimError),
+    /// The Rerun recording failed (its variants say whether it is the user's input).
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
 }
 
 fn create(path: &Option<PathBuf>) -> Result<Option<AtomicFile>, RunError> {
@@ -160,18 +169,24 @@ fn create(path: &Option<PathBuf>) -> Result<Option<AtomicFile>, RunError> {
 pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
     let log = create(&opts.log)?;
     let trace = create(&opts.trace)?;
+    let recorder = start_recording(&built, &opts.recording)?;
     let outputs = Rc::new(RefCell::new((
         log,
         trace,
         NekoLog::new(),
         LatencyMeter::default(),
     )));
+    let recorder = Rc::new(RefCell::new(recorder));
     let sink = {
         let outputs = outputs.clone();
+        let recorder = recorder.clone();
         Box::new(move |r: &Record| {
             let mut o = outputs.borrow_mut();
             let (log, trace, neko, meter) = &mut *o;
             meter.observe(r);
+            if let Some(rec) = recorder.borrow_mut().as_mut() {
+                rec.record(r);
+            }
             if let Some(f) = log.as_mut() {
                 f.line(&neko.line(r));
             }
@@ -195,8 +210,16 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
             progress: opts.progress,
         },
         comms: built.comms,
-    })?;
+    });
     let wall_seconds = started.elapsed().as_secs_f64();
+    // The recording is finished whatever the outcome: a failed run's recording shows what
+    // happened up to the failure.
+    let recorded = finish_recording(
+        recorder.borrow_mut().take(),
+        out.as_ref().map_or(f64::NAN, |o| o.stats.end_time),
+    );
+    let out = out?;
+    recorded?;
     let (log, trace, _, meter) = Rc::try_unwrap(outputs)
         .map_err(|_| SimError::System("an output is still in use".into()))?
         .into_inner();
@@ -219,4 +242,42 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         wall_seconds,
         latency: meter.finish(),
     })
+}
+
+#[cfg(feature = "rerun")]
+type Recorder = crate::recording::Recorder<crate::recording::rerun_canvas::RerunCanvas>;
+
+/// Without Rerun there is never a recorder.
+#[cfg(not(feature = "rerun"))]
+type Recorder = crate::recording::Recorder<crate::recording::NoCanvas>;
+
+#[cfg(feature = "rerun")]
+fn start_recording(built: &Built, target: &Target) -> Result<Option<Recorder>, RunError> {
+    if !target.is_some() {
+        return Ok(None);
+    }
+    let canvas = crate::recording::rerun_canvas::RerunCanvas::start(&built.name, target)?;
+    Ok(Some(crate::recording::Recorder::new(
+        canvas,
+        &built.world.size,
+        built.framerate,
+    )))
+}
+
+#[cfg(not(feature = "rerun"))]
+fn start_recording(_: &Built, target: &Target) -> Result<Option<Recorder>, RunError> {
+    if target.is_some() {
+        return Err(RecordingError::Unsupported.into());
+    }
+    Ok(None)
+}
+
+fn finish_recording(recorder: Option<Recorder>, end: f64) -> Result<(), RunError> {
+    let Some(mut r) = recorder else {
+        return Ok(());
+    };
+    r.finish(end);
+    #[cfg(feature = "rerun")]
+    r.canvas_mut().finish()?;
+    Ok(())
 }

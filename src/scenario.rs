@@ -49,6 +49,17 @@ pub struct Scenario {
     pub stack: Vec<LayerSpec>,
     #[serde(default)]
     pub faults: Vec<FaultSpec>,
+    /// Animation settings of recordings (seed 6.1); default 25 frames per simulated second.
+    #[serde(default)]
+    pub animation: Option<Animation>,
+}
+
+/// How recordings animate robots between events (the seed's animation settings, 6.1).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Animation {
+    /// Frames per simulated second sampled from the motion formulas; 0: event instants only.
+    pub framerate: f64,
 }
 
 /// A fault to inject.
@@ -294,6 +305,8 @@ pub struct Built {
     pub world: WorldConfig,
     pub robots: Vec<(RobotSpec, Box<dyn Algorithm>)>,
     pub comms: Comms,
+    /// Animation frames per simulated second of recordings; 0: event instants only.
+    pub framerate: f64,
 }
 
 /// A scenario file read and parsed, with the positions of its values.
@@ -813,6 +826,21 @@ impl Source {
         let specs: Vec<RobotSpec> = robots.iter().map(|r| r.0).collect();
         VirtualWorld::new(world, &specs).map_err(|e| self.err("robots", e.to_string()))?;
         let comms = self.comms(total, registry)?;
+        let framerate = match &s.animation {
+            None => crate::recording::DEFAULT_FRAMERATE,
+            Some(a) => {
+                if !a.framerate.is_finite() || a.framerate < 0.0 {
+                    return Err(self.err(
+                        "animation.framerate",
+                        format!(
+                            "animation framerate is {}; expected a finite number of frames per simulated second >= 0",
+                            a.framerate
+                        ),
+                    ));
+                }
+                a.framerate
+            }
+        };
         let name = s.name.clone().unwrap_or_else(|| {
             Path::new(&self.file)
                 .file_stem()
@@ -820,6 +848,7 @@ impl Source {
         });
         Ok(Built {
             comms,
+            framerate,
             name,
             seed,
             until,

@@ -7,6 +7,9 @@ mod collisions;
 mod common;
 mod communication;
 mod determinism;
+mod recording;
+#[cfg(feature = "rerun")]
+mod rerun_reader;
 mod scale;
 mod sensors;
 mod smoke;

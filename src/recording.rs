@@ -1,0 +1,786 @@
+//! Rerun recordings of a run: the seed's animation module (seed 4.5.2, animation settings of
+//! 6.1) rebuilt as a stream of drawings for the Rerun viewer, live (`--connect`) or saved
+//! (`--rrd FILE`). docs/visualization.md describes what a recording shows.
+//!
+//! The module has two halves, so that what is drawn can be tested without Rerun:
+//!
+//! - [`Recorder`] (always compiled, pure): turns the run's [`Record`]s, the same stream the
+//!   JSONL trace and the Neko log are written from, into calls on a [`Canvas`]. It keeps the
+//!   little state a drawing needs (each robot's kinematic state, trail, sensor, messages in
+//!   flight) and samples the animation frames.
+//! - [`rerun_canvas::RerunCanvas`] (cargo feature `rerun`): a [`Canvas`] that writes Rerun
+//!   entities, buffered per entity and sent as columns.
+//!
+//! **Input.** The recorder consumes [`Record`]s rather than JSONL lines: they are what the
+//! engine produces, they are typed, and the trace is a projection of them, so every trace
+//! object corresponds to exactly one record. A future `nekosim check` counterexample is to be
+//! turned into `Record`s (sends, receives, deliveries, decisions) and fed through the same
+//! recorder.
+//!
+//! **Animation.** Between two kinematic records of a robot (spawn, motion step, motion finish,
+//! crash) the built-in motion patterns are exactly linear in time: the position is
+//! `pos_k + vel_k (t - t_k)` and the heading `angle_k + omega_k (t - t_k)` (seed eq. 3.1-3.2,
+//! the patterns' `state_at`). Frames at `k / framerate` evaluate these formulas for every
+//! moving robot; they never come from slicing the engine's time. A user-defined curved pattern
+//! only exposes its step states in the record stream, so its frames follow the chord between
+//! steps (the same limitation as rebuilding trajectories from the trace, docs/trace.md).
+//!
+//! **Determinism.** Everything drawn is a function of the records and the scenario: frames
+//! are on simulated time, `events/s` counts events per simulated second, and robot and layer
+//! colours come from ids and names, never from a hash map's order or the wall clock.
+
+use std::collections::{BTreeMap, VecDeque};
+
+use nekosim_actors::world::geometry::{normalize_deg, Point, Vector};
+use nekosim_actors::world::motion::Kinematics;
+use nekosim_actors::world::observation::{Observation, Record};
+use nekosim_actors::world::sensor::{SensorKind, SensorQuery};
+use nekosim_actors::world::virtual_world::WorldSize;
+use nekosim_actors::world::{Obstacle, RobotId};
+use nekosim_protocols::Wire;
+
+use crate::log::NekoLog;
+
+#[cfg(feature = "rerun")]
+pub mod rerun_canvas;
+
+/// Why a recording could not be made.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RecordingError {
+    /// The .rrd file (or its directory) could not be created: the user's input. Fatal before
+    /// the run starts.
+    #[error("{path}: cannot create the recording: {message}")]
+    Create { path: String, message: String },
+    /// The viewer URL is not a Rerun gRPC proxy URL: the user's input.
+    #[error("{url}: not a Rerun viewer URL ({message}); expected e.g. rerun+http://127.0.0.1:9876/proxy")]
+    Url { url: String, message: String },
+    /// No viewer answered at the URL (none running, or another address): the user's input.
+    #[error("{url}: cannot stream to the Rerun viewer: {message}; start one with `rerun` or check --connect")]
+    Unreachable { url: String, message: String },
+    /// Rerun refused data or could not finish the file (an internal error).
+    #[error("recording: {0}")]
+    Rerun(String),
+    /// This build has no Rerun support (cargo feature `rerun` off): the user's input.
+    #[error("this nekosim was built without Rerun support (cargo feature `rerun`); --rrd and --connect are unavailable")]
+    Unsupported,
+    /// The finished .rrd file could not be moved into place.
+    #[error("{path}: cannot write the recording: {source}")]
+    Write {
+        path: String,
+        source: std::io::Error,
+    },
+}
+
+/// Where a recording goes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Target {
+    /// Save to this .rrd file.
+    pub rrd: Option<std::path::PathBuf>,
+    /// Stream to the viewer at this gRPC URL (`Some(None)`: the SDK's default URL).
+    pub connect: Option<Option<String>>,
+}
+
+impl Target {
+    /// Whether anything is to be recorded.
+    pub fn is_some(&self) -> bool {
+        self.rrd.is_some() || self.connect.is_some()
+    }
+}
+
+/// Animation frames per simulated second when a scenario does not say.
+pub const DEFAULT_FRAMERATE: f64 = 25.0;
+
+/// Corners of a robot's path kept in its trail.
+pub const TRAIL: usize = 16;
+
+/// When a drawing holds: a simulated instant [s], and the trace `seq` of the record that caused
+/// it (`None` for animation frames and metric samples, which lie between events).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stamp {
+    /// Simulated time [s].
+    pub t: f64,
+    pub seq: Option<u64>,
+}
+
+/// An RGB colour.
+pub type Rgb = [u8; 3];
+
+/// Colour of crashed robots.
+pub const GREY: Rgb = [128, 128, 128];
+
+/// Figures sampled over the run.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Metrics {
+    /// Collision records so far.
+    pub collisions: u64,
+    /// Message copies sent and not yet received (lost copies stay in flight).
+    pub in_flight: u64,
+    /// Broadcast deliveries to algorithms so far.
+    pub deliveries: u64,
+    /// Records per simulated second over the last sampling period.
+    pub events_per_second: f64,
+}
+
+/// A message copy on its way: from the sender's position to the receiver's, both taken when it
+/// was sent.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Flight {
+    pub from: RobotId,
+    pub to: RobotId,
+    pub origin: Point,
+    pub target: Point,
+    /// The message's outermost type (`FIFO`, `LAMPORT`, an application type).
+    pub label: String,
+}
+
+/// Where a recording draws; one method per entity family of docs/visualization.md.
+pub trait Canvas {
+    /// The world's bounds (`None`: an infinite world). Called once, first.
+    fn world(&mut self, bounds: Option<(Point, Point)>);
+    /// A robot exists: its radius, colour and label.
+    fn spawn(&mut self, at: Stamp, robot: RobotId, radius: f64, colour: Rgb);
+    /// A robot's exact pose at `at` (an event or an animation frame).
+    fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64);
+    /// A robot's colour changes (grey when it crashed).
+    fn colour(&mut self, at: Stamp, robot: RobotId, colour: Rgb);
+    /// The robot's recent path: its last corners, ending at its current position.
+    fn path(&mut self, at: Stamp, robot: RobotId, corners: &[Point]);
+    /// Where the robot's current motion ends (`None`: no motion).
+    fn destination(&mut self, at: Stamp, robot: RobotId, dest: Option<Point>);
+    /// A push sensor's reach around the robot (`None`: no push sensor active).
+    fn sensor(&mut self, at: Stamp, robot: RobotId, circle: Option<(Point, f64)>);
+    /// A view or proximity query's range, from request to reply (`None`: answered).
+    fn query(&mut self, at: Stamp, robot: RobotId, circle: Option<(Point, f64)>);
+    /// Collision number `k` (from 0) at contact point `point`.
+    fn collision(&mut self, at: Stamp, k: u64, point: Point, label: &str);
+    /// Every copy in flight on `layer`, drawn in `colour`.
+    fn messages(&mut self, at: Stamp, layer: &str, colour: Rgb, flights: &[Flight]);
+    /// A Neko log line.
+    fn log(&mut self, at: Stamp, line: &str);
+    /// The run's figures.
+    fn metrics(&mut self, at: Stamp, m: &Metrics);
+}
+
+/// A canvas that draws nothing (the recorder's own cost, and builds without Rerun).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoCanvas;
+
+impl Canvas for NoCanvas {
+    fn world(&mut self, _: Option<(Point, Point)>) {}
+    fn spawn(&mut self, _: Stamp, _: RobotId, _: f64, _: Rgb) {}
+    fn pose(&mut self, _: Stamp, _: RobotId, _: Point, _: f64) {}
+    fn colour(&mut self, _: Stamp, _: RobotId, _: Rgb) {}
+    fn path(&mut self, _: Stamp, _: RobotId, _: &[Point]) {}
+    fn destination(&mut self, _: Stamp, _: RobotId, _: Option<Point>) {}
+    fn sensor(&mut self, _: Stamp, _: RobotId, _: Option<(Point, f64)>) {}
+    fn query(&mut self, _: Stamp, _: RobotId, _: Option<(Point, f64)>) {}
+    fn collision(&mut self, _: Stamp, _: u64, _: Point, _: &str) {}
+    fn messages(&mut self, _: Stamp, _: &str, _: Rgb, _: &[Flight]) {}
+    fn log(&mut self, _: Stamp, _: &str) {}
+    fn metrics(&mut self, _: Stamp, _: &Metrics) {}
+}
+
+#[derive(Clone, Debug)]
+struct RobotState {
+    /// Time of the kinematic state [s].
+    t: f64,
+    state: Kinematics,
+    radius: f64,
+    crashed: bool,
+    trail: VecDeque<Point>,
+    /// Reach of an active push proximity sensor, centre to border [units].
+    reach: Option<f64>,
+}
+
+impl RobotState {
+    fn moving(&self) -> bool {
+        !self.crashed && (self.state.vel != Vector::zeros() || self.state.omega != 0.0)
+    }
+
+    /// The motion formulas of the built-in patterns, evaluated at `t`.
+    fn at(&self, t: f64) -> (Point, f64) {
+        let dt = t - self.t;
+        (
+            self.state.pos + self.state.vel * dt,
+            normalize_deg(self.state.angle + self.state.omega * dt),
+        )
+    }
+}
+
+/// A distinct colour for robot `i` (hues spaced by the golden angle).
+pub fn robot_colour(i: u32) -> Rgb {
+    hsv(f64::from(i) * 137.507_764, 0.75, 0.9)
+}
+
+/// The colour of a protocol layer, from its name (FNV-1a, so it does not depend on the run).
+pub fn layer_colour(layer: &str) -> Rgb {
+    let mut h: u32 = 0x811c_9dc5;
+    for b in layer.bytes() {
+        h ^= u32::from(b);
+        h = h.wrapping_mul(0x0100_0193);
+    }
+    hsv(f64::from(h % 360), 0.9, 1.0)
+}
+
+fn hsv(hue: f64, s: f64, v: f64) -> Rgb {
+    let h = normalize_deg(hue) / 60.0;
+    let c = v * s;
+    let x = c * (1.0 - (h % 2.0 - 1.0).abs());
+    let (r, g, b) = match h as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = v - c;
+    let q = |u: f64| ((u + m) * 255.0).round() as u8;
+    [q(r), q(g), q(b)]
+}
+
+/// Key of an in-flight copy: (sender, receiver, layer, message).
+type FlightKey = (RobotId, RobotId, String, Wire);
+
+/// Turns a run's records into drawings on a [`Canvas`].
+#[derive(Debug)]
+pub struct Recorder<C: Canvas> {
+    canvas: C,
+    robots: Vec<RobotState>,
+    log: NekoLog,
+    /// Animation frames per simulated second; 0: event instants only.
+    framerate: f64,
+    /// Next animation frame's number.
+    frame: u64,
+    /// Period of metric samples [s].
+    period: f64,
+    next_sample: u64,
+    metrics: Metrics,
+    events_in_period: u64,
+    /// Copies in flight, per layer, in send order.
+    flights: BTreeMap<String, Vec<(FlightKey, Flight)>>,
+    last_t: f64,
+}
+
+impl<C: Canvas> Recorder<C> {
+    /// A recorder of a world with `size`, animated at `framerate` frames per simulated second
+    /// (0: event instants only).
+    pub fn new(mut canvas: C, size: &WorldSize, framerate: f64) -> Self {
+        canvas.world(match size {
+            WorldSize::Bounded { min, max } => Some((*min, *max)),
+            WorldSize::Infinite => None,
+        });
+        let framerate = if framerate.is_finite() && framerate > 0.0 {
+            framerate
+        } else {
+            0.0
+        };
+        Self {
+            canvas,
+            robots: Vec::new(),
+            log: NekoLog::new(),
+            framerate,
+            frame: 0,
+            period: if framerate > 0.0 {
+                1.0 / framerate
+            } else {
+                1.0
+            },
+            next_sample: 1,
+            metrics: Metrics::default(),
+            events_in_period: 0,
+            flights: BTreeMap::new(),
+            last_t: 0.0,
+        }
+    }
+
+    /// The canvas, e.g. to finish it.
+    pub fn canvas_mut(&mut self) -> &mut C {
+        &mut self.canvas
+    }
+
+    /// Gives the canvas back.
+    pub fn into_canvas(self) -> C {
+        self.canvas
+    }
+
+    /// Draws frames and metric samples strictly before `t`: everything at those instants has
+    /// been recorded, and nothing at `t` yet.
+    fn advance(&mut self, t: f64) {
+        loop {
+            let frame_t = (self.framerate > 0.0).then(|| self.frame as f64 / self.framerate);
+            let sample_t = self.next_sample as f64 * self.period;
+            let next = match frame_t {
+                Some(f) if f <= sample_t => f,
+                _ => sample_t,
+            };
+            if next >= t {
+                break;
+            }
+            if frame_t == Some(next) {
+                let at = Stamp { t: next, seq: None };
+                for (i, r) in self.robots.iter().enumerate() {
+                    if r.moving() {
+                        let (pos, angle) = r.at(next);
+                        self.canvas.pose(at, i as RobotId, pos, angle);
+                        if let Some(reach) = r.reach {
+                            self.canvas.sensor(at, i as RobotId, Some((pos, reach)));
+                        }
+                    }
+                }
+                self.frame += 1;
+            }
+            if sample_t == next {
+                self.sample(next);
+            }
+        }
+    }
+
+    fn sample(&mut self, t: f64) {
+        self.metrics.events_per_second = self.events_in_period as f64 / self.period;
+        self.events_in_period = 0;
+        self.canvas.metrics(Stamp { t, seq: None }, &self.metrics);
+        self.next_sample += 1;
+    }
+
+    /// Draws the animation up to `end` (the run's end time, frames at `end` included) and a
+    /// last metric sample at `end` unless one falls there already.
+    pub fn finish(&mut self, end: f64) {
+        let end = if end.is_finite() {
+            end.max(self.last_t)
+        } else {
+            self.last_t
+        };
+        self.advance(end + f64::EPSILON * end.abs().max(1.0));
+        let last_sample = (self.next_sample - 1) as f64 * self.period;
+        if last_sample < end || self.next_sample == 1 {
+            self.metrics.events_per_second = self.events_in_period as f64 / self.period;
+            self.canvas
+                .metrics(Stamp { t: end, seq: None }, &self.metrics);
+        }
+    }
+
+    fn pos_now(&self, robot: RobotId, t: f64) -> Point {
+        self.robots
+            .get(robot as usize)
+            .map_or(Point::origin(), |r| r.at(t).0)
+    }
+
+    fn kinematic(&mut self, at: Stamp, robot: RobotId, state: Kinematics) {
+        let Some(r) = self.robots.get_mut(robot as usize) else {
+            return;
+        };
+        r.t = at.t;
+        r.state = state;
+        if r.trail.back() != Some(&state.pos) {
+            if r.trail.len() == TRAIL {
+                r.trail.pop_front();
+            }
+            r.trail.push_back(state.pos);
+        }
+        self.canvas.pose(at, robot, state.pos, state.angle);
+        let (slice_a, slice_b) = r.trail.as_slices();
+        let corners: Vec<Point> = slice_a.iter().chain(slice_b).copied().collect();
+        self.canvas.path(at, robot, &corners);
+        if let Some(reach) = r.reach {
+            self.canvas.sensor(at, robot, Some((state.pos, reach)));
+        }
+    }
+
+    /// Draws one record. Records must come in processing order.
+    pub fn record(&mut self, rec: &Record) {
+        self.advance(rec.t);
+        self.last_t = rec.t;
+        self.events_in_period += 1;
+        let at = Stamp {
+            t: rec.t,
+            seq: Some(rec.seq),
+        };
+        match &rec.obs {
+            Observation::Spawn {
+                robot,
+                pos,
+                angle,
+                radius,
+            } => {
+                let i = *robot as usize;
+                let state = Kinematics::at_rest(nekosim_actors::world::motion::Pose {
+                    pos: *pos,
+                    angle: *angle,
+                });
+                let fresh = RobotState {
+                    t: rec.t,
+                    state,
+                    radius: *radius,
+                    crashed: false,
+                    trail: VecDeque::new(),
+                    reach: None,
+                };
+                if self.robots.len() <= i {
+                    self.robots.resize(i + 1, fresh.clone());
+                }
+                self.robots[i] = fresh;
+                self.canvas.spawn(at, *robot, *radius, robot_colour(*robot));
+                self.kinematic(at, *robot, state);
+            }
+            Observation::MotionStep {
+                robot,
+                state,
+                progress,
+                ..
+            } => {
+                self.kinematic(at, *robot, *state);
+                self.canvas.destination(at, *robot, Some(progress.dest));
+            }
+            Observation::MotionFinish { robot, state, .. } => {
+                self.kinematic(at, *robot, *state);
+                self.canvas.destination(at, *robot, None);
+            }
+            Observation::Crash { robot, state } => {
+                self.kinematic(at, *robot, *state);
+                if let Some(r) = self.robots.get_mut(*robot as usize) {
+                    r.crashed = true;
+                    if r.reach.take().is_some() {
+                        self.canvas.sensor(at, *robot, None);
+                    }
+                }
+                self.canvas.colour(at, *robot, GREY);
+                self.canvas.destination(at, *robot, None);
+            }
+            Observation::Collision {
+                robot,
+                other,
+                pos,
+                other_pos,
+                ..
+            } => {
+                let point = match other {
+                    Obstacle::Boundary => *other_pos,
+                    Obstacle::Robot(o) => {
+                        let r1 = self.robots.get(*robot as usize).map_or(1.0, |r| r.radius);
+                        let r2 = self.robots.get(*o as usize).map_or(1.0, |r| r.radius);
+                        pos + (other_pos - pos) * (r1 / (r1 + r2))
+                    }
+                };
+                let label = match other {
+                    Obstacle::Boundary => format!("p{robot} × boundary"),
+                    Obstacle::Robot(o) => format!("p{robot} × p{o}"),
+                };
+                self.canvas
+                    .collision(at, self.metrics.collisions, point, &label);
+                self.metrics.collisions += 1;
+            }
+            Observation::SensorRequest { robot, query } => {
+                let Some(r) = self.robots.get_mut(*robot as usize) else {
+                    return self.log_line(at, rec);
+                };
+                let (pos, _) = r.at(rec.t);
+                match query {
+                    SensorQuery::ActivateProximity { range, .. } => {
+                        r.reach = Some(r.radius + range);
+                        self.canvas
+                            .sensor(at, *robot, Some((pos, r.radius + range)));
+                    }
+                    SensorQuery::DeactivateProximity => {
+                        r.reach = None;
+                        self.canvas.sensor(at, *robot, None);
+                    }
+                    // View compares centre distances; proximity free distances (border to
+                    // border), so its circle is wider by the robot's radius.
+                    SensorQuery::View { range } => {
+                        self.canvas.query(at, *robot, Some((pos, *range)));
+                    }
+                    SensorQuery::Proximity { range } => {
+                        let reach = r.radius + range;
+                        self.canvas.query(at, *robot, Some((pos, reach)));
+                    }
+                    _ => {}
+                }
+            }
+            Observation::SensorReply {
+                robot,
+                sensor: SensorKind::View | SensorKind::Proximity,
+                interrupt: false,
+                ..
+            } => {
+                self.canvas.query(at, *robot, None);
+            }
+            Observation::Send {
+                robot,
+                to,
+                layer,
+                msg,
+            } => {
+                let origin = self.pos_now(*robot, rec.t);
+                let mut added = Vec::with_capacity(to.len());
+                for dest in to {
+                    let flight = Flight {
+                        from: *robot,
+                        to: *dest,
+                        origin,
+                        target: self.pos_now(*dest, rec.t),
+                        label: msg.type_name().to_string(),
+                    };
+                    added.push(((*robot, *dest, layer.clone(), msg.clone()), flight));
+                }
+                self.metrics.in_flight += added.len() as u64;
+                self.flights.entry(layer.clone()).or_default().extend(added);
+                self.draw_messages(at, layer);
+            }
+            Observation::Receive {
+                robot,
+                from,
+                layer,
+                msg,
+            } => {
+                if let Some(list) = self.flights.get_mut(layer) {
+                    if let Some(i) = list.iter().position(|(k, _)| {
+                        k.0 == *from && k.1 == *robot && &k.2 == layer && &k.3 == msg
+                    }) {
+                        list.remove(i);
+                        self.metrics.in_flight -= 1;
+                        self.draw_messages(at, layer);
+                    }
+                }
+            }
+            Observation::Deliver { .. } => self.metrics.deliveries += 1,
+            _ => {}
+        }
+        self.log_line(at, rec);
+    }
+
+    fn log_line(&mut self, at: Stamp, rec: &Record) {
+        let line = self.log.line(rec);
+        self.canvas.log(at, &line);
+    }
+
+    fn draw_messages(&mut self, at: Stamp, layer: &str) {
+        let flights: Vec<Flight> = self
+            .flights
+            .get(layer)
+            .map(|l| l.iter().map(|(_, f)| f.clone()).collect())
+            .unwrap_or_default();
+        self.canvas
+            .messages(at, layer, layer_colour(layer), &flights);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nekosim_actors::world::motion::{Progress, StepKind};
+
+    /// Remembers every call as text.
+    #[derive(Debug, Default)]
+    struct Tape(Vec<String>);
+
+    fn s(at: Stamp) -> String {
+        match at.seq {
+            Some(q) => format!("{}#{q}", at.t),
+            None => format!("{}", at.t),
+        }
+    }
+
+    impl Canvas for Tape {
+        fn world(&mut self, bounds: Option<(Point, Point)>) {
+            self.0.push(format!("world {bounds:?}"));
+        }
+        fn spawn(&mut self, at: Stamp, robot: RobotId, radius: f64, _: Rgb) {
+            self.0.push(format!("{} spawn p{robot} r{radius}", s(at)));
+        }
+        fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64) {
+            self.0.push(format!(
+                "{} pose p{robot} {} {} {angle}",
+                s(at),
+                pos.x,
+                pos.y
+            ));
+        }
+        fn colour(&mut self, at: Stamp, robot: RobotId, c: Rgb) {
+            self.0.push(format!("{} colour p{robot} {c:?}", s(at)));
+        }
+        fn path(&mut self, at: Stamp, robot: RobotId, corners: &[Point]) {
+            self.0
+                .push(format!("{} path p{robot} {}", s(at), corners.len()));
+        }
+        fn destination(&mut self, at: Stamp, robot: RobotId, dest: Option<Point>) {
+            self.0.push(format!(
+                "{} dest p{robot} {:?}",
+                s(at),
+                dest.map(|d| (d.x, d.y))
+            ));
+        }
+        fn sensor(&mut self, at: Stamp, robot: RobotId, c: Option<(Point, f64)>) {
+            self.0
+                .push(format!("{} sensor p{robot} {:?}", s(at), c.map(|c| c.1)));
+        }
+        fn query(&mut self, at: Stamp, robot: RobotId, c: Option<(Point, f64)>) {
+            self.0
+                .push(format!("{} query p{robot} {:?}", s(at), c.map(|c| c.1)));
+        }
+        fn collision(&mut self, at: Stamp, k: u64, p: Point, label: &str) {
+            self.0
+                .push(format!("{} collision {k} {} {} {label}", s(at), p.x, p.y));
+        }
+        fn messages(&mut self, at: Stamp, layer: &str, _: Rgb, flights: &[Flight]) {
+            self.0
+                .push(format!("{} messages {layer} {}", s(at), flights.len()));
+        }
+        fn log(&mut self, _: Stamp, _: &str) {}
+        fn metrics(&mut self, at: Stamp, m: &Metrics) {
+            self.0.push(format!(
+                "{} metrics c{} f{} d{} e{}",
+                s(at),
+                m.collisions,
+                m.in_flight,
+                m.deliveries,
+                m.events_per_second
+            ));
+        }
+    }
+
+    fn rec(t: f64, seq: u64, obs: Observation) -> Record {
+        Record { t, seq, obs }
+    }
+
+    fn moving(x: f64, vx: f64) -> Kinematics {
+        Kinematics {
+            pos: Point::new(x, 0.0),
+            angle: 0.0,
+            vel: Vector::new(vx, 0.0),
+            omega: 0.0,
+        }
+    }
+
+    #[test]
+    fn frames_follow_the_motion_formulas_and_stop_when_the_robot_rests() {
+        let bounds = WorldSize::Bounded {
+            min: Point::new(0.0, 0.0),
+            max: Point::new(10.0, 10.0),
+        };
+        let mut r = Recorder::new(Tape::default(), &bounds, 2.0);
+        r.record(&rec(
+            0.0,
+            0,
+            Observation::Spawn {
+                robot: 0,
+                pos: Point::new(1.0, 0.0),
+                angle: 0.0,
+                radius: 0.5,
+            },
+        ));
+        r.record(&rec(
+            0.0,
+            1,
+            Observation::MotionStep {
+                robot: 0,
+                step: StepKind::StartForward,
+                state: moving(1.0, 2.0),
+                progress: Progress {
+                    dest: Point::new(4.0, 0.0),
+                    ..Progress::default()
+                },
+            },
+        ));
+        r.record(&rec(
+            1.5,
+            2,
+            Observation::MotionFinish {
+                robot: 0,
+                state: moving(4.0, 0.0),
+                outcome: nekosim_actors::world::MotionOutcome::Arrived,
+            },
+        ));
+        r.finish(2.0);
+        let tape = r.into_canvas().0;
+        assert_eq!(
+            tape,
+            [
+                "world Some(([0.0, 0.0], [10.0, 10.0]))",
+                "0#0 spawn p0 r0.5",
+                "0#0 pose p0 1 0 0",
+                "0#0 path p0 1",
+                "0#1 pose p0 1 0 0",
+                "0#1 path p0 1",
+                "0#1 dest p0 Some((4.0, 0.0))",
+                // Frames at 0, 0.5 and 1 s: x = 1 + 2 t; metrics every frame period.
+                "0 pose p0 1 0 0",
+                "0.5 pose p0 2 0 0",
+                "0.5 metrics c0 f0 d0 e4",
+                "1 pose p0 3 0 0",
+                "1 metrics c0 f0 d0 e0",
+                "1.5#2 pose p0 4 0 0",
+                "1.5#2 path p0 2",
+                "1.5#2 dest p0 None",
+                // At rest from 1.5 s on: no more frames, only metric samples.
+                "1.5 metrics c0 f0 d0 e2",
+                "2 metrics c0 f0 d0 e0",
+            ]
+        );
+    }
+
+    #[test]
+    fn collisions_mark_the_contact_point_and_messages_fly_until_received() {
+        let mut r = Recorder::new(Tape::default(), &WorldSize::Infinite, 0.0);
+        for (i, x) in [(0u32, 0.0), (1, 3.0)] {
+            r.record(&rec(
+                0.0,
+                u64::from(i),
+                Observation::Spawn {
+                    robot: i,
+                    pos: Point::new(x, 0.0),
+                    angle: 0.0,
+                    radius: if i == 0 { 1.0 } else { 2.0 },
+                },
+            ));
+        }
+        r.record(&rec(
+            0.5,
+            2,
+            Observation::Collision {
+                robot: 0,
+                other: Obstacle::Robot(1),
+                pos: Point::new(0.0, 0.0),
+                angle: 0.0,
+                other_pos: Point::new(3.0, 0.0),
+            },
+        ));
+        let msg = Wire::Heartbeat;
+        r.record(&rec(
+            0.6,
+            3,
+            Observation::Send {
+                robot: 0,
+                to: vec![1],
+                layer: "app".into(),
+                msg: msg.clone(),
+            },
+        ));
+        r.record(&rec(
+            1.6,
+            4,
+            Observation::Receive {
+                robot: 1,
+                from: 0,
+                layer: "app".into(),
+                msg,
+            },
+        ));
+        let tape = r.into_canvas().0;
+        let drawn: Vec<&str> = tape
+            .iter()
+            .map(String::as_str)
+            .filter(|l| l.contains("collision") || l.contains("messages"))
+            .collect();
+        assert_eq!(
+            drawn,
+            [
+                // One third of the way: radius 1 of a 1 + 2 reach.
+                "0.5#2 collision 0 1 0 p0 × p1",
+                "0.6#3 messages app 1",
+                "1.6#4 messages app 0",
+            ]
+        );
+    }
+}

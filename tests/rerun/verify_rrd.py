@@ -1,0 +1,221 @@
+"""Checks a nekosim .rrd recording with the official Rerun reader (rerun-sdk 0.36.3).
+
+Usage: verify_rrd.py RECORDING.rrd TRACE.jsonl FRAMERATE
+
+Independently of nekosim's code, it checks that:
+- `rerun rrd verify` accepts the file;
+- the recording loads with `rerun.experimental.RrdReader` and has the `sim_time` and `event`
+  timelines;
+- every robot's exact pose (`nekosim.Pose:pose`, 64-bit) equals the position rebuilt from the
+  JSONL trace of the same run within 1e-6, on every row, and read back with latest-at
+  semantics at animation-frame instants (all robots) and event instants (the robots the event
+  is about); the drawn 32-bit marker agrees with it to float precision;
+- the number of collision markers equals the number of `collision` records of the trace;
+- a crashed robot is grey from its crash on;
+- every `send` record has a message-arrow row at its event with at least one arrow per receiver;
+- the text log has one line per trace record.
+
+Prints one summary line and exits 0, or prints what differs and exits 1.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+import pyarrow as pa
+import rerun as rr
+import rerun.experimental as rrx
+
+TOLERANCE = 1e-6
+EXPECTED_VERSION = "0.36.3"
+
+
+def fail(msg: str) -> None:
+    print(f"verify_rrd: FAIL: {msg}", file=sys.stderr)
+    sys.exit(1)
+
+
+def load_trace(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines() if line]
+
+
+def rebuild(trace: list[dict]) -> dict[int, list[tuple[float, float, float, float, float]]]:
+    """Each robot's path as (t, x, y, vx, vy) pieces, from the kinematic records only."""
+    paths: dict[int, list] = defaultdict(list)
+    for r in trace:
+        kind = r["kind"]
+        if kind == "spawn" or kind in ("motion_finish", "crash"):
+            x, y = r["pos"]
+            paths[r["robot"]].append((r["t"], x, y, 0.0, 0.0))
+        elif "vel" in r:
+            x, y = r["pos"]
+            vx, vy = r["vel"]
+            paths[r["robot"]].append((r["t"], x, y, vx, vy))
+    return paths
+
+
+def pos_at(path, t: float) -> tuple[float, float]:
+    last = None
+    for seg in path:
+        if seg[0] <= t:
+            last = seg
+        else:
+            break
+    t0, x, y, vx, vy = last
+    return (x + vx * (t - t0), y + vy * (t - t0))
+
+
+def ns(t: float) -> int:
+    return int(round(t * 1e9))
+
+
+class Rows:
+    """All rows of every entity: entity -> list of (sim_time ns, event or None, row id, columns)."""
+
+    def __init__(self, path: Path):
+        reader = rrx.RrdReader(str(path))
+        if not reader.recordings():
+            fail("no recording store in the file")
+        self.timelines: set[str] = set()
+        self.by_entity: dict[str, list] = defaultdict(list)
+        for chunk in reader.store().stream():
+            if chunk.is_static:
+                self.by_entity[chunk.entity_path].append((None, None, b"", {}))
+                continue
+            self.timelines.update(chunk.timeline_names)
+            batch: pa.RecordBatch = chunk.to_record_batch()
+            names = batch.schema.names
+            sim = batch.column("sim_time").cast(pa.int64()).to_pylist() if "sim_time" in names else None
+            if sim is None:
+                continue
+            event = batch.column("event").to_pylist() if "event" in names else [None] * batch.num_rows
+            row_ids = batch.column("rerun.controls.RowId").to_pylist()
+            data = {n: batch.column(n).to_pylist() for n in names if ":" in n}
+            for i in range(batch.num_rows):
+                cols = {n: v[i] for n, v in data.items() if v[i] is not None}
+                self.by_entity[chunk.entity_path].append((sim[i], event[i], row_ids[i], cols))
+
+    def latest_at(self, entity: str, component: str, t_ns: int):
+        """The component's value at `t_ns` on sim_time: the last row at or before it."""
+        best = None
+        for sim, _, row_id, cols in self.by_entity.get(entity, []):
+            if sim is None or sim > t_ns or component not in cols:
+                continue
+            key = (sim, row_id)
+            if best is None or key > best[0]:
+                best = (key, cols[component])
+        return None if best is None else best[1]
+
+
+def main() -> None:
+    if len(sys.argv) != 4:
+        fail(__doc__)
+    rrd, trace_path, framerate = Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3])
+    if rr.__version__ != EXPECTED_VERSION:
+        fail(f"rerun-sdk {rr.__version__}, expected {EXPECTED_VERSION}")
+
+    cli = Path(sys.executable).parent / "rerun"
+    # Rerun's tools send no usage data when `CI` is set; a test has no business sending any.
+    env = dict(os.environ, CI="1")
+    verify = subprocess.run(
+        [str(cli), "rrd", "verify", str(rrd)], capture_output=True, text=True, env=env
+    )
+    if verify.returncode != 0:
+        fail(f"rerun rrd verify: {verify.stdout}{verify.stderr}")
+
+    trace = load_trace(trace_path)
+    rows = Rows(rrd)
+    for timeline in ("sim_time", "event"):
+        if timeline not in rows.timelines:
+            fail(f"timeline {timeline} missing; have {sorted(rows.timelines)}")
+    if "/world/bounds" not in rows.by_entity and "/world/robots/0" not in rows.by_entity:
+        fail("no world entities")
+
+    # Every recorded pose lies on the trajectory rebuilt from the trace, at its own instant.
+    paths = rebuild(trace)
+    rows_checked = 0
+    for robot, path in paths.items():
+        for sim, _, _, cols in rows.by_entity.get(f"/world/robots/{robot}", []):
+            pose = cols.get("nekosim.Pose:pose")
+            if pose is None:
+                continue
+            want = pos_at(path, sim / 1e9)
+            if abs(pose[0] - want[0]) > TOLERANCE or abs(pose[1] - want[1]) > TOLERANCE:
+                fail(f"robot {robot} row at sim_time {sim} ns: recording {pose[:2]}, trace {want}")
+            rows_checked += 1
+
+    # Read back with latest-at: at animation frames every robot is where the trace puts it; at
+    # an event instant, every robot with a kinematic record at that instant.
+    end = trace[-1]["t"]
+    instants: list[tuple[float, object]] = []
+    if framerate > 0:
+        frames = int(end * framerate)
+        for k in sorted({frames * j // 7 for j in range(1, 8)} | {1, 3}):
+            instants.append((k / framerate, None))
+    kinematic = [r for r in trace if r["kind"] == "spawn" or "pos" in r and r["kind"] != "collision"]
+    for r in kinematic[:: max(1, len(kinematic) // 25)]:
+        instants.append((r["t"], r["robot"]))
+    checked = 0
+    for t, only in instants:
+        for robot, path in paths.items():
+            if only is not None and robot != only:
+                continue
+            want = pos_at(path, t)
+            entity = f"/world/robots/{robot}"
+            pose = rows.latest_at(entity, "nekosim.Pose:pose", ns(t))
+            if pose is None:
+                fail(f"{entity}: no pose at sim_time {t}")
+            if abs(pose[0] - want[0]) > TOLERANCE or abs(pose[1] - want[1]) > TOLERANCE:
+                fail(f"{entity} at {t}: recording {pose[:2]}, trace {want}")
+            drawn = rows.latest_at(entity, "Points2D:positions", ns(t))[0]
+            for d, w in zip(drawn, want):
+                # 32-bit floats: 24 bits of mantissa.
+                if abs(d - w) > 2**-22 * max(1.0, abs(w)):
+                    fail(f"{entity} at {t}: drawn {drawn}, trace {want}")
+            checked += 1
+
+    collisions = sum(1 for r in trace if r["kind"] == "collision")
+    # Each row of a collision group shows the group's markers so far: its last row has them all.
+    markers = 0
+    for entity, rs in rows.by_entity.items():
+        if entity.startswith("/world/collisions/"):
+            temporal = [r for r in rs if r[0] is not None and "Points2D:positions" in r[3]]
+            if temporal:
+                last = max(temporal, key=lambda r: (r[0], r[2]))
+                markers += len(last[3]["Points2D:positions"])
+    if markers != collisions:
+        fail(f"{markers} collision markers, the trace has {collisions} collisions")
+
+    sends = [r for r in trace if r["kind"] == "send"]
+    for s in sends:
+        entity = f"/world/messages/{s['layer']}"
+        at_event = [cols for _, ev, _, cols in rows.by_entity.get(entity, []) if ev == s["seq"]]
+        if not at_event or len(at_event[-1].get("Arrows2D:vectors", [])) < len(s["to"]):
+            fail(f"send #{s['seq']} on {s['layer']}: no arrow per receiver in {entity}")
+
+    # Crashed robots are grey from their crash on.
+    grey = 0x808080FF
+    for c in (r for r in trace if r["kind"] == "crash"):
+        entity = f"/world/robots/{c['robot']}"
+        colour = rows.latest_at(entity, "Points2D:colors", ns(c["t"]))
+        if colour != [grey]:
+            fail(f"{entity} crashed at {c['t']} but its colour is {colour}")
+
+    log_rows = sum(1 for _, ev, _, cols in rows.by_entity.get("/log", []) if "TextLog:text" in cols)
+    if log_rows != len(trace):
+        fail(f"{log_rows} log lines, the trace has {len(trace)} records")
+
+    print(
+        f"verify_rrd: ok: {rrd.name}: {rows_checked} pose rows on the trace's paths, "
+        f"{checked} latest-at positions at {len(instants)} instants, "
+        f"{markers} collision markers, {len(sends)} sends with arrows, {log_rows} log lines"
+    )
+
+
+if __name__ == "__main__":
+    main()
