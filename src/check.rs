@@ -18,6 +18,7 @@ use stateright::Expectation;
 
 use crate::log::wire_text;
 use crate::output::AtomicFile;
+use crate::recording::RecordingError;
 
 /// What the command was asked to check.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,6 +31,8 @@ pub struct CheckArgs {
     pub depth: Option<usize>,
     pub threads: usize,
     pub trace: Option<PathBuf>,
+    /// Save the counterexample (or witness) as a Rerun recording here.
+    pub rrd: Option<PathBuf>,
     /// Protocol timer firings per process; the model's default when `None`.
     pub timers: Option<u32>,
     /// Last Chandra-Toueg round explored.
@@ -49,6 +52,9 @@ pub enum CheckError {
     /// The trace file could not be written (exit 2, like any output the user names).
     #[error("cannot write the trace {}: {source}", path.display())]
     Trace { path: PathBuf, source: io::Error },
+    /// The recording could not be made (exit 2 when the user's input is at fault).
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
 }
 
 /// The model names, one per line.
@@ -164,7 +170,123 @@ pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> 
             source,
         })?;
     }
+    if let Some(path) = &args.rrd {
+        write_recording(&args.model, &model, &outcome, path)?;
+    }
     Ok(outcome.all_hold())
+}
+
+/// Distance between two process lanes in a counterexample recording.
+#[cfg(feature = "rerun")]
+const LANE: f64 = 10.0;
+
+/// Saves the traced path (see [`traced`]) as a Rerun recording: process `p` stands still at
+/// `(LANE * p, 0)`, its lane; each step is one simulated second, so a message's arrow goes
+/// from the sender's lane to the receiver's and stays from the step that sent it to the step
+/// that received it; deliveries, decisions, timers, losses and crashes are log lines (a
+/// crashed process turns grey), and the log opens and ends with the verdict. No path, no file.
+#[cfg(feature = "rerun")]
+fn write_recording(
+    name: &str,
+    model: &CheckModel,
+    outcome: &Outcome,
+    path: &Path,
+) -> Result<(), RecordingError> {
+    use crate::recording::rerun_canvas::RerunCanvas;
+    use crate::recording::{Canvas, Recorder, Stamp, Target};
+    use nekosim_actors::world::geometry::Point;
+    use nekosim_actors::world::motion::{Kinematics, Pose};
+    use nekosim_actors::world::virtual_world::WorldSize;
+
+    let Some(v) = traced(outcome) else {
+        return Ok(());
+    };
+    let steps = explain(model, v.path.as_ref().expect("traced paths exist"));
+    let n = model.actors.len();
+    let lane = |p: u32| Point::new(LANE * p as f64, 0.0);
+    let size = WorldSize::Bounded {
+        min: Point::new(-LANE, -LANE),
+        max: Point::new(LANE * n as f64, LANE),
+    };
+    let target = Target {
+        rrd: Some(path.to_path_buf()),
+        connect: None,
+    };
+    let canvas = RerunCanvas::start(&format!("check {name}"), &target)?;
+    let mut rec = Recorder::new(canvas, &size, 0.0);
+    for p in 0..n as u32 {
+        rec.record(&Record {
+            t: 0.0,
+            seq: 0,
+            obs: Observation::Spawn {
+                robot: p,
+                pos: lane(p),
+                angle: 90.0,
+                radius: 1.0,
+            },
+        });
+    }
+    let verdict = format!(
+        "{} {:?} ({}): {} in {} steps",
+        if v.holds {
+            "witness of"
+        } else {
+            "counterexample of"
+        },
+        v.name,
+        name,
+        if v.holds { "reached" } else { "violated" },
+        steps.len()
+    );
+    let start = Stamp {
+        t: 0.0,
+        seq: Some(0),
+    };
+    rec.canvas_mut().log(start, &verdict);
+    for item in path_items(model, &steps) {
+        match item {
+            Item::Obs(r) => rec.record(&r),
+            Item::Extra(x) => {
+                let (t, seq) = (
+                    x["t"].as_f64().unwrap_or(0.0),
+                    x["seq"].as_u64().unwrap_or(0),
+                );
+                if x["kind"] == "crash" {
+                    let p = x["robot"].as_u64().unwrap_or(0) as u32;
+                    rec.record(&Record {
+                        t,
+                        seq,
+                        obs: Observation::Crash {
+                            robot: p,
+                            state: Kinematics::at_rest(Pose {
+                                pos: lane(p),
+                                angle: 90.0,
+                            }),
+                        },
+                    });
+                } else {
+                    rec.canvas_mut()
+                        .log(Stamp { t, seq: Some(seq) }, &x.to_string());
+                }
+            }
+        }
+    }
+    let end = steps.len() as f64;
+    rec.finish(end);
+    let last = steps.len() as u64;
+    rec.canvas_mut().log(
+        Stamp {
+            t: end,
+            seq: Some(last),
+        },
+        &verdict,
+    );
+    rec.canvas_mut().finish()
+}
+
+#[cfg(not(feature = "rerun"))]
+fn write_recording(_: &str, _: &CheckModel, _: &Outcome, _: &Path) -> Result<(), RecordingError> {
+    Err(RecordingError::Unsupported)
 }
 
 /// The path the trace shows: the first counterexample, else the first witness.
@@ -196,6 +318,24 @@ fn write_trace(model: &CheckModel, outcome: &Outcome, path: &Path) -> io::Result
 
 /// One JSON object per event; `t` and `seq` are the step number.
 pub fn trace_lines(model: &CheckModel, steps: &[Step]) -> Vec<String> {
+    path_items(model, steps)
+        .into_iter()
+        .map(|item| match item {
+            Item::Obs(r) => crate::trace::to_json(&r).to_string(),
+            Item::Extra(v) => v.to_string(),
+        })
+        .collect()
+}
+
+/// An event of a path: a simulator observation, or a kind only model-checking traces have
+/// (`timer`, `drop`, `crash` without a position; docs/trace.md).
+enum Item {
+    Obs(Record),
+    Extra(Value),
+}
+
+/// The events of a path in order; `t` and `seq` are the step number.
+fn path_items(model: &CheckModel, steps: &[Step]) -> Vec<Item> {
     let wiring = &model.actors[0].shared.wiring;
     let staged = model.actors[0].shared.staged_sends;
     let name = |l: u16| layer_name(wiring, l).to_string();
@@ -203,7 +343,7 @@ pub fn trace_lines(model: &CheckModel, steps: &[Step]) -> Vec<String> {
     for step in steps {
         let seq = step.index as u64;
         let t = step.index as f64;
-        let record = |obs: Observation| crate::trace::to_json(&Record { t, seq, obs }).to_string();
+        let record = |obs: Observation| Item::Obs(Record { t, seq, obs });
         let custom = |kind: &str, fields: Vec<(&str, Value)>| {
             let mut m = Map::new();
             m.insert("t".into(), json!(t));
@@ -212,7 +352,7 @@ pub fn trace_lines(model: &CheckModel, steps: &[Step]) -> Vec<String> {
             for (k, v) in fields {
                 m.insert(k.into(), v);
             }
-            Value::Object(m).to_string()
+            Item::Extra(Value::Object(m))
         };
         for e in &step.events {
             let line = match e {

@@ -87,6 +87,9 @@ enum Command {
         /// Write the counterexample (or a witness) here as a JSONL trace.
         #[arg(long)]
         trace: Option<PathBuf>,
+        /// Save the counterexample (or a witness) as a Rerun recording (.rrd).
+        #[arg(long)]
+        rrd: Option<PathBuf>,
         /// Protocol timer firings allowed per process.
         #[arg(long)]
         timers: Option<u32>,
@@ -165,10 +168,14 @@ fn execute(command: Command) -> Result<u8, Failure> {
             depth,
             threads,
             trace,
+            rrd,
             timers,
             rounds,
             ..
         } => {
+            if rrd.is_some() && !cfg!(feature = "rerun") {
+                return Err(invalid(RecordingError::Unsupported));
+            }
             let args = CheckArgs {
                 model: model.unwrap_or_default(),
                 processes,
@@ -182,10 +189,18 @@ fn execute(command: Command) -> Result<u8, Failure> {
                 depth,
                 threads,
                 trace,
+                rrd,
                 timers,
                 rounds,
             };
-            let holds = check::check(&args, &mut std::io::stdout().lock()).map_err(invalid)?;
+            let holds =
+                check::check(&args, &mut std::io::stdout().lock()).map_err(|e| match e {
+                    check::CheckError::Recording(r) if !r.is_input_error() => Failure {
+                        code: 1,
+                        message: r.to_string(),
+                    },
+                    other => invalid(other),
+                })?;
             Ok(if holds { 0 } else { 1 })
         }
         Command::Validate { scenario } => {
@@ -254,13 +269,8 @@ fn execute(command: Command) -> Result<u8, Failure> {
                 b.finish_and_clear();
             }
             let summary = result.map_err(|e| match e {
-                RunError::CreateOutput { .. }
-                | RunError::Recording(
-                    RecordingError::Create { .. }
-                    | RecordingError::Url { .. }
-                    | RecordingError::Unreachable { .. }
-                    | RecordingError::Unsupported,
-                ) => invalid(e),
+                RunError::CreateOutput { .. } => invalid(e),
+                RunError::Recording(r) if r.is_input_error() => invalid(r),
                 other => Failure {
                     code: 1,
                     message: format!("{:#}", anyhow::Error::from(other)),

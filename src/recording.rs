@@ -72,6 +72,19 @@ pub enum RecordingError {
     },
 }
 
+impl RecordingError {
+    /// Whether the user's input is at fault (exit 2) rather than nekosim or Rerun (exit 1).
+    pub fn is_input_error(&self) -> bool {
+        matches!(
+            self,
+            RecordingError::Create { .. }
+                | RecordingError::Url { .. }
+                | RecordingError::Unreachable { .. }
+                | RecordingError::Unsupported
+        )
+    }
+}
+
 /// Where a recording goes.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Target {

@@ -150,3 +150,49 @@ fn a_recording_is_complete_and_in_place_even_when_the_run_fails() {
         .env("CI", "1"));
     assert!(out.contains("verified without error"), "{out}");
 }
+
+/// `nekosim check --rrd`: the counterexample's recording, read back by the official reader,
+/// shows what the JSONL trace of the same path says.
+#[test]
+fn counterexample_recordings_read_back_with_the_official_reader() {
+    let py = python();
+    let dir = tempfile::tempdir().unwrap();
+    for (model, args, property) in [
+        (
+            "reliable-broadcast",
+            &["--network", "lossy"][..],
+            "agreement",
+        ),
+        (
+            "lamport-abcast",
+            &["--crashes", "1"][..],
+            "uniform agreement",
+        ),
+    ] {
+        let (rrd, trace) = (
+            dir.path().join(format!("{model}.rrd")),
+            dir.path().join(format!("{model}.jsonl")),
+        );
+        let o = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+            .args(["check", model])
+            .args(args)
+            .arg("--trace")
+            .arg(&trace)
+            .arg("--rrd")
+            .arg(&rrd)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(1), "{model}: a counterexample");
+        let out = run(Command::new(&py)
+            .arg(root().join("tests/rerun/verify_check_rrd.py"))
+            .arg(&rrd)
+            .arg(&trace)
+            .arg(property)
+            .arg("3"));
+        assert!(out.contains("verify_check_rrd: ok"), "{model}: {out}");
+        if model == "lamport-abcast" {
+            assert!(!out.contains(" 0 crashes grey"), "{model}: {out}");
+        }
+        eprintln!("{model}: {}", out.trim());
+    }
+}

@@ -1,0 +1,93 @@
+"""Checks a `nekosim check --rrd` counterexample recording with the official Rerun reader
+(rerun-sdk 0.36.3), against the JSONL trace `nekosim check --trace` wrote for the same path.
+
+Usage: verify_check_rrd.py RECORDING.rrd TRACE.jsonl PROPERTY PROCESSES
+
+Checks that `rerun rrd verify` accepts the file; it has the `sim_time` and `event` timelines;
+process p stands on its lane, (10 p, 0), at every step; every `send` of the trace has an arrow
+per receiver at its step; a crashed process is grey from its crash on; the text log has one
+line per lane's birth and per trace record plus the verdict naming PROPERTY, at the start and
+at the end.
+Prints one summary line and exits 0, or prints what differs and exits 1.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import rerun as rr
+
+from verify_rrd import EXPECTED_VERSION, TOLERANCE, Rows, fail, load_trace, ns
+
+LANE = 10.0
+
+
+def main() -> None:
+    if len(sys.argv) != 5:
+        fail(__doc__)
+    rrd, trace_path = Path(sys.argv[1]), Path(sys.argv[2])
+    prop, processes = sys.argv[3], int(sys.argv[4])
+    if rr.__version__ != EXPECTED_VERSION:
+        fail(f"rerun-sdk {rr.__version__}, expected {EXPECTED_VERSION}")
+    cli = Path(sys.executable).parent / "rerun"
+    env = dict(os.environ, CI="1")
+    verify = subprocess.run(
+        [str(cli), "rrd", "verify", str(rrd)], capture_output=True, text=True, env=env
+    )
+    if verify.returncode != 0:
+        fail(f"rerun rrd verify: {verify.stdout}{verify.stderr}")
+
+    trace = load_trace(trace_path)
+    rows = Rows(rrd)
+    for timeline in ("sim_time", "event"):
+        if timeline not in rows.timelines:
+            fail(f"timeline {timeline} missing; have {sorted(rows.timelines)}")
+
+    steps = int(trace[-1]["seq"])
+    for p in range(processes):
+        entity = f"/world/robots/{p}"
+        for step in range(steps + 1):
+            pose = rows.latest_at(entity, "nekosim.Pose:pose", ns(step))
+            if pose is None:
+                fail(f"{entity}: no pose at step {step}")
+            if abs(pose[0] - LANE * p) > TOLERANCE or abs(pose[1]) > TOLERANCE:
+                fail(f"{entity} at step {step}: {pose[:2]}, expected its lane ({LANE * p}, 0)")
+
+    sends = [r for r in trace if r["kind"] == "send"]
+    for s in sends:
+        entity = f"/world/messages/{s['layer']}"
+        at_step = [cols for _, ev, _, cols in rows.by_entity.get(entity, []) if ev == s["seq"]]
+        if not at_step or len(at_step[-1].get("Arrows2D:vectors", [])) < len(s["to"]):
+            fail(f"send at step {s['seq']} on {s['layer']}: no arrow per receiver in {entity}")
+
+    grey = 0x808080FF
+    crashes = [r for r in trace if r["kind"] == "crash"]
+    for c in crashes:
+        entity = f"/world/robots/{c['robot']}"
+        colour = rows.latest_at(entity, "Points2D:colors", ns(c["t"]))
+        if colour != [grey]:
+            fail(f"{entity} crashed at step {c['t']} but its colour is {colour}")
+
+    texts = [
+        text
+        for _, _, _, cols in rows.by_entity.get("/log", [])
+        for text in (cols.get("TextLog:text") or [])
+    ]
+    verdicts = [t for t in texts if f'"{prop}"' in t and ("counterexample of" in t or "witness of" in t)]
+    if len(verdicts) != 2:
+        fail(f"{len(verdicts)} verdict lines naming {prop!r} in the log; expected 2: {texts[:3]}")
+    # The lanes' birth lines, one line per trace record, the verdict twice.
+    if len(texts) != processes + len(trace) + 2:
+        fail(f"{len(texts)} log lines, expected {processes} births, the trace's {len(trace)} records and 2 verdicts")
+
+    print(
+        f"verify_check_rrd: ok: {rrd.name}: {processes} lanes over {steps} steps, "
+        f"{len(sends)} sends with arrows, {len(crashes)} crashes grey, {len(texts)} log lines"
+    )
+
+
+if __name__ == "__main__":
+    main()
