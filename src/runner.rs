@@ -176,6 +176,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         NekoLog::new(),
         LatencyMeter::default(),
     )));
+    let recorder = recorder.map(Background::start).transpose()?;
     let recorder = Rc::new(RefCell::new(recorder));
     let sink = {
         let outputs = outputs.clone();
@@ -215,7 +216,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
     // The recording is finished whatever the outcome: a failed run's recording shows what
     // happened up to the failure.
     let recorded = finish_recording(
-        recorder.borrow_mut().take(),
+        recorder.borrow_mut().take().and_then(Background::join),
         out.as_ref().map_or(f64::NAN, |o| o.stats.end_time),
     );
     let out = out?;
@@ -270,6 +271,87 @@ fn start_recording(_: &Built, target: &Target) -> Result<Option<Recorder>, RunEr
         return Err(RecordingError::Unsupported.into());
     }
     Ok(None)
+}
+
+/// Records sent to the recording thread at a time.
+const RECORD_BATCH: usize = 1024;
+
+/// Batches of records in flight to the recording thread before the run waits for it.
+const BATCHES_IN_FLIGHT: usize = 16;
+
+/// The recorder on its own thread: the run hands it copies of the records in batches, so
+/// drawing and Rerun's encoding overlap with the simulation (docs/performance.md).
+struct Background {
+    batch: Vec<Record>,
+    tx: Option<std::sync::mpsc::SyncSender<Vec<Record>>>,
+    thread: Option<std::thread::JoinHandle<Recorder>>,
+}
+
+impl Background {
+    fn start(mut recorder: Recorder) -> Result<Self, RunError> {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Record>>(BATCHES_IN_FLIGHT);
+        let thread = std::thread::Builder::new()
+            .name("nekosim-recording".into())
+            .spawn(move || {
+                for batch in rx {
+                    for r in &batch {
+                        recorder.record(r);
+                    }
+                }
+                recorder
+            })
+            .map_err(|e| {
+                RecordingError::Rerun(format!("cannot start the recording thread: {e}"))
+            })?;
+        Ok(Self {
+            batch: Vec::with_capacity(RECORD_BATCH),
+            tx: Some(tx),
+            thread: Some(thread),
+        })
+    }
+
+    fn record(&mut self, r: &Record) {
+        self.batch.push(r.clone());
+        if self.batch.len() >= RECORD_BATCH {
+            self.send();
+        }
+    }
+
+    fn send(&mut self) {
+        if self.batch.is_empty() {
+            return;
+        }
+        let batch = std::mem::replace(&mut self.batch, Vec::with_capacity(RECORD_BATCH));
+        // A closed channel means the thread panicked; `join` reports it.
+        if let Some(tx) = &self.tx {
+            if tx.send(batch).is_err() {
+                self.tx = None;
+            }
+        }
+    }
+
+    /// Hands over the remaining records and waits for the thread; a panic on the recording
+    /// thread is resumed here.
+    fn join(mut self) -> Option<Recorder> {
+        self.send();
+        self.tx = None;
+        let thread = self.thread.take()?;
+        match thread.join() {
+            Ok(recorder) => Some(recorder),
+            Err(panic) => std::panic::resume_unwind(panic),
+        }
+    }
+}
+
+impl Drop for Background {
+    fn drop(&mut self) {
+        // Unwinding without `join`: let the thread finish, so the recorder (and its file) is
+        // dropped in order.
+        self.tx = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
 }
 
 fn finish_recording(recorder: Option<Recorder>, end: f64) -> Result<(), RunError> {
