@@ -154,6 +154,10 @@ fn sparse(
     present: &[bool],
 ) -> Result<SerializedComponentColumn, rerun::SerializationError> {
     let column = column?;
+    if !present.contains(&false) {
+        // Every row has a value: no validity bitmap.
+        return Ok(column);
+    }
     let (field, offsets, values, _) = column.list_array.into_parts();
     let list = ListArray::try_new(
         field,
@@ -496,24 +500,38 @@ fn robot_columns(
     radius: f64,
 ) -> Result<Vec<SerializedComponentColumn>, rerun::SerializationError> {
     let mut out = Vec::new();
-    let (positions, lengths, present) = parts(rows, |r| r.pose.map(|(p, _)| vec![p32(p)]));
-    let points = archetypes::Points2D::update_fields().with_positions(positions.clone());
-    for c in points.columns(lengths.clone())? {
+    // The pose components, in one pass and without an allocation per row.
+    let mut positions = Vec::with_capacity(rows.len());
+    let mut vectors = Vec::with_capacity(rows.len());
+    let mut exact = Vec::with_capacity(3 * rows.len());
+    let mut lengths = Vec::with_capacity(rows.len());
+    let mut present = Vec::with_capacity(rows.len());
+    for r in rows {
+        match r.pose {
+            Some((p, a)) => {
+                positions.push(p32(p));
+                let v = heading_vector(a) * (1.5 * radius);
+                vectors.push([v.x as f32, v.y as f32]);
+                exact.extend([p.x, p.y, a]);
+                lengths.push(1);
+                present.push(true);
+            }
+            None => {
+                lengths.push(0);
+                present.push(false);
+            }
+        }
+    }
+    let points = archetypes::Points2D::update_fields().with_positions(positions.iter().copied());
+    for c in points.columns(lengths.iter().copied())? {
         out.push(sparse(Ok(c), &present)?);
     }
-    let (vectors, _, _) = parts(rows, |r| {
-        r.pose.map(|(_, a)| {
-            let v = heading_vector(a) * (1.5 * radius);
-            vec![[v.x as f32, v.y as f32]]
-        })
-    });
     let arrows = archetypes::Arrows2D::update_fields()
         .with_origins(positions)
         .with_vectors(vectors);
-    for c in arrows.columns(lengths.clone())? {
+    for c in arrows.columns(lengths.iter().copied())? {
         out.push(sparse(Ok(c), &present)?);
     }
-    let (exact, _, _) = parts(rows, |r| r.pose.map(|(p, a)| vec![p.x, p.y, a]));
     let exact = SerializedComponentBatch::new(
         Arc::new(Float64Array::from(exact)) as ArrayRef,
         pose_descriptor(),
