@@ -119,13 +119,156 @@ struct RobotRow {
 #[derive(Debug, Default)]
 struct RobotRows {
     events: Rows<RobotRow>,
+    /// Poses and sensors at animation frames, the bulk of a recording's rows.
+    anim: Frames,
+    /// Other drawings between events (none from [`super::Recorder`]).
     frames: Rows<RobotRow>,
     radius: f64,
 }
 
+/// A robot's animation frames (on `sim_time` only), buffered as the columns they are sent as:
+/// they are most of a recording's rows, so they get no per-row struct.
+#[derive(Debug, Default)]
+struct Frames {
+    sim: Vec<f64>,
+    /// Whether a frame row has a pose (all of them, unless a sensor came alone).
+    posed: Vec<bool>,
+    positions: Vec<[f32; 2]>,
+    vectors: Vec<[f32; 2]>,
+    /// Exact poses `[x, y, angle]`, three per row.
+    exact: Vec<f64>,
+    /// Push sensor reaches on the rows that have one: `(row, circle)`.
+    sensors: Vec<(usize, Option<(Point, f64)>)>,
+}
+
+impl Frames {
+    fn len(&self) -> usize {
+        self.sim.len()
+    }
+
+    /// The row at `t`: the last one if it is at `t`.
+    fn open(&mut self, t: f64) -> usize {
+        if self.sim.last() != Some(&t) {
+            self.sim.push(t);
+            self.posed.push(false);
+            self.positions.push([0.0; 2]);
+            self.vectors.push([0.0; 2]);
+            self.exact.extend([0.0; 3]);
+        }
+        self.sim.len() - 1
+    }
+
+    fn pose(&mut self, t: f64, pos: Point, angle: f64, radius: f64) {
+        let i = self.open(t);
+        self.posed[i] = true;
+        self.positions[i] = p32(pos);
+        let v = heading_vector(angle) * (1.5 * radius);
+        self.vectors[i] = [v.x as f32, v.y as f32];
+        self.exact[3 * i..3 * i + 3].copy_from_slice(&[pos.x, pos.y, angle]);
+    }
+
+    fn sensor(&mut self, t: f64, circle: Option<(Point, f64)>) {
+        let i = self.open(t);
+        match self.sensors.last_mut() {
+            Some((j, c)) if *j == i => *c = circle,
+            _ => self.sensors.push((i, circle)),
+        }
+    }
+
+    /// The time column and the components, leaving the buffer empty.
+    fn take(
+        &mut self,
+    ) -> (
+        Vec<TimeColumn>,
+        Result<Vec<SerializedComponentColumn>, rerun::SerializationError>,
+    ) {
+        let f = std::mem::take(self);
+        let times = vec![TimeColumn::new_duration_secs("sim_time", f.sim)];
+        (
+            times,
+            frame_columns(f.posed, f.positions, f.vectors, f.exact, f.sensors),
+        )
+    }
+}
+
+/// The columns of animation frames: marker positions, heading arrows, exact poses and push
+/// sensors.
+fn frame_columns(
+    posed: Vec<bool>,
+    mut positions: Vec<[f32; 2]>,
+    mut vectors: Vec<[f32; 2]>,
+    mut exact: Vec<f64>,
+    sensors: Vec<(usize, Option<(Point, f64)>)>,
+) -> Result<Vec<SerializedComponentColumn>, rerun::SerializationError> {
+    let rows = posed.len();
+    if posed.contains(&false) {
+        let keep = |i: usize| posed[i];
+        positions = positions
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| keep(*i))
+            .map(|(_, v)| v)
+            .collect();
+        vectors = vectors
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| keep(*i))
+            .map(|(_, v)| v)
+            .collect();
+        exact = exact
+            .chunks(3)
+            .enumerate()
+            .filter(|(i, _)| keep(*i))
+            .flat_map(|(_, v)| v.to_vec())
+            .collect();
+    }
+    let lengths = || posed.iter().map(|p| usize::from(*p));
+    let mut out = Vec::new();
+    if posed.contains(&true) {
+        let points =
+            archetypes::Points2D::update_fields().with_positions(positions.iter().copied());
+        for c in points.columns(lengths())? {
+            out.push(sparse(Ok(c), &posed)?);
+        }
+        let arrows = archetypes::Arrows2D::update_fields()
+            .with_origins(positions)
+            .with_vectors(vectors);
+        for c in arrows.columns(lengths())? {
+            out.push(sparse(Ok(c), &posed)?);
+        }
+        let exact = SerializedComponentBatch::new(
+            Arc::new(Float64Array::from(exact)) as ArrayRef,
+            pose_descriptor(),
+        )
+        .partitioned(lengths().map(|n| 3 * n));
+        out.push(sparse(exact, &posed)?);
+    }
+    if !sensors.is_empty() {
+        let mut present = vec![false; rows];
+        let mut lengths = vec![0; rows];
+        let mut centers = Vec::new();
+        let mut half = Vec::new();
+        for (i, c) in sensors {
+            present[i] = true;
+            if let Some((p, r)) = c {
+                lengths[i] = 1;
+                centers.push(p32(p));
+                half.push([r as f32, r as f32]);
+            }
+        }
+        let ellipses = archetypes::Ellipses2D::update_fields()
+            .with_centers(centers)
+            .with_half_sizes(half);
+        for c in ellipses.columns(lengths)? {
+            out.push(sparse(Ok(c), &present)?);
+        }
+    }
+    Ok(out)
+}
+
 impl RobotRows {
     fn len(&self) -> usize {
-        self.events.len() + self.frames.len()
+        self.events.len() + self.anim.len() + self.frames.len()
     }
 
     /// The row for `at`: the buffer's last row if it is for the same instant and event.
@@ -353,6 +496,10 @@ impl RerunCanvas {
     }
 
     fn flush_robot(&mut self, i: usize) {
+        if self.robots[i].anim.len() > 0 {
+            let (times, columns) = self.robots[i].anim.take();
+            self.send(&robot_entity(i as RobotId), times, columns);
+        }
         for frames in [false, true] {
             let rows = &mut self.robots[i];
             let radius = rows.radius;
@@ -638,7 +785,13 @@ impl Canvas for RerunCanvas {
     }
 
     fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64) {
-        self.robot(robot).row(at).pose = Some((pos, angle));
+        let rows = self.robot(robot);
+        if at.seq.is_none() {
+            let radius = rows.radius;
+            rows.anim.pose(at.t, pos, angle, radius);
+        } else {
+            rows.row(at).pose = Some((pos, angle));
+        }
         self.maybe_flush(robot);
     }
 
@@ -660,7 +813,12 @@ impl Canvas for RerunCanvas {
     }
 
     fn sensor(&mut self, at: Stamp, robot: RobotId, circle: Option<(Point, f64)>) {
-        self.robot(robot).row(at).sensor = Some(circle);
+        let rows = self.robot(robot);
+        if at.seq.is_none() {
+            rows.anim.sensor(at.t, circle);
+        } else {
+            rows.row(at).sensor = Some(circle);
+        }
         self.maybe_flush(robot);
     }
 
