@@ -13,14 +13,10 @@ Prints one summary line and exits 0, or prints what differs and exits 1.
 
 from __future__ import annotations
 
-import os
-import subprocess
 import sys
 from pathlib import Path
 
-import rerun as rr
-
-from verify_rrd import EXPECTED_VERSION, TOLERANCE, Rows, fail, load_trace, ns
+from verify_rrd import TOLERANCE, Rows, fail, load_trace, ns, rrd_verify
 
 LANE = 10.0
 
@@ -30,15 +26,7 @@ def main() -> None:
         fail(__doc__)
     rrd, trace_path = Path(sys.argv[1]), Path(sys.argv[2])
     prop, processes = sys.argv[3], int(sys.argv[4])
-    if rr.__version__ != EXPECTED_VERSION:
-        fail(f"rerun-sdk {rr.__version__}, expected {EXPECTED_VERSION}")
-    cli = Path(sys.executable).parent / "rerun"
-    env = dict(os.environ, CI="1")
-    verify = subprocess.run(
-        [str(cli), "rrd", "verify", str(rrd)], capture_output=True, text=True, env=env
-    )
-    if verify.returncode != 0:
-        fail(f"rerun rrd verify: {verify.stdout}{verify.stderr}")
+    rrd_verify(rrd)
 
     trace = load_trace(trace_path)
     rows = Rows(rrd)

@@ -112,13 +112,10 @@ class Rows:
         return None if best is None else best[1]
 
 
-def main() -> None:
-    if len(sys.argv) != 4:
-        fail(__doc__)
-    rrd, trace_path, framerate = Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3])
+def rrd_verify(rrd: Path) -> None:
+    """The SDK is the pinned version and `rerun rrd verify` accepts the file."""
     if rr.__version__ != EXPECTED_VERSION:
         fail(f"rerun-sdk {rr.__version__}, expected {EXPECTED_VERSION}")
-
     cli = Path(sys.executable).parent / "rerun"
     # Rerun's tools send no usage data when `CI` is set; a test has no business sending any.
     env = dict(os.environ, CI="1")
@@ -127,6 +124,13 @@ def main() -> None:
     )
     if verify.returncode != 0:
         fail(f"rerun rrd verify: {verify.stdout}{verify.stderr}")
+
+
+def main() -> None:
+    if len(sys.argv) != 4:
+        fail(__doc__)
+    rrd, trace_path, framerate = Path(sys.argv[1]), Path(sys.argv[2]), float(sys.argv[3])
+    rrd_verify(rrd)
 
     trace = load_trace(trace_path)
     rows = Rows(rrd)
