@@ -212,7 +212,9 @@ fn write_recording(
         rrd: Some(path.to_path_buf()),
         connect: None,
     };
-    let canvas = RerunCanvas::start(&format!("check {name}"), &target)?;
+    let title = format!("check {name}");
+    let id = format!("{title} {:?} {} steps", v.name, steps.len());
+    let canvas = RerunCanvas::start(&title, &id, &target)?;
     let mut rec = Recorder::new(canvas, &size, 0.0);
     for p in 0..n as u32 {
         rec.record(&Record {

@@ -105,7 +105,7 @@ impl Target {
 pub const DEFAULT_FRAMERATE: f64 = 25.0;
 
 /// Corners of a robot's path kept in its trail.
-pub const TRAIL: usize = 16;
+pub const TRAIL: usize = 8;
 
 /// When a drawing holds: a simulated instant [s], and the trace `seq` of the record that caused
 /// it (`None` for animation frames and metric samples, which lie between events).
@@ -148,21 +148,30 @@ pub struct Flight {
 }
 
 /// Where a recording draws; one method per entity family of docs/visualization.md.
+///
+/// Robots are drawn in groups of [`ROBOT_GROUP`] consecutive ids (robot `i` is instance
+/// `i % ROBOT_GROUP` of group `i / ROBOT_GROUP`): a Rerun row replaces a whole batch, so each
+/// row of a group carries every robot of the group. The per-robot setters (`spawn`, `colour`,
+/// `path`, `destination`, `sensor`) change what the group shows; the next [`Canvas::poses`]
+/// call of the group commits them in a row at its stamp, with the group's exact poses.
 pub trait Canvas {
     /// The world's bounds (`None`: an infinite world). Called once, first.
     fn world(&mut self, bounds: Option<(Point, Point)>);
-    /// A robot exists: its radius, colour and label.
-    fn spawn(&mut self, at: Stamp, robot: RobotId, radius: f64, colour: Rgb);
-    /// A robot's exact pose at `at` (an event or an animation frame).
-    fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64);
+    /// A robot exists: its radius and colour.
+    fn spawn(&mut self, robot: RobotId, radius: f64, colour: Rgb);
     /// A robot's colour changes (grey when it crashed).
-    fn colour(&mut self, at: Stamp, robot: RobotId, colour: Rgb);
-    /// The robot's recent path: its last corners, ending at its current position.
-    fn path(&mut self, at: Stamp, robot: RobotId, corners: &[Point]);
+    fn colour(&mut self, robot: RobotId, colour: Rgb);
+    /// The robot's recent path: its last corners, ending where its current motion began.
+    fn path(&mut self, robot: RobotId, corners: &[Point]);
     /// Where the robot's current motion ends (`None`: no motion).
-    fn destination(&mut self, at: Stamp, robot: RobotId, dest: Option<Point>);
-    /// A push sensor's reach around the robot (`None`: no push sensor active).
-    fn sensor(&mut self, at: Stamp, robot: RobotId, circle: Option<(Point, f64)>);
+    fn destination(&mut self, robot: RobotId, dest: Option<Point>);
+    /// The reach of the robot's push sensor, centre to border (`None`: none active); the
+    /// circle follows the robot.
+    fn sensor(&mut self, robot: RobotId, reach: Option<f64>);
+    /// The exact poses `(position, heading)` at `at` of robots `first, first + 1, ...` (a whole
+    /// group, `first` a multiple of [`ROBOT_GROUP`]), at an event or an animation frame: one
+    /// row of the group, with the changes set since its last row.
+    fn poses(&mut self, at: Stamp, first: RobotId, poses: &[(Point, f64)]);
     /// A view or proximity query's range, from request to reply (`None`: answered).
     fn query(&mut self, at: Stamp, robot: RobotId, circle: Option<(Point, f64)>);
     /// Collision number `k` (from 0) at contact point `point`.
@@ -175,18 +184,21 @@ pub trait Canvas {
     fn metrics(&mut self, at: Stamp, m: &Metrics);
 }
 
+/// Robots per drawn group (one Rerun entity per group and entity family).
+pub const ROBOT_GROUP: u32 = 32;
+
 /// A canvas that draws nothing (the recorder's own cost, and builds without Rerun).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NoCanvas;
 
 impl Canvas for NoCanvas {
     fn world(&mut self, _: Option<(Point, Point)>) {}
-    fn spawn(&mut self, _: Stamp, _: RobotId, _: f64, _: Rgb) {}
-    fn pose(&mut self, _: Stamp, _: RobotId, _: Point, _: f64) {}
-    fn colour(&mut self, _: Stamp, _: RobotId, _: Rgb) {}
-    fn path(&mut self, _: Stamp, _: RobotId, _: &[Point]) {}
-    fn destination(&mut self, _: Stamp, _: RobotId, _: Option<Point>) {}
-    fn sensor(&mut self, _: Stamp, _: RobotId, _: Option<(Point, f64)>) {}
+    fn spawn(&mut self, _: RobotId, _: f64, _: Rgb) {}
+    fn colour(&mut self, _: RobotId, _: Rgb) {}
+    fn path(&mut self, _: RobotId, _: &[Point]) {}
+    fn destination(&mut self, _: RobotId, _: Option<Point>) {}
+    fn sensor(&mut self, _: RobotId, _: Option<f64>) {}
+    fn poses(&mut self, _: Stamp, _: RobotId, _: &[(Point, f64)]) {}
     fn query(&mut self, _: Stamp, _: RobotId, _: Option<(Point, f64)>) {}
     fn collision(&mut self, _: Stamp, _: u64, _: Point, _: &str) {}
     fn messages(&mut self, _: Stamp, _: &str, _: Rgb, _: &[Flight]) {}
@@ -274,6 +286,8 @@ pub struct Recorder<C: Canvas> {
     /// Copies in flight, per layer, in send order.
     flights: BTreeMap<String, Vec<(FlightKey, Flight)>>,
     last_t: f64,
+    /// A group's poses, reused between rows.
+    poses: Vec<(Point, f64)>,
 }
 
 impl<C: Canvas> Recorder<C> {
@@ -305,6 +319,7 @@ impl<C: Canvas> Recorder<C> {
             events_in_period: 0,
             flights: BTreeMap::new(),
             last_t: 0.0,
+            poses: Vec::new(),
         }
     }
 
@@ -333,13 +348,12 @@ impl<C: Canvas> Recorder<C> {
             }
             if frame_t == Some(next) {
                 let at = Stamp { t: next, seq: None };
-                for (i, r) in self.robots.iter().enumerate() {
-                    if r.moving() {
-                        let (pos, angle) = r.at(next);
-                        self.canvas.pose(at, i as RobotId, pos, angle);
-                        if let Some(reach) = r.reach {
-                            self.canvas.sensor(at, i as RobotId, Some((pos, reach)));
-                        }
+                let groups = self.robots.len().div_ceil(ROBOT_GROUP as usize);
+                for g in 0..groups {
+                    let first = g * ROBOT_GROUP as usize;
+                    let last = (first + ROBOT_GROUP as usize).min(self.robots.len());
+                    if self.robots[first..last].iter().any(RobotState::moving) {
+                        self.commit(at, first as RobotId);
                     }
                 }
                 self.frame += 1;
@@ -380,24 +394,35 @@ impl<C: Canvas> Recorder<C> {
             .map_or(Point::origin(), |r| r.at(t).0)
     }
 
-    fn kinematic(&mut self, at: Stamp, robot: RobotId, state: Kinematics) {
+    /// A row of `robot`'s group at `at`: every robot of the group where the motion formulas
+    /// put it then.
+    fn commit(&mut self, at: Stamp, robot: RobotId) {
+        let first = robot - robot % ROBOT_GROUP;
+        let end = (first + ROBOT_GROUP).min(self.robots.len() as RobotId);
+        self.poses.clear();
+        self.poses.extend(
+            self.robots[first as usize..end as usize]
+                .iter()
+                .map(|r| r.at(at.t)),
+        );
+        self.canvas.poses(at, first, &self.poses);
+    }
+
+    /// A new kinematic state: the trail gets a corner when the robot changed place.
+    fn kinematic(&mut self, robot: RobotId, t: f64, state: Kinematics) {
         let Some(r) = self.robots.get_mut(robot as usize) else {
             return;
         };
-        r.t = at.t;
+        r.t = t;
         r.state = state;
         if r.trail.back() != Some(&state.pos) {
             if r.trail.len() == TRAIL {
                 r.trail.pop_front();
             }
             r.trail.push_back(state.pos);
-        }
-        self.canvas.pose(at, robot, state.pos, state.angle);
-        let (slice_a, slice_b) = r.trail.as_slices();
-        let corners: Vec<Point> = slice_a.iter().chain(slice_b).copied().collect();
-        self.canvas.path(at, robot, &corners);
-        if let Some(reach) = r.reach {
-            self.canvas.sensor(at, robot, Some((state.pos, reach)));
+            let (slice_a, slice_b) = r.trail.as_slices();
+            let corners: Vec<Point> = slice_a.iter().chain(slice_b).copied().collect();
+            self.canvas.path(robot, &corners);
         }
     }
 
@@ -431,11 +456,20 @@ impl<C: Canvas> Recorder<C> {
                     reach: None,
                 };
                 if self.robots.len() <= i {
-                    self.robots.resize(i + 1, fresh.clone());
+                    // Robots not spawned yet are drawn invisible (radius 0) where this one is.
+                    let placeholder = RobotState {
+                        radius: 0.0,
+                        ..fresh.clone()
+                    };
+                    for j in self.robots.len()..i {
+                        self.canvas.spawn(j as RobotId, 0.0, GREY);
+                    }
+                    self.robots.resize(i + 1, placeholder);
                 }
                 self.robots[i] = fresh;
-                self.canvas.spawn(at, *robot, *radius, robot_colour(*robot));
-                self.kinematic(at, *robot, state);
+                self.canvas.spawn(*robot, *radius, robot_colour(*robot));
+                self.kinematic(*robot, rec.t, state);
+                self.commit(at, *robot);
             }
             Observation::MotionStep {
                 robot,
@@ -443,23 +477,26 @@ impl<C: Canvas> Recorder<C> {
                 progress,
                 ..
             } => {
-                self.kinematic(at, *robot, *state);
-                self.canvas.destination(at, *robot, Some(progress.dest));
+                self.kinematic(*robot, rec.t, *state);
+                self.canvas.destination(*robot, Some(progress.dest));
+                self.commit(at, *robot);
             }
             Observation::MotionFinish { robot, state, .. } => {
-                self.kinematic(at, *robot, *state);
-                self.canvas.destination(at, *robot, None);
+                self.kinematic(*robot, rec.t, *state);
+                self.canvas.destination(*robot, None);
+                self.commit(at, *robot);
             }
             Observation::Crash { robot, state } => {
-                self.kinematic(at, *robot, *state);
+                self.kinematic(*robot, rec.t, *state);
                 if let Some(r) = self.robots.get_mut(*robot as usize) {
                     r.crashed = true;
                     if r.reach.take().is_some() {
-                        self.canvas.sensor(at, *robot, None);
+                        self.canvas.sensor(*robot, None);
                     }
                 }
-                self.canvas.colour(at, *robot, GREY);
-                self.canvas.destination(at, *robot, None);
+                self.canvas.colour(*robot, GREY);
+                self.canvas.destination(*robot, None);
+                self.commit(at, *robot);
             }
             Observation::Collision {
                 robot,
@@ -492,12 +529,13 @@ impl<C: Canvas> Recorder<C> {
                 match query {
                     SensorQuery::ActivateProximity { range, .. } => {
                         r.reach = Some(r.radius + range);
-                        self.canvas
-                            .sensor(at, *robot, Some((pos, r.radius + range)));
+                        self.canvas.sensor(*robot, Some(r.radius + range));
+                        self.commit(at, *robot);
                     }
                     SensorQuery::DeactivateProximity => {
                         r.reach = None;
-                        self.canvas.sensor(at, *robot, None);
+                        self.canvas.sensor(*robot, None);
+                        self.commit(at, *robot);
                     }
                     // View compares centre distances; proximity free distances (border to
                     // border), so its circle is wider by the robot's radius.
@@ -599,34 +637,29 @@ mod tests {
         fn world(&mut self, bounds: Option<(Point, Point)>) {
             self.0.push(format!("world {bounds:?}"));
         }
-        fn spawn(&mut self, at: Stamp, robot: RobotId, radius: f64, _: Rgb) {
-            self.0.push(format!("{} spawn p{robot} r{radius}", s(at)));
+        fn spawn(&mut self, robot: RobotId, radius: f64, _: Rgb) {
+            self.0.push(format!("spawn p{robot} r{radius}"));
         }
-        fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64) {
-            self.0.push(format!(
-                "{} pose p{robot} {} {} {angle}",
-                s(at),
-                pos.x,
-                pos.y
-            ));
+        fn colour(&mut self, robot: RobotId, c: Rgb) {
+            self.0.push(format!("colour p{robot} {c:?}"));
         }
-        fn colour(&mut self, at: Stamp, robot: RobotId, c: Rgb) {
-            self.0.push(format!("{} colour p{robot} {c:?}", s(at)));
+        fn path(&mut self, robot: RobotId, corners: &[Point]) {
+            self.0.push(format!("path p{robot} {}", corners.len()));
         }
-        fn path(&mut self, at: Stamp, robot: RobotId, corners: &[Point]) {
+        fn destination(&mut self, robot: RobotId, dest: Option<Point>) {
             self.0
-                .push(format!("{} path p{robot} {}", s(at), corners.len()));
+                .push(format!("dest p{robot} {:?}", dest.map(|d| (d.x, d.y))));
         }
-        fn destination(&mut self, at: Stamp, robot: RobotId, dest: Option<Point>) {
-            self.0.push(format!(
-                "{} dest p{robot} {:?}",
-                s(at),
-                dest.map(|d| (d.x, d.y))
-            ));
+        fn sensor(&mut self, robot: RobotId, reach: Option<f64>) {
+            self.0.push(format!("sensor p{robot} {reach:?}"));
         }
-        fn sensor(&mut self, at: Stamp, robot: RobotId, c: Option<(Point, f64)>) {
+        fn poses(&mut self, at: Stamp, first: RobotId, poses: &[(Point, f64)]) {
+            let p: Vec<String> = poses
+                .iter()
+                .map(|(p, a)| format!("{} {} {a}", p.x, p.y))
+                .collect();
             self.0
-                .push(format!("{} sensor p{robot} {:?}", s(at), c.map(|c| c.1)));
+                .push(format!("{} poses g{first} [{}]", s(at), p.join(", ")));
         }
         fn query(&mut self, at: Stamp, robot: RobotId, c: Option<(Point, f64)>) {
             self.0
@@ -711,21 +744,21 @@ mod tests {
             tape,
             [
                 "world Some(([0.0, 0.0], [10.0, 10.0]))",
-                "0#0 spawn p0 r0.5",
-                "0#0 pose p0 1 0 0",
-                "0#0 path p0 1",
-                "0#1 pose p0 1 0 0",
-                "0#1 path p0 1",
-                "0#1 dest p0 Some((4.0, 0.0))",
+                "spawn p0 r0.5",
+                "path p0 1",
+                "0#0 poses g0 [1 0 0]",
+                // Starting on the spot: no new corner, a destination.
+                "dest p0 Some((4.0, 0.0))",
+                "0#1 poses g0 [1 0 0]",
                 // Frames at 0, 0.5 and 1 s: x = 1 + 2 t; metrics every frame period.
-                "0 pose p0 1 0 0",
-                "0.5 pose p0 2 0 0",
+                "0 poses g0 [1 0 0]",
+                "0.5 poses g0 [2 0 0]",
                 "0.5 metrics c0 f0 d0 e4",
-                "1 pose p0 3 0 0",
+                "1 poses g0 [3 0 0]",
                 "1 metrics c0 f0 d0 e0",
-                "1.5#2 pose p0 4 0 0",
-                "1.5#2 path p0 2",
-                "1.5#2 dest p0 None",
+                "path p0 2",
+                "dest p0 None",
+                "1.5#2 poses g0 [4 0 0]",
                 // At rest from 1.5 s on: no more frames, only metric samples.
                 "1.5 metrics c0 f0 d0 e2",
                 "2 metrics c0 f0 d0 e0",

@@ -257,7 +257,15 @@ fn start_recording(built: &Built, target: &Target) -> Result<Option<Recorder>, R
     if !target.is_some() {
         return Ok(None);
     }
-    let canvas = crate::recording::rerun_canvas::RerunCanvas::start(&built.name, target)?;
+    // The recording id: what names the run (recordings of one run are one recording).
+    let id = format!(
+        "{} seed {} until {} robots {}",
+        built.name,
+        built.seed,
+        built.until,
+        built.robots.len()
+    );
+    let canvas = crate::recording::rerun_canvas::RerunCanvas::start(&built.name, &id, target)?;
     Ok(Some(crate::recording::Recorder::new(
         canvas,
         &built.world.size,

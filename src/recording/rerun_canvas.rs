@@ -15,21 +15,27 @@ use std::sync::Arc;
 
 use nekosim_actors::world::geometry::{heading_vector, Point};
 use nekosim_actors::world::RobotId;
-use rerun::external::arrow::array::{ArrayRef, Float64Array, ListArray};
+use rerun::external::arrow::array::{Array as _, ArrayRef, Float64Array, ListArray};
 use rerun::external::arrow::buffer::NullBuffer;
+use rerun::log::{Chunk, ChunkId, RowId};
 use rerun::{
     archetypes, blueprint, ComponentDescriptor, RecordingStream, RecordingStreamBuilder,
     SerializedComponentBatch, SerializedComponentColumn, TimeColumn,
 };
 
-use super::{Canvas, Flight, Metrics, RecordingError, Rgb, Stamp, Target};
+use super::{Canvas, Flight, Metrics, RecordingError, Rgb, Stamp, Target, ROBOT_GROUP};
 
-/// Rows buffered per entity before they are sent as one chunk.
+/// Rows buffered per entity (log, metrics, collisions) before they are sent as one chunk.
 pub const FLUSH_ROWS: usize = 4096;
 
-/// Entity of robot `i`'s marker (`world/robots/3`).
-pub fn robot_entity(i: RobotId) -> String {
-    format!("world/robots/{i}")
+/// Robot instances (rows × robots of the group) buffered per group entity before they are
+/// sent as one chunk.
+pub const FLUSH_INSTANCES: usize = 1 << 16;
+
+/// Name of the group of robot `robot` under an entity family: `world/robots/0-31`.
+pub fn group_entity(family: &str, robot: RobotId) -> String {
+    let first = robot - robot % ROBOT_GROUP;
+    format!("world/{family}/{first}-{}", first + ROBOT_GROUP - 1)
 }
 
 /// The metric entities, in the order of [`Metrics`]' fields.
@@ -40,8 +46,8 @@ pub const METRICS: [&str; 4] = [
     "metrics/events_per_second",
 ];
 
-/// The component holding a robot's exact pose `[x, y, angle]` as 64-bit floats (the drawn
-/// positions are 32-bit, Rerun's point type).
+/// The component holding the robots' exact poses, `[x, y, angle]` per robot as 64-bit floats
+/// (the drawn positions are 32-bit, Rerun's point type).
 pub fn pose_descriptor() -> ComponentDescriptor {
     ComponentDescriptor::partial("nekosim.Pose:pose").with_archetype("nekosim.Pose".into())
 }
@@ -76,17 +82,11 @@ impl<T> Rows<T> {
 
     /// The time columns and the data, leaving the buffer empty.
     fn take(&mut self) -> (Vec<TimeColumn>, Vec<T>) {
-        let mut times = vec![TimeColumn::new_duration_secs(
-            "sim_time",
-            std::mem::take(&mut self.sim),
-        )];
-        if !self.seq.is_empty() {
-            times.push(TimeColumn::new_sequence(
-                "event",
-                std::mem::take(&mut self.seq),
-            ));
-        }
-        (times, std::mem::take(&mut self.data))
+        let seq = std::mem::take(&mut self.seq);
+        (
+            time_columns(std::mem::take(&mut self.sim), seq),
+            std::mem::take(&mut self.data),
+        )
     }
 
     fn len(&self) -> usize {
@@ -94,196 +94,300 @@ impl<T> Rows<T> {
     }
 }
 
-/// Style of a robot's drawings: radius, colour, label.
-#[derive(Clone, Debug)]
-struct Style {
-    radius: f64,
-    colour: Rgb,
+/// `sim_time`, and `event` when the rows are at events.
+fn time_columns(sim: Vec<f64>, seq: Vec<i64>) -> Vec<TimeColumn> {
+    let mut times = vec![TimeColumn::new_duration_secs("sim_time", sim)];
+    if !seq.is_empty() {
+        times.push(TimeColumn::new_sequence("event", seq));
+    }
+    times
 }
 
-/// What one row of a robot's entity changes; `None` leaves a component null on that row.
-#[derive(Clone, Debug, Default)]
-struct RobotRow {
-    pose: Option<(Point, f64)>,
-    style: Option<Style>,
-    /// The trail's corners.
-    path: Option<Vec<Point>>,
-    /// The current motion's destination (`Some(None)`: no motion).
-    dest: Option<Option<Point>>,
-    /// A push sensor's reach (`Some(None)`: none active).
-    sensor: Option<Option<(Point, f64)>>,
+/// One component's values over buffered rows: the flat values, how many each row has, and
+/// whether the row has the component at all (a row without it leaves it null, so Rerun's
+/// latest-at keeps showing the earlier value).
+#[derive(Debug)]
+struct Col<T> {
+    values: Vec<T>,
+    lengths: Vec<usize>,
+    present: Vec<bool>,
 }
 
-/// One robot's buffered rows: event rows (on both timelines) and animation frames (on
-/// `sim_time` only) are kept apart, since a chunk's rows share their timelines.
+impl<T> Default for Col<T> {
+    fn default() -> Self {
+        Self {
+            values: Vec::new(),
+            lengths: Vec::new(),
+            present: Vec::new(),
+        }
+    }
+}
+
+impl<T> Col<T> {
+    fn push(&mut self, values: impl IntoIterator<Item = T>) {
+        let before = self.values.len();
+        self.values.extend(values);
+        self.lengths.push(self.values.len() - before);
+        self.present.push(true);
+    }
+
+    fn skip(&mut self) {
+        self.lengths.push(0);
+        self.present.push(false);
+    }
+
+    fn any(&self) -> bool {
+        self.present.contains(&true)
+    }
+
+    /// The columns `build` makes of the values, null on the rows without them.
+    fn columns<I>(
+        self,
+        build: impl FnOnce(Vec<T>, Vec<usize>) -> Result<I, rerun::SerializationError>,
+    ) -> Result<Vec<SerializedComponentColumn>, rerun::SerializationError>
+    where
+        I: IntoIterator<Item = SerializedComponentColumn>,
+    {
+        if !self.any() {
+            return Ok(Vec::new());
+        }
+        let present = self.present;
+        build(self.values, self.lengths)?
+            .into_iter()
+            .map(|c| sparse(c, &present))
+            .collect()
+    }
+}
+
+/// Rows of a robot group's entities on one set of timelines (events, or animation frames).
 #[derive(Debug, Default)]
-struct RobotRows {
-    events: Rows<RobotRow>,
-    /// Poses and sensors at animation frames, the bulk of a recording's rows.
-    anim: Frames,
-    /// Other drawings between events (none from [`super::Recorder`]).
-    frames: Rows<RobotRow>,
-    radius: f64,
-}
-
-/// A robot's animation frames (on `sim_time` only), buffered as the columns they are sent as:
-/// they are most of a recording's rows, so they get no per-row struct.
-#[derive(Debug, Default)]
-struct Frames {
+struct GroupRows {
     sim: Vec<f64>,
-    /// Whether a frame row has a pose (all of them, unless a sensor came alone).
-    posed: Vec<bool>,
-    positions: Vec<[f32; 2]>,
-    vectors: Vec<[f32; 2]>,
-    /// Exact poses `[x, y, angle]`, three per row.
-    exact: Vec<f64>,
-    /// Push sensor reaches on the rows that have one: `(row, circle)`.
-    sensors: Vec<(usize, Option<(Point, f64)>)>,
+    seq: Vec<i64>,
+    positions: Col<[f32; 2]>,
+    /// Heading arrows' vectors.
+    vectors: Col<[f32; 2]>,
+    /// Exact poses, three floats per robot.
+    exact: Col<f64>,
+    /// Radii, colours and labels, on rows where a robot spawned or changed colour.
+    radii: Col<f32>,
+    colours: Col<Rgb>,
+    labels: Col<String>,
+    /// Trails and routes with their colours, on rows where one changed.
+    strips: Col<Vec<[f32; 2]>>,
+    strip_colours: Col<Rgb>,
+    /// Push sensor circles, on rows where one is active or one was switched off.
+    centres: Col<[f32; 2]>,
+    half_sizes: Col<[f32; 2]>,
 }
 
-impl Frames {
-    fn len(&self) -> usize {
+impl GroupRows {
+    fn rows(&self) -> usize {
         self.sim.len()
     }
 
-    /// The row at `t`: the last one if it is at `t`.
-    fn open(&mut self, t: f64) -> usize {
-        if self.sim.last() != Some(&t) {
-            self.sim.push(t);
-            self.posed.push(false);
-            self.positions.push([0.0; 2]);
-            self.vectors.push([0.0; 2]);
-            self.exact.extend([0.0; 3]);
-        }
-        self.sim.len() - 1
+    /// Values buffered, to decide when to send.
+    fn size(&self) -> usize {
+        self.positions.values.len() + self.strips.values.len() * 4
     }
 
-    fn pose(&mut self, t: f64, pos: Point, angle: f64, radius: f64) {
-        let i = self.open(t);
-        self.posed[i] = true;
-        self.positions[i] = p32(pos);
-        let v = heading_vector(angle) * (1.5 * radius);
-        self.vectors[i] = [v.x as f32, v.y as f32];
-        self.exact[3 * i..3 * i + 3].copy_from_slice(&[pos.x, pos.y, angle]);
-    }
-
-    fn sensor(&mut self, t: f64, circle: Option<(Point, f64)>) {
-        let i = self.open(t);
-        match self.sensors.last_mut() {
-            Some((j, c)) if *j == i => *c = circle,
-            _ => self.sensors.push((i, circle)),
-        }
-    }
-
-    /// The time column and the components, leaving the buffer empty.
+    /// The chunks of the group whose first robot is `first`: `(entity, times, columns)`.
     fn take(
         &mut self,
-    ) -> (
-        Vec<TimeColumn>,
-        Result<Vec<SerializedComponentColumn>, rerun::SerializationError>,
-    ) {
-        let f = std::mem::take(self);
-        let times = vec![TimeColumn::new_duration_secs("sim_time", f.sim)];
-        (
-            times,
-            frame_columns(f.posed, f.positions, f.vectors, f.exact, f.sensors),
-        )
-    }
-}
+        first: RobotId,
+    ) -> Result<
+        Vec<(String, Vec<TimeColumn>, Vec<SerializedComponentColumn>)>,
+        rerun::SerializationError,
+    > {
+        let rows = std::mem::take(self);
+        let times = time_columns(rows.sim, rows.seq);
+        let mut out = Vec::new();
 
-/// The columns of animation frames: marker positions, heading arrows, exact poses and push
-/// sensors.
-fn frame_columns(
-    posed: Vec<bool>,
-    mut positions: Vec<[f32; 2]>,
-    mut vectors: Vec<[f32; 2]>,
-    mut exact: Vec<f64>,
-    sensors: Vec<(usize, Option<(Point, f64)>)>,
-) -> Result<Vec<SerializedComponentColumn>, rerun::SerializationError> {
-    let rows = posed.len();
-    if posed.contains(&false) {
-        let keep = |i: usize| posed[i];
-        positions = positions
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| keep(*i))
-            .map(|(_, v)| v)
-            .collect();
-        vectors = vectors
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| keep(*i))
-            .map(|(_, v)| v)
-            .collect();
-        exact = exact
-            .chunks(3)
-            .enumerate()
-            .filter(|(i, _)| keep(*i))
-            .flat_map(|(_, v)| v.to_vec())
-            .collect();
-    }
-    let lengths = || posed.iter().map(|p| usize::from(*p));
-    let mut out = Vec::new();
-    if posed.contains(&true) {
-        let points =
-            archetypes::Points2D::update_fields().with_positions(positions.iter().copied());
-        for c in points.columns(lengths())? {
-            out.push(sparse(Ok(c), &posed)?);
-        }
-        let arrows = archetypes::Arrows2D::update_fields()
-            .with_origins(positions)
-            .with_vectors(vectors);
-        for c in arrows.columns(lengths())? {
-            out.push(sparse(Ok(c), &posed)?);
-        }
-        let exact = SerializedComponentBatch::new(
-            Arc::new(Float64Array::from(exact)) as ArrayRef,
-            pose_descriptor(),
-        )
-        .partitioned(lengths().map(|n| 3 * n));
-        out.push(sparse(exact, &posed)?);
-    }
-    if !sensors.is_empty() {
-        let mut present = vec![false; rows];
-        let mut lengths = vec![0; rows];
-        let mut centers = Vec::new();
-        let mut half = Vec::new();
-        for (i, c) in sensors {
-            present[i] = true;
-            if let Some((p, r)) = c {
-                lengths[i] = 1;
-                centers.push(p32(p));
-                half.push([r as f32, r as f32]);
-            }
-        }
-        let ellipses = archetypes::Ellipses2D::update_fields()
-            .with_centers(centers)
-            .with_half_sizes(half);
-        for c in ellipses.columns(lengths)? {
-            out.push(sparse(Ok(c), &present)?);
-        }
-    }
-    Ok(out)
-}
-
-impl RobotRows {
-    fn len(&self) -> usize {
-        self.events.len() + self.anim.len() + self.frames.len()
-    }
-
-    /// The row for `at`: the buffer's last row if it is for the same instant and event.
-    fn row(&mut self, at: Stamp) -> &mut RobotRow {
-        let rows = if at.seq.is_some() {
-            &mut self.events
-        } else {
-            &mut self.frames
+        let positions = rows.positions.values.clone();
+        let mut robots = rows.positions.columns(|v, n| {
+            archetypes::Points2D::update_fields()
+                .with_positions(v)
+                .columns(n)
+        })?;
+        robots.extend(rows.radii.columns(|v, n| {
+            archetypes::Points2D::update_fields()
+                .with_radii(v)
+                .columns(n)
+        })?);
+        let heading_colours = Col {
+            values: rows.colours.values.clone(),
+            lengths: rows.colours.lengths.clone(),
+            present: rows.colours.present.clone(),
         };
-        let same = rows.sim.last() == Some(&at.t)
-            && (at.seq.is_none() || rows.seq.last() == at.seq.map(|s| s as i64).as_ref());
-        if !same {
-            rows.push(at, RobotRow::default());
+        robots.extend(rows.colours.columns(|v, n| {
+            archetypes::Points2D::update_fields()
+                .with_colors(v)
+                .columns(n)
+        })?);
+        robots.extend(rows.labels.columns(|v, n| {
+            archetypes::Points2D::update_fields()
+                .with_labels(v)
+                .columns(n)
+        })?);
+        robots.extend(rows.exact.columns(|v, n| {
+            SerializedComponentBatch::new(
+                Arc::new(Float64Array::from(v)) as ArrayRef,
+                pose_descriptor(),
+            )
+            .partitioned(n)
+            .map(|c| [c])
+        })?);
+        if !robots.is_empty() {
+            out.push((group_entity("robots", first), times.clone(), robots));
         }
-        rows.data.last_mut().expect("a row")
+
+        let origins = Col {
+            values: positions,
+            lengths: rows.vectors.lengths.clone(),
+            present: rows.vectors.present.clone(),
+        };
+        let mut headings = origins.columns(|v, n| {
+            archetypes::Arrows2D::update_fields()
+                .with_origins(v)
+                .columns(n)
+        })?;
+        headings.extend(rows.vectors.columns(|v, n| {
+            archetypes::Arrows2D::update_fields()
+                .with_vectors(v)
+                .columns(n)
+        })?);
+        headings.extend(heading_colours.columns(|v, n| {
+            archetypes::Arrows2D::update_fields()
+                .with_colors(v)
+                .columns(n)
+        })?);
+        if !headings.is_empty() {
+            out.push((group_entity("headings", first), times.clone(), headings));
+        }
+
+        let mut paths = rows.strips.columns(|v, n| {
+            archetypes::LineStrips2D::update_fields()
+                .with_strips(v)
+                .columns(n)
+        })?;
+        paths.extend(rows.strip_colours.columns(|v, n| {
+            archetypes::LineStrips2D::update_fields()
+                .with_colors(v)
+                .columns(n)
+        })?);
+        if !paths.is_empty() {
+            out.push((group_entity("paths", first), times.clone(), paths));
+        }
+
+        let mut sensors = rows.centres.columns(|v, n| {
+            archetypes::Ellipses2D::update_fields()
+                .with_centers(v)
+                .columns(n)
+        })?;
+        sensors.extend(rows.half_sizes.columns(|v, n| {
+            archetypes::Ellipses2D::update_fields()
+                .with_half_sizes(v)
+                .columns(n)
+        })?);
+        if !sensors.is_empty() {
+            out.push((group_entity("sensors", first), times, sensors));
+        }
+        Ok(out)
+    }
+}
+
+/// What a group of robots shows besides its poses, and its buffered rows.
+#[derive(Debug, Default)]
+struct Group {
+    radius: Vec<f64>,
+    colour: Vec<Rgb>,
+    /// Each robot's trail (corners), and where its current motion ends.
+    trail: Vec<Vec<[f32; 2]>>,
+    dest: Vec<Option<[f32; 2]>>,
+    /// Active push sensors' reach.
+    reach: Vec<Option<f64>>,
+    /// What changed since the group's last row.
+    style_changed: bool,
+    paths_changed: bool,
+    sensors_changed: bool,
+    events: GroupRows,
+    frames: GroupRows,
+}
+
+impl Group {
+    fn fit(&mut self, n: usize) {
+        if self.radius.len() < n {
+            self.radius.resize(n, 0.0);
+            self.colour.resize(n, super::GREY);
+            self.trail.resize(n, Vec::new());
+            self.dest.resize(n, None);
+            self.reach.resize(n, None);
+        }
+    }
+
+    /// A row at `at` with the exact poses of the group's robots (`first` is the first's id).
+    fn row(&mut self, at: Stamp, first: RobotId, poses: &[(Point, f64)]) {
+        self.fit(poses.len());
+        let rows = match at.seq {
+            Some(s) => {
+                self.events.seq.push(s as i64);
+                &mut self.events
+            }
+            None => &mut self.frames,
+        };
+        rows.sim.push(at.t);
+        rows.positions.push(poses.iter().map(|(p, _)| p32(*p)));
+        rows.vectors
+            .push(poses.iter().enumerate().map(|(i, (_, a))| {
+                let v = heading_vector(*a) * (1.5 * self.radius[i]);
+                [v.x as f32, v.y as f32]
+            }));
+        rows.exact
+            .push(poses.iter().flat_map(|(p, a)| [p.x, p.y, *a]));
+        if std::mem::take(&mut self.style_changed) {
+            let n = poses.len();
+            rows.radii.push(self.radius[..n].iter().map(|r| *r as f32));
+            rows.colours.push(self.colour[..n].iter().copied());
+            rows.labels
+                .push((0..n).map(|i| format!("p{}", first as usize + i)));
+        } else {
+            rows.radii.skip();
+            rows.colours.skip();
+            rows.labels.skip();
+        }
+        if std::mem::take(&mut self.paths_changed) {
+            let mut strips = Vec::new();
+            let mut colours = Vec::new();
+            for i in 0..poses.len() {
+                let trail = &self.trail[i];
+                if trail.len() >= 2 {
+                    strips.push(trail.clone());
+                    colours.push(self.colour[i]);
+                }
+                if let (Some(dest), Some(last)) = (self.dest[i], trail.last()) {
+                    strips.push(vec![*last, dest]);
+                    colours.push(self.colour[i]);
+                }
+            }
+            rows.strips.push(strips);
+            rows.strip_colours.push(colours);
+        } else {
+            rows.strips.skip();
+            rows.strip_colours.skip();
+        }
+        let active = self.reach.iter().any(Option::is_some);
+        if std::mem::take(&mut self.sensors_changed) || active {
+            let circles: Vec<_> = poses
+                .iter()
+                .zip(&self.reach)
+                .filter_map(|((p, _), r)| r.map(|r| (p32(*p), [r as f32, r as f32])))
+                .collect();
+            rows.centres.push(circles.iter().map(|c| c.0));
+            rows.half_sizes.push(circles.iter().map(|c| c.1));
+        } else {
+            rows.centres.skip();
+            rows.half_sizes.skip();
+        }
     }
 }
 
@@ -293,10 +397,9 @@ pub const COLLISION_GROUP: u64 = 64;
 
 /// A column with a value (possibly an empty list) on rows where `present`, null elsewhere.
 fn sparse(
-    column: Result<SerializedComponentColumn, rerun::SerializationError>,
+    column: SerializedComponentColumn,
     present: &[bool],
 ) -> Result<SerializedComponentColumn, rerun::SerializationError> {
-    let column = column?;
     if !present.contains(&false) {
         // Every row has a value: no validity bitmap.
         return Ok(column);
@@ -318,44 +421,28 @@ fn sparse(
     })
 }
 
-/// The components of one archetype field: its batch, and how many instances each row has.
-fn parts<T>(
-    rows: &[RobotRow],
-    pick: impl Fn(&RobotRow) -> Option<Vec<T>>,
-) -> (Vec<T>, Vec<usize>, Vec<bool>) {
-    let mut all = Vec::new();
-    let mut lengths = Vec::with_capacity(rows.len());
-    let mut present = Vec::with_capacity(rows.len());
-    for r in rows {
-        match pick(r) {
-            Some(v) => {
-                lengths.push(v.len());
-                present.push(true);
-                all.extend(v);
-            }
-            None => {
-                lengths.push(0);
-                present.push(false);
-            }
-        }
-    }
-    (all, lengths, present)
-}
-
 fn p32(p: Point) -> [f32; 2] {
     [p.x as f32, p.y as f32]
 }
 
 /// A [`Canvas`] writing a Rerun recording.
+///
+/// Every chunk is built here with row and chunk ids numbered in the order they are sent (no
+/// wall-clock ids, no batching on Rerun's timer), so the recording's rows depend on the run
+/// alone.
 pub struct RerunCanvas {
     rec: Option<RecordingStream>,
-    robots: Vec<RobotRows>,
+    /// Robot groups, by group number.
+    groups: Vec<Group>,
     log: Rows<String>,
     metrics: Rows<Metrics>,
     /// Markers of the current collision group so far, and its rows.
     collision_group: Vec<([f32; 2], String)>,
     collision_count: u64,
     collisions: Rows<Vec<([f32; 2], String)>>,
+    /// Ids of the next row and chunk.
+    next_row: u64,
+    next_chunk: u64,
     /// Flush everything at every whole simulated second (a viewer is connected).
     live: bool,
     next_live_flush: f64,
@@ -379,6 +466,17 @@ fn rerun_err(e: impl std::fmt::Display) -> RecordingError {
     RecordingError::Rerun(e.to_string())
 }
 
+/// FNV-1a, 64 bits: a recording id that is a function of the run.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+/// The timestamp half of the row and chunk ids (Rerun's ids are a time and a counter): a
+/// constant, so ids are the counter alone. 2020-01-01 in nanoseconds since 1970.
+const ID_EPOCH_NANOS: u128 = 1_577_836_800_000_000_000;
+
 /// The default layout: the 2D world beside the log above the metrics.
 fn default_blueprint() -> blueprint::Blueprint {
     blueprint::Blueprint::new(blueprint::Horizontal::new([
@@ -399,8 +497,12 @@ impl RerunCanvas {
     /// Starts a recording named `name` to `target`. The .rrd file is written beside its target
     /// under a hidden temporary name and moved into place by [`RerunCanvas::finish`] (or when
     /// the canvas is dropped, so a failed run still leaves a complete recording).
-    pub fn start(name: &str, target: &Target) -> Result<Self, RecordingError> {
-        let builder = RecordingStreamBuilder::new("nekosim").recording_name(name);
+    ///
+    /// The recording's id is derived from `id` (what makes the run: the scenario and its
+    /// seed), so the same run gives the same recording.
+    pub fn start(name: &str, id: &str, target: &Target) -> Result<Self, RecordingError> {
+        let builder = RecordingStreamBuilder::new("nekosim")
+            .recording_id(format!("nekosim-{:016x}", fnv1a(id.as_bytes())));
         let mut sinks: Vec<Box<dyn rerun::sink::LogSink>> = Vec::new();
         let mut file = None;
         let mut viewer = None;
@@ -438,24 +540,31 @@ impl RerunCanvas {
             };
             sinks.push(Box::new(rerun::sink::GrpcSink::new(uri)));
         }
-        let rec = builder.set_sinks(sinks).map_err(rerun_err)?;
-        default_blueprint()
-            .send(&rec, blueprint::BlueprintActivation::default())
-            .map_err(rerun_err)?;
-        Ok(Self {
-            rec: Some(rec),
-            robots: Vec::new(),
+        let mut canvas = Self {
+            rec: Some(builder.set_sinks(sinks).map_err(rerun_err)?),
+            groups: Vec::new(),
             log: Rows::default(),
             metrics: Rows::default(),
             collision_group: Vec::new(),
             collision_count: 0,
             collisions: Rows::default(),
+            next_row: 0,
+            next_chunk: 0,
             live: viewer.is_some(),
             url: viewer,
             next_live_flush: 1.0,
             file,
             error: None,
-        })
+        };
+        canvas.row(
+            "__properties",
+            None,
+            &rerun::RecordingInfo::new().with_name(name),
+        );
+        default_blueprint()
+            .send(canvas.rec(), blueprint::BlueprintActivation::default())
+            .map_err(rerun_err)?;
+        Ok(canvas)
     }
 
     fn keep(&mut self, r: Result<(), RecordingError>) {
@@ -468,51 +577,80 @@ impl RerunCanvas {
         self.rec.as_ref().expect("recording open until finished")
     }
 
-    fn set_time(&self, at: Stamp) {
-        let rec = self.rec();
-        rec.set_duration_secs("sim_time", at.t);
-        match at.seq {
-            Some(s) => rec.set_time_sequence("event", s as i64),
-            None => rec.disable_timeline("event"),
-        }
-    }
-
-    fn log_at(&mut self, at: Stamp, entity: &str, what: &dyn rerun::AsComponents) {
-        self.set_time(at);
-        let r = self.rec().log(entity, what).map_err(rerun_err);
-        self.keep(r);
-    }
-
+    /// Sends rows of `entity` as one chunk, with the next row and chunk ids.
     fn send(
         &mut self,
         entity: &str,
         times: Vec<TimeColumn>,
         columns: Result<Vec<SerializedComponentColumn>, rerun::SerializationError>,
     ) {
-        let r = columns
-            .map_err(rerun_err)
-            .and_then(|c| self.rec().send_columns(entity, times, c).map_err(rerun_err));
+        let r = columns.map_err(rerun_err).and_then(|columns| {
+            let Some(rows) = columns.first().map(|c| c.list_array.len()) else {
+                return Ok(());
+            };
+            let row_ids: Vec<RowId> = (0..rows as u64)
+                .map(|i| RowId::from_u128((ID_EPOCH_NANOS << 64) | u128::from(self.next_row + i)))
+                .collect();
+            self.next_row += rows as u64;
+            let chunk_id = ChunkId::from_u128((ID_EPOCH_NANOS << 64) | u128::from(self.next_chunk));
+            self.next_chunk += 1;
+            let chunk = Chunk::from_native_row_ids(
+                chunk_id,
+                entity.into(),
+                None,
+                &row_ids,
+                times
+                    .into_iter()
+                    .map(|c| (*c.timeline().name(), c))
+                    .collect(),
+                columns
+                    .into_iter()
+                    .map(|c| (c.descriptor, c.list_array))
+                    .collect(),
+            )
+            .map_err(rerun_err)?;
+            self.rec().send_chunk(chunk);
+            Ok(())
+        });
         self.keep(r);
     }
 
-    fn flush_robot(&mut self, i: usize) {
-        if self.robots[i].anim.len() > 0 {
-            let (times, columns) = self.robots[i].anim.take();
-            self.send(&robot_entity(i as RobotId), times, columns);
-        }
+    /// One row of `entity` at `at` (`None`: static).
+    fn row(&mut self, entity: &str, at: Option<Stamp>, what: &dyn rerun::AsComponents) {
+        let times = match at {
+            Some(at) => time_columns(vec![at.t], at.seq.map(|s| s as i64).into_iter().collect()),
+            None => Vec::new(),
+        };
+        let columns = what
+            .as_serialized_batches()
+            .into_iter()
+            .map(|b| {
+                let n = b.array.len();
+                b.partitioned([n])
+            })
+            .collect();
+        self.send(entity, times, columns);
+    }
+
+    fn flush_group(&mut self, g: usize) {
+        let first = g as RobotId * ROBOT_GROUP;
         for frames in [false, true] {
-            let rows = &mut self.robots[i];
-            let radius = rows.radius;
-            let (times, data) = if frames {
-                rows.frames.take()
+            let rows = if frames {
+                &mut self.groups[g].frames
             } else {
-                rows.events.take()
+                &mut self.groups[g].events
             };
-            if data.is_empty() {
+            if rows.rows() == 0 {
                 continue;
             }
-            let columns = robot_columns(i as RobotId, &data, radius);
-            self.send(&robot_entity(i as RobotId), times, columns);
+            match rows.take(first) {
+                Ok(chunks) => {
+                    for (entity, times, columns) in chunks {
+                        self.send(&entity, times, Ok(columns));
+                    }
+                }
+                Err(e) => self.keep(Err(rerun_err(e))),
+            }
         }
     }
 
@@ -532,11 +670,7 @@ impl RerunCanvas {
             .with_colors([[255, 40, 40]])
             .with_radii([2.0]);
         let entity = format!("world/collisions/{group}");
-        let r = self
-            .rec()
-            .log_static(entity.as_str(), &style)
-            .map_err(rerun_err);
-        self.keep(r);
+        self.row(&entity, None, &style);
         self.send(&entity, times, columns);
     }
 
@@ -573,8 +707,8 @@ impl RerunCanvas {
     }
 
     fn flush_all(&mut self) {
-        for i in 0..self.robots.len() {
-            self.flush_robot(i);
+        for g in 0..self.groups.len() {
+            self.flush_group(g);
         }
         self.flush_log();
         self.flush_metrics();
@@ -583,18 +717,16 @@ impl RerunCanvas {
         }
     }
 
-    fn robot(&mut self, robot: RobotId) -> &mut RobotRows {
-        let i = robot as usize;
-        if self.robots.len() <= i {
-            self.robots.resize_with(i + 1, RobotRows::default);
+    /// The group of `robot` and the robot's index in it.
+    fn group(&mut self, robot: RobotId) -> (&mut Group, usize) {
+        let g = (robot / ROBOT_GROUP) as usize;
+        if self.groups.len() <= g {
+            self.groups.resize_with(g + 1, Group::default);
         }
-        &mut self.robots[i]
-    }
-
-    fn maybe_flush(&mut self, robot: RobotId) {
-        if self.robot(robot).len() >= FLUSH_ROWS {
-            self.flush_robot(robot as usize);
-        }
+        let i = (robot % ROBOT_GROUP) as usize;
+        let group = &mut self.groups[g];
+        group.fit(i + 1);
+        (group, i)
     }
 
     /// Sends what is buffered, ends the stream (the .rrd file gets its footer) and moves the
@@ -639,109 +771,6 @@ impl Drop for RerunCanvas {
     }
 }
 
-/// The columns of a robot's rows: marker (`Points2D`), heading (`Arrows2D`), trail and route
-/// to the destination (`LineStrips2D`), push sensor (`Ellipses2D`) and the exact pose.
-fn robot_columns(
-    id: RobotId,
-    rows: &[RobotRow],
-    radius: f64,
-) -> Result<Vec<SerializedComponentColumn>, rerun::SerializationError> {
-    let mut out = Vec::new();
-    // The pose components, in one pass and without an allocation per row.
-    let mut positions = Vec::with_capacity(rows.len());
-    let mut vectors = Vec::with_capacity(rows.len());
-    let mut exact = Vec::with_capacity(3 * rows.len());
-    let mut lengths = Vec::with_capacity(rows.len());
-    let mut present = Vec::with_capacity(rows.len());
-    for r in rows {
-        match r.pose {
-            Some((p, a)) => {
-                positions.push(p32(p));
-                let v = heading_vector(a) * (1.5 * radius);
-                vectors.push([v.x as f32, v.y as f32]);
-                exact.extend([p.x, p.y, a]);
-                lengths.push(1);
-                present.push(true);
-            }
-            None => {
-                lengths.push(0);
-                present.push(false);
-            }
-        }
-    }
-    let points = archetypes::Points2D::update_fields().with_positions(positions.iter().copied());
-    for c in points.columns(lengths.iter().copied())? {
-        out.push(sparse(Ok(c), &present)?);
-    }
-    let arrows = archetypes::Arrows2D::update_fields()
-        .with_origins(positions)
-        .with_vectors(vectors);
-    for c in arrows.columns(lengths.iter().copied())? {
-        out.push(sparse(Ok(c), &present)?);
-    }
-    let exact = SerializedComponentBatch::new(
-        Arc::new(Float64Array::from(exact)) as ArrayRef,
-        pose_descriptor(),
-    )
-    .partitioned(lengths.iter().map(|n| 3 * n));
-    out.push(sparse(exact, &present)?);
-
-    let (styles, lengths, present) = parts(rows, |r| r.style.clone().map(|s| vec![s]));
-    if !styles.is_empty() {
-        let radii: Vec<f32> = styles.iter().map(|s| s.radius as f32).collect();
-        let colours: Vec<Rgb> = styles.iter().map(|s| s.colour).collect();
-        let labels = vec![format!("p{id}"); styles.len()];
-        let points = archetypes::Points2D::update_fields()
-            .with_labels(labels)
-            .with_radii(radii.clone())
-            .with_colors(colours.clone());
-        for c in points.columns(lengths.clone())? {
-            out.push(sparse(Ok(c), &present)?);
-        }
-        let arrows = archetypes::Arrows2D::update_fields().with_colors(colours.clone());
-        for c in arrows.columns(lengths.clone())? {
-            out.push(sparse(Ok(c), &present)?);
-        }
-        let strips = archetypes::LineStrips2D::update_fields()
-            .with_colors(colours)
-            .with_radii(radii.iter().map(|r| r / 10.0).collect::<Vec<_>>());
-        for c in strips.columns(lengths)? {
-            out.push(sparse(Ok(c), &present)?);
-        }
-    }
-
-    let (strips, lengths, present) = parts(rows, |r| {
-        r.path.as_ref().map(|trail| {
-            let mut v = vec![trail.iter().map(|p| p32(*p)).collect::<Vec<_>>()];
-            if let (Some(Some(dest)), Some(last)) = (r.dest, trail.last()) {
-                v.push(vec![p32(*last), p32(dest)]);
-            }
-            v
-        })
-    });
-    if present.contains(&true) {
-        let strips = archetypes::LineStrips2D::update_fields().with_strips(strips);
-        for c in strips.columns(lengths)? {
-            out.push(sparse(Ok(c), &present)?);
-        }
-    }
-
-    let (circles, lengths, present) = parts(rows, |r| r.sensor.map(|c| c.into_iter().collect()));
-    if present.contains(&true) {
-        let (centers, half): (Vec<[f32; 2]>, Vec<[f32; 2]>) = circles
-            .iter()
-            .map(|(p, r)| (p32(*p), [*r as f32, *r as f32]))
-            .unzip();
-        let ellipses = archetypes::Ellipses2D::update_fields()
-            .with_centers(centers)
-            .with_half_sizes(half);
-        for c in ellipses.columns(lengths)? {
-            out.push(sparse(Ok(c), &present)?);
-        }
-    }
-    Ok(out)
-}
-
 fn temp_path(target: &Path) -> std::io::Result<PathBuf> {
     let dir = target
         .parent()
@@ -769,57 +798,54 @@ impl Canvas for RerunCanvas {
                 [p32(min)],
                 [[size.x as f32, size.y as f32]],
             );
-            let r = self
-                .rec()
-                .log_static("world/bounds", &boxes)
-                .map_err(rerun_err);
-            self.keep(r);
+            self.row("world/bounds", None, &boxes);
         }
     }
 
-    fn spawn(&mut self, at: Stamp, robot: RobotId, radius: f64, colour: Rgb) {
-        let rows = self.robot(robot);
-        rows.radius = radius;
-        rows.row(at).style = Some(Style { radius, colour });
-        self.maybe_flush(robot);
+    fn spawn(&mut self, robot: RobotId, radius: f64, colour: Rgb) {
+        let (group, i) = self.group(robot);
+        group.radius[i] = radius;
+        group.colour[i] = colour;
+        group.style_changed = true;
+        group.paths_changed = true;
     }
 
-    fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64) {
-        let rows = self.robot(robot);
-        if at.seq.is_none() {
-            let radius = rows.radius;
-            rows.anim.pose(at.t, pos, angle, radius);
-        } else {
-            rows.row(at).pose = Some((pos, angle));
+    fn colour(&mut self, robot: RobotId, colour: Rgb) {
+        let (group, i) = self.group(robot);
+        group.colour[i] = colour;
+        group.style_changed = true;
+        group.paths_changed = true;
+    }
+
+    fn path(&mut self, robot: RobotId, corners: &[Point]) {
+        let (group, i) = self.group(robot);
+        group.trail[i] = corners.iter().map(|p| p32(*p)).collect();
+        group.paths_changed = true;
+    }
+
+    fn destination(&mut self, robot: RobotId, dest: Option<Point>) {
+        let (group, i) = self.group(robot);
+        let dest = dest.map(p32);
+        if group.dest[i] != dest {
+            group.dest[i] = dest;
+            group.paths_changed = true;
         }
-        self.maybe_flush(robot);
     }
 
-    fn colour(&mut self, at: Stamp, robot: RobotId, colour: Rgb) {
-        let rows = self.robot(robot);
-        let radius = rows.radius;
-        rows.row(at).style = Some(Style { radius, colour });
-        self.maybe_flush(robot);
+    fn sensor(&mut self, robot: RobotId, reach: Option<f64>) {
+        let (group, i) = self.group(robot);
+        group.reach[i] = reach;
+        group.sensors_changed = true;
     }
 
-    fn path(&mut self, at: Stamp, robot: RobotId, corners: &[Point]) {
-        self.robot(robot).row(at).path = Some(corners.to_vec());
-        self.maybe_flush(robot);
-    }
-
-    fn destination(&mut self, at: Stamp, robot: RobotId, dest: Option<Point>) {
-        self.robot(robot).row(at).dest = Some(dest);
-        self.maybe_flush(robot);
-    }
-
-    fn sensor(&mut self, at: Stamp, robot: RobotId, circle: Option<(Point, f64)>) {
-        let rows = self.robot(robot);
-        if at.seq.is_none() {
-            rows.anim.sensor(at.t, circle);
-        } else {
-            rows.row(at).sensor = Some(circle);
+    fn poses(&mut self, at: Stamp, first: RobotId, poses: &[(Point, f64)]) {
+        let g = (first / ROBOT_GROUP) as usize;
+        let (group, _) = self.group(first);
+        group.row(at, first, poses);
+        if group.events.size() + group.frames.size() >= FLUSH_INSTANCES {
+            self.flush_group(g);
         }
-        self.maybe_flush(robot);
+        self.live_flush(at.t);
     }
 
     fn query(&mut self, at: Stamp, robot: RobotId, circle: Option<(Point, f64)>) {
@@ -832,7 +858,7 @@ impl Canvas for RerunCanvas {
             .with_colors([[200, 200, 200]]),
             None => archetypes::Ellipses2D::clear_fields(),
         };
-        self.log_at(at, &entity, &e);
+        self.row(&entity, Some(at), &e);
     }
 
     fn collision(&mut self, at: Stamp, k: u64, point: Point, label: &str) {
@@ -854,7 +880,7 @@ impl Canvas for RerunCanvas {
         .with_origins(flights.iter().map(|f| p32(f.origin)))
         .with_colors([colour])
         .with_labels(flights.iter().map(|f| f.label.clone()));
-        self.log_at(at, &format!("world/messages/{layer}"), &arrows);
+        self.row(&format!("world/messages/{layer}"), Some(at), &arrows);
     }
 
     fn log(&mut self, at: Stamp, line: &str) {
@@ -862,16 +888,23 @@ impl Canvas for RerunCanvas {
         if self.log.len() >= FLUSH_ROWS {
             self.flush_log();
         }
-        if self.live && at.t >= self.next_live_flush {
-            self.flush_all();
-            self.next_live_flush = at.t.floor() + 1.0;
-        }
+        self.live_flush(at.t);
     }
 
     fn metrics(&mut self, at: Stamp, m: &Metrics) {
         self.metrics.push(at, *m);
         if self.metrics.len() >= FLUSH_ROWS {
             self.flush_metrics();
+        }
+    }
+}
+
+impl RerunCanvas {
+    /// With a viewer connected, everything buffered is sent at each whole simulated second.
+    fn live_flush(&mut self, t: f64) {
+        if self.live && t >= self.next_live_flush {
+            self.flush_all();
+            self.next_live_flush = t.floor() + 1.0;
         }
     }
 }

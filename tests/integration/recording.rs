@@ -3,7 +3,7 @@
 //! `k / framerate`, every collision gets one marker, and the same run draws the same picture.
 
 use nekosim::algorithm::RandomMovement;
-use nekosim::recording::{Canvas, Flight, Metrics, Recorder, Rgb, Stamp};
+use nekosim::recording::{Canvas, Flight, Metrics, Recorder, Rgb, Stamp, ROBOT_GROUP};
 use nekosim::world::geometry::Point;
 use nekosim::world::observation::{Observation, Record};
 use nekosim::world::virtual_world::RobotSpec;
@@ -21,14 +21,21 @@ struct Poses {
 
 impl Canvas for Poses {
     fn world(&mut self, _: Option<(Point, Point)>) {}
-    fn spawn(&mut self, _: Stamp, _: RobotId, _: f64, _: Rgb) {}
-    fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, _: f64) {
-        self.poses.push((at, robot, pos));
+    fn spawn(&mut self, _: RobotId, _: f64, _: Rgb) {}
+    fn colour(&mut self, _: RobotId, _: Rgb) {}
+    fn path(&mut self, _: RobotId, _: &[Point]) {}
+    fn destination(&mut self, _: RobotId, _: Option<Point>) {}
+    fn sensor(&mut self, _: RobotId, _: Option<f64>) {}
+    fn poses(&mut self, at: Stamp, first: RobotId, poses: &[(Point, f64)]) {
+        assert_eq!(
+            first % ROBOT_GROUP,
+            0,
+            "groups start at multiples of the group size"
+        );
+        for (i, (p, _)) in poses.iter().enumerate() {
+            self.poses.push((at, first + i as RobotId, *p));
+        }
     }
-    fn colour(&mut self, _: Stamp, _: RobotId, _: Rgb) {}
-    fn path(&mut self, _: Stamp, _: RobotId, _: &[Point]) {}
-    fn destination(&mut self, _: Stamp, _: RobotId, _: Option<Point>) {}
-    fn sensor(&mut self, _: Stamp, _: RobotId, _: Option<(Point, f64)>) {}
     fn query(&mut self, _: Stamp, _: RobotId, _: Option<(Point, f64)>) {}
     fn collision(&mut self, _: Stamp, k: u64, p: Point, _: &str) {
         self.collisions.push((k, p));
@@ -39,7 +46,8 @@ impl Canvas for Poses {
 }
 
 fn random_run() -> (Vec<Record>, f64) {
-    let robots: Vec<(RobotSpec, Box<dyn Algorithm>)> = (0..30)
+    // Two groups: 32 robots and 8.
+    let robots: Vec<(RobotSpec, Box<dyn Algorithm>)> = (0..40)
         .map(|i| {
             let (x, y) = (15.0 + 25.0 * (i % 6) as f64, 15.0 + 30.0 * (i / 6) as f64);
             (

@@ -16,7 +16,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from verify_rrd import TOLERANCE, Rows, fail, load_trace, ns, rrd_verify
+from verify_rrd import TOLERANCE, Rows, fail, group, load_trace, ns, rrd_verify
 
 LANE = 10.0
 
@@ -36,13 +36,15 @@ def main() -> None:
 
     steps = int(trace[-1]["seq"])
     for p in range(processes):
-        entity = f"/world/robots/{p}"
+        name, j = group(p)
+        entity = f"/world/robots/{name}"
         for step in range(steps + 1):
             pose = rows.latest_at(entity, "nekosim.Pose:pose", ns(step))
-            if pose is None:
-                fail(f"{entity}: no pose at step {step}")
-            if abs(pose[0] - LANE * p) > TOLERANCE or abs(pose[1]) > TOLERANCE:
-                fail(f"{entity} at step {step}: {pose[:2]}, expected its lane ({LANE * p}, 0)")
+            if pose is None or len(pose) < 3 * j + 3:
+                fail(f"{entity}: no pose of process {p} at step {step}")
+            x, y = pose[3 * j], pose[3 * j + 1]
+            if abs(x - LANE * p) > TOLERANCE or abs(y) > TOLERANCE:
+                fail(f"{entity} at step {step}: process {p} at {(x, y)}, expected its lane ({LANE * p}, 0)")
 
     sends = [r for r in trace if r["kind"] == "send"]
     for s in sends:
@@ -54,10 +56,11 @@ def main() -> None:
     grey = 0x808080FF
     crashes = [r for r in trace if r["kind"] == "crash"]
     for c in crashes:
-        entity = f"/world/robots/{c['robot']}"
+        name, j = group(c["robot"])
+        entity = f"/world/robots/{name}"
         colour = rows.latest_at(entity, "Points2D:colors", ns(c["t"]))
-        if colour != [grey]:
-            fail(f"{entity} crashed at step {c['t']} but its colour is {colour}")
+        if colour is None or colour[j] != grey:
+            fail(f"process {c['robot']} crashed at step {c['t']} but its colour is {colour}")
 
     texts = [
         text

@@ -6,10 +6,13 @@ Independently of nekosim's code, it checks that:
 - `rerun rrd verify` accepts the file;
 - the recording loads with `rerun.experimental.RrdReader` and has the `sim_time` and `event`
   timelines;
-- every robot's exact pose (`nekosim.Pose:pose`, 64-bit) equals the position rebuilt from the
-  JSONL trace of the same run within 1e-6, on every row, and read back with latest-at
-  semantics at animation-frame instants (all robots) and event instants (the robots the event
-  is about); the drawn 32-bit marker agrees with it to float precision;
+- robots are drawn in groups of 32 (`world/robots/0-31`, ...: robot `i` is instance `i % 32`);
+  every robot's exact pose (`nekosim.Pose:pose`, 64-bit, three floats per robot) equals the
+  position rebuilt from the JSONL trace of the same run within 1e-6, on every row, and read
+  back with latest-at semantics at animation-frame instants and event instants (all robots);
+  the drawn 32-bit marker and the heading arrow's origin agree with it to float precision;
+- while a push proximity sensor is active, the robot's group has a circle of its reach
+  (radius + range) around it, and none once it is switched off;
 - the number of collision markers equals the number of `collision` records of the trace;
 - a crashed robot is grey from its crash on;
 - every `send` record has a message-arrow row at its event with at least one arrow per receiver;
@@ -32,6 +35,13 @@ import rerun as rr
 import rerun.experimental as rrx
 
 TOLERANCE = 1e-6
+GROUP = 32
+
+
+def group(robot: int) -> tuple[str, int]:
+    """The robot's group entity suffix (`0-31`) and its instance in the group."""
+    first = robot - robot % GROUP
+    return f"{first}-{first + GROUP - 1}", robot % GROUP
 EXPECTED_VERSION = "0.36.3"
 
 
@@ -137,24 +147,32 @@ def main() -> None:
     for timeline in ("sim_time", "event"):
         if timeline not in rows.timelines:
             fail(f"timeline {timeline} missing; have {sorted(rows.timelines)}")
-    if "/world/bounds" not in rows.by_entity and "/world/robots/0" not in rows.by_entity:
-        fail("no world entities")
+    if "/world/robots/0-31" not in rows.by_entity:
+        fail(f"no robots entity; have {sorted(rows.by_entity)}")
 
     # Every recorded pose lies on the trajectory rebuilt from the trace, at its own instant.
     paths = rebuild(trace)
     rows_checked = 0
-    for robot, path in paths.items():
-        for sim, _, _, cols in rows.by_entity.get(f"/world/robots/{robot}", []):
+    for entity, rs in rows.by_entity.items():
+        if not entity.startswith("/world/robots/"):
+            continue
+        first = int(entity.rsplit("/", 1)[1].split("-")[0])
+        for sim, _, _, cols in rs:
             pose = cols.get("nekosim.Pose:pose")
             if pose is None:
                 continue
-            want = pos_at(path, sim / 1e9)
-            if abs(pose[0] - want[0]) > TOLERANCE or abs(pose[1] - want[1]) > TOLERANCE:
-                fail(f"robot {robot} row at sim_time {sim} ns: recording {pose[:2]}, trace {want}")
-            rows_checked += 1
+            for j in range(len(pose) // 3):
+                path = paths.get(first + j)
+                if path is None or path[0][0] > sim / 1e9:
+                    continue  # not spawned yet: drawn invisible
+                want = pos_at(path, sim / 1e9)
+                x, y = pose[3 * j], pose[3 * j + 1]
+                if abs(x - want[0]) > TOLERANCE or abs(y - want[1]) > TOLERANCE:
+                    fail(f"robot {first + j} row at sim_time {sim} ns: recording {(x, y)}, trace {want}")
+                rows_checked += 1
 
-    # Read back with latest-at: at animation frames every robot is where the trace puts it; at
-    # an event instant, every robot with a kinematic record at that instant.
+    # Read back with latest-at: at animation frames and at event instants of a robot's group,
+    # every robot of the group is where the trace puts it.
     end = trace[-1]["t"]
     instants: list[tuple[float, object]] = []
     if framerate > 0:
@@ -167,20 +185,23 @@ def main() -> None:
     checked = 0
     for t, only in instants:
         for robot, path in paths.items():
-            if only is not None and robot != only:
+            if only is not None and group(robot)[0] != group(only)[0]:
                 continue
             want = pos_at(path, t)
-            entity = f"/world/robots/{robot}"
+            name, j = group(robot)
+            entity = f"/world/robots/{name}"
             pose = rows.latest_at(entity, "nekosim.Pose:pose", ns(t))
-            if pose is None:
-                fail(f"{entity}: no pose at sim_time {t}")
-            if abs(pose[0] - want[0]) > TOLERANCE or abs(pose[1] - want[1]) > TOLERANCE:
-                fail(f"{entity} at {t}: recording {pose[:2]}, trace {want}")
-            drawn = rows.latest_at(entity, "Points2D:positions", ns(t))[0]
-            for d, w in zip(drawn, want):
+            if pose is None or len(pose) < 3 * j + 3:
+                fail(f"{entity}: no pose of robot {robot} at sim_time {t}")
+            x, y = pose[3 * j], pose[3 * j + 1]
+            if abs(x - want[0]) > TOLERANCE or abs(y - want[1]) > TOLERANCE:
+                fail(f"{entity} at {t}: robot {robot} at {(x, y)}, trace {want}")
+            drawn = rows.latest_at(entity, "Points2D:positions", ns(t))[j]
+            origin = rows.latest_at(f"/world/headings/{name}", "Arrows2D:origins", ns(t))[j]
+            for d, o, w in zip(drawn, origin, want):
                 # 32-bit floats: 24 bits of mantissa.
-                if abs(d - w) > 2**-22 * max(1.0, abs(w)):
-                    fail(f"{entity} at {t}: drawn {drawn}, trace {want}")
+                if abs(d - w) > 2**-22 * max(1.0, abs(w)) or o != d:
+                    fail(f"{entity} at {t}: robot {robot} drawn {drawn}, arrow {origin}, trace {want}")
             checked += 1
 
     collisions = sum(1 for r in trace if r["kind"] == "collision")
@@ -205,10 +226,39 @@ def main() -> None:
     # Crashed robots are grey from their crash on.
     grey = 0x808080FF
     for c in (r for r in trace if r["kind"] == "crash"):
-        entity = f"/world/robots/{c['robot']}"
+        name, j = group(c["robot"])
+        entity = f"/world/robots/{name}"
         colour = rows.latest_at(entity, "Points2D:colors", ns(c["t"]))
-        if colour != [grey]:
-            fail(f"{entity} crashed at {c['t']} but its colour is {colour}")
+        if colour is None or colour[j] != grey:
+            fail(f"robot {c['robot']} crashed at {c['t']} but its colour is {colour}")
+
+    # Push sensors: at each switch, the group's circles are those of its active sensors, in
+    # robot order, around the robots.
+    radius = {r["robot"]: r["radius"] for r in trace if r["kind"] == "spawn"}
+    reach: dict[int, float] = {}
+    switches = 0
+    for r in trace:
+        if r["kind"] != "sensor_request":
+            continue
+        query = r["value"]["query"]
+        if query == "activate_proximity":
+            reach[r["robot"]] = radius[r["robot"]] + r["value"]["range"]
+        elif query == "deactivate_proximity":
+            reach.pop(r["robot"], None)
+        else:
+            continue
+        switches += 1
+        name, _ = group(r["robot"])
+        active = sorted(p for p in reach if group(p)[0] == name)
+        entity = f"/world/sensors/{name}"
+        centers = rows.latest_at(entity, "Ellipses2D:centers", ns(r["t"])) or []
+        half = rows.latest_at(entity, "Ellipses2D:half_sizes", ns(r["t"])) or []
+        if len(centers) != len(active) or len(half) != len(active):
+            fail(f"{entity} at {r['t']}: {len(centers)} circles, active sensors {active}")
+        for p, c, h in zip(active, centers, half):
+            want = pos_at(paths[p], r["t"])
+            if max(abs(c[0] - want[0]), abs(c[1] - want[1])) > 1e-3 or abs(h[0] - reach[p]) > 1e-3:
+                fail(f"{entity} at {r['t']}: circle {c} r {h} for robot {p}, want {want} r {reach[p]}")
 
     log_rows = sum(1 for _, ev, _, cols in rows.by_entity.get("/log", []) if "TextLog:text" in cols)
     if log_rows != len(trace):
@@ -217,7 +267,8 @@ def main() -> None:
     print(
         f"verify_rrd: ok: {rrd.name}: {rows_checked} pose rows on the trace's paths, "
         f"{checked} latest-at positions at {len(instants)} instants, "
-        f"{markers} collision markers, {len(sends)} sends with arrows, {log_rows} log lines"
+        f"{markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
+        f"{log_rows} log lines"
     )
 
 
