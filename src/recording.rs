@@ -43,6 +43,8 @@ use crate::log::NekoLog;
 
 #[cfg(feature = "rerun")]
 pub mod rerun_canvas;
+#[cfg(feature = "rerun")]
+pub mod rrd_file;
 
 /// Why a recording could not be made.
 #[derive(Debug, thiserror::Error)]

@@ -17,12 +17,14 @@ use nekosim_actors::world::geometry::{heading_vector, Point};
 use nekosim_actors::world::RobotId;
 use rerun::external::arrow::array::{Array as _, ArrayRef, Float64Array, ListArray};
 use rerun::external::arrow::buffer::NullBuffer;
-use rerun::log::{Chunk, ChunkId, RowId};
+use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, StoreId, StoreKind};
+use rerun::log::Chunk;
 use rerun::{
-    archetypes, blueprint, ComponentDescriptor, RecordingStream, RecordingStreamBuilder,
+    archetypes, ComponentDescriptor, RecordingStream, RecordingStreamBuilder,
     SerializedComponentBatch, SerializedComponentColumn, TimeColumn,
 };
 
+use super::rrd_file::{Ids, RrdFile};
 use super::{Canvas, Flight, Metrics, RecordingError, Rgb, Stamp, Target, ROBOT_GROUP};
 
 /// Rows buffered per entity (log, metrics, collisions) before they are sent as one chunk.
@@ -159,6 +161,9 @@ impl<T> Col<T> {
     }
 }
 
+/// An entity's rows as columns: `(entity, times, components)`.
+type EntityChunk = (String, Vec<TimeColumn>, Vec<SerializedComponentColumn>);
+
 /// Rows of a robot group's entities on one set of timelines (events, or animation frames).
 #[derive(Debug, Default)]
 struct GroupRows {
@@ -192,13 +197,7 @@ impl GroupRows {
     }
 
     /// The chunks of the group whose first robot is `first`: `(entity, times, columns)`.
-    fn take(
-        &mut self,
-        first: RobotId,
-    ) -> Result<
-        Vec<(String, Vec<TimeColumn>, Vec<SerializedComponentColumn>)>,
-        rerun::SerializationError,
-    > {
+    fn take(&mut self, first: RobotId) -> Result<Vec<EntityChunk>, rerun::SerializationError> {
         let rows = std::mem::take(self);
         let times = time_columns(rows.sim, rows.seq);
         let mut out = Vec::new();
@@ -431,7 +430,8 @@ fn p32(p: Point) -> [f32; 2] {
 /// wall-clock ids, no batching on Rerun's timer), so the recording's rows depend on the run
 /// alone.
 pub struct RerunCanvas {
-    rec: Option<RecordingStream>,
+    /// The stream to a viewer, when one is connected.
+    live: Option<RecordingStream>,
     /// Robot groups, by group number.
     groups: Vec<Group>,
     log: Rows<String>,
@@ -440,16 +440,13 @@ pub struct RerunCanvas {
     collision_group: Vec<([f32; 2], String)>,
     collision_count: u64,
     collisions: Rows<Vec<([f32; 2], String)>>,
-    /// Ids of the next row and chunk.
-    next_row: u64,
-    next_chunk: u64,
-    /// Flush everything at every whole simulated second (a viewer is connected).
-    live: bool,
+    ids: Ids,
+    /// With a viewer connected, everything is flushed at every whole simulated second.
     next_live_flush: f64,
     /// The viewer's URL, when streaming to one.
     url: Option<String>,
-    /// `(temporary file, target)` of the .rrd being written.
-    file: Option<(PathBuf, PathBuf)>,
+    /// The .rrd being written, its temporary name and its target.
+    file: Option<(RrdFile, PathBuf, PathBuf)>,
     error: Option<RecordingError>,
 }
 
@@ -457,7 +454,7 @@ impl std::fmt::Debug for RerunCanvas {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("RerunCanvas")
             .field("file", &self.file)
-            .field("live", &self.live)
+            .field("url", &self.url)
             .finish()
     }
 }
@@ -473,24 +470,126 @@ fn fnv1a(bytes: &[u8]) -> u64 {
     })
 }
 
-/// The timestamp half of the row and chunk ids (Rerun's ids are a time and a counter): a
-/// constant, so ids are the counter alone. 2020-01-01 in nanoseconds since 1970.
-const ID_EPOCH_NANOS: u128 = 1_577_836_800_000_000_000;
+/// The application id of recordings.
+const APP: &str = "nekosim";
 
-/// The default layout: the 2D world beside the log above the metrics.
-fn default_blueprint() -> blueprint::Blueprint {
-    blueprint::Blueprint::new(blueprint::Horizontal::new([
-        blueprint::Spatial2DView::new("world")
-            .with_origin("world")
-            .into(),
-        blueprint::Vertical::new([
-            blueprint::TextLogView::new("log").with_origin("log").into(),
-            blueprint::TimeSeriesView::new("metrics")
-                .with_origin("metrics")
-                .into(),
-        ])
-        .into(),
-    ]))
+/// The default layout: the 2D world beside the log above the metrics, as blueprint messages
+/// (header and chunks) and its activation, with fixed view and container ids and the next row
+/// and chunk ids, so that it is the same in every recording. (The SDK's `Blueprint` builder
+/// makes the same layout with random ids and wall-clock times.)
+fn blueprint_msgs(
+    recording_id: &str,
+    ids: &mut Ids,
+) -> Result<(Vec<LogMsg>, BlueprintActivationCommand), RecordingError> {
+    use rerun::external::re_sdk_types::blueprint::archetypes::{
+        ContainerBlueprint, ViewBlueprint, ViewContents, ViewportBlueprint,
+    };
+    use rerun::external::re_sdk_types::blueprint::components::{
+        ContainerKind, IncludedContent, QueryExpression, RootContainer, ViewClass,
+    };
+
+    let store = StoreId::new(
+        StoreKind::Blueprint,
+        APP,
+        format!("{recording_id}-blueprint"),
+    );
+    let uuid = |n: u8| {
+        let mut bytes = [0u8; 16];
+        bytes[6] = 0x40; // version 4
+        bytes[8] = 0x80; // RFC 4122 variant
+        bytes[15] = n;
+        bytes
+    };
+    let path = |kind: &str, n: u8| {
+        let u = uuid(n);
+        let hex: String = u.iter().map(|b| format!("{b:02x}")).collect();
+        format!(
+            "{kind}/{}-{}-{}-{}-{}",
+            &hex[0..8],
+            &hex[8..12],
+            &hex[12..16],
+            &hex[16..20],
+            &hex[20..32]
+        )
+    };
+    let (world, log, metrics, root, right) = (1, 2, 3, 10, 11);
+    let mut rows: Vec<(String, Box<dyn rerun::AsComponents>)> = Vec::new();
+    for (n, class, name, origin) in [
+        (world, "2D", "world", "/world"),
+        (log, "TextLog", "log", "/log"),
+        (metrics, "TimeSeries", "metrics", "/metrics"),
+    ] {
+        rows.push((
+            format!("{}/ViewContents", path("view", n)),
+            Box::new(ViewContents::new([QueryExpression("$origin/**".into())])),
+        ));
+        rows.push((
+            path("view", n),
+            Box::new(
+                ViewBlueprint::new(ViewClass(class.into()))
+                    .with_display_name(name)
+                    .with_space_origin(origin),
+            ),
+        ));
+    }
+    let contents = |children: &[(&str, u8)]| -> Vec<IncludedContent> {
+        children
+            .iter()
+            .map(|(kind, n)| IncludedContent(format!("/{}", path(kind, *n)).into()))
+            .collect()
+    };
+    rows.push((
+        path("container", right),
+        Box::new(
+            ContainerBlueprint::new(ContainerKind::Vertical)
+                .with_contents(contents(&[("view", log), ("view", metrics)])),
+        ),
+    ));
+    rows.push((
+        path("container", root),
+        Box::new(
+            ContainerBlueprint::new(ContainerKind::Horizontal)
+                .with_contents(contents(&[("view", world), ("container", right)])),
+        ),
+    ));
+    rows.push((
+        "viewport".into(),
+        Box::new(ViewportBlueprint::new().with_root_container(RootContainer(uuid(root).into()))),
+    ));
+
+    let mut msgs = vec![ids.store_info(store.clone())];
+    for (entity, what) in rows {
+        let times = [TimeColumn::new_sequence("blueprint", [0])];
+        let columns = what
+            .as_serialized_batches()
+            .into_iter()
+            .map(|b| {
+                let n = b.array.len();
+                b.partitioned([n]).map(|c| (c.descriptor, c.list_array))
+            })
+            .collect::<Result<_, _>>()
+            .map_err(rerun_err)?;
+        let chunk = Chunk::from_native_row_ids(
+            ids.chunk(),
+            entity.as_str().into(),
+            Some(true),
+            &ids.rows(1),
+            times
+                .into_iter()
+                .map(|c| (*c.timeline().name(), c))
+                .collect(),
+            columns,
+        )
+        .map_err(rerun_err)?;
+        let arrow = chunk.to_arrow_msg().map_err(rerun_err)?;
+        msgs.push(LogMsg::ArrowMsg(store.clone(), arrow));
+    }
+    let activation = BlueprintActivationCommand {
+        blueprint_id: store,
+        make_active: true,
+        make_default: true,
+    };
+    Ok((msgs, activation))
 }
 
 impl RerunCanvas {
@@ -501,69 +600,77 @@ impl RerunCanvas {
     /// The recording's id is derived from `id` (what makes the run: the scenario and its
     /// seed), so the same run gives the same recording.
     pub fn start(name: &str, id: &str, target: &Target) -> Result<Self, RecordingError> {
-        let builder = RecordingStreamBuilder::new("nekosim")
-            .recording_id(format!("nekosim-{:016x}", fnv1a(id.as_bytes())));
-        let mut sinks: Vec<Box<dyn rerun::sink::LogSink>> = Vec::new();
+        let recording_id = format!("nekosim-{:016x}", fnv1a(id.as_bytes()));
+        let store = StoreId::recording(APP, recording_id.clone());
+        let mut ids = Ids::default();
+        // The viewer's URL first: a bad one must not leave a file behind.
+        let viewer = match &target.connect {
+            Some(url) => {
+                let url = url
+                    .clone()
+                    .unwrap_or_else(|| rerun::DEFAULT_CONNECT_URL.to_string());
+                match url.parse::<rerun::external::re_uri::RedapUri>() {
+                    Ok(rerun::external::re_uri::RedapUri::Proxy(uri)) => Some((url, uri)),
+                    Ok(_) => {
+                        return Err(RecordingError::Url {
+                            url,
+                            message: "not a /proxy endpoint".into(),
+                        })
+                    }
+                    Err(e) => {
+                        return Err(RecordingError::Url {
+                            url,
+                            message: e.to_string(),
+                        })
+                    }
+                }
+            }
+            None => None,
+        };
+        let (blueprint, activation) = blueprint_msgs(&recording_id, &mut ids)?;
         let mut file = None;
-        let mut viewer = None;
         if let Some(path) = &target.rrd {
-            let temp = temp_path(path).map_err(|e| RecordingError::Create {
+            let create = |e: &dyn std::fmt::Display| RecordingError::Create {
                 path: path.display().to_string(),
                 message: e.to_string(),
-            })?;
-            let sink = rerun::sink::FileSink::new(&temp).map_err(|e| RecordingError::Create {
-                path: path.display().to_string(),
-                message: e.to_string(),
-            })?;
-            sinks.push(Box::new(sink));
-            file = Some((temp, path.clone()));
-        }
-        if let Some(url) = &target.connect {
-            let url = url
-                .clone()
-                .unwrap_or_else(|| rerun::DEFAULT_CONNECT_URL.to_string());
-            viewer = Some(url.clone());
-            let uri = match url.parse::<rerun::external::re_uri::RedapUri>() {
-                Ok(rerun::external::re_uri::RedapUri::Proxy(uri)) => uri,
-                Ok(_) => {
-                    return Err(RecordingError::Url {
-                        url,
-                        message: "not a /proxy endpoint".into(),
-                    })
-                }
-                Err(e) => {
-                    return Err(RecordingError::Url {
-                        url,
-                        message: e.to_string(),
-                    })
-                }
             };
-            sinks.push(Box::new(rerun::sink::GrpcSink::new(uri)));
+            let temp = temp_path(path).map_err(|e| create(&e))?;
+            let mut prelude = blueprint.clone();
+            prelude.push(LogMsg::BlueprintActivationCommand(activation.clone()));
+            let rrd = RrdFile::create(&temp, store.clone(), &prelude, &mut ids)
+                .map_err(|e| create(&e))?;
+            file = Some((rrd, temp, path.clone()));
         }
         let mut canvas = Self {
-            rec: Some(builder.set_sinks(sinks).map_err(rerun_err)?),
+            live: None,
             groups: Vec::new(),
             log: Rows::default(),
             metrics: Rows::default(),
             collision_group: Vec::new(),
             collision_count: 0,
             collisions: Rows::default(),
-            next_row: 0,
-            next_chunk: 0,
-            live: viewer.is_some(),
-            url: viewer,
+            ids,
             next_live_flush: 1.0,
+            url: viewer.as_ref().map(|v| v.0.clone()),
             file,
             error: None,
         };
+        // From here on, dropping the canvas on an error finishes and places the file.
+        if let Some((_, uri)) = viewer {
+            let rec = RecordingStreamBuilder::new(APP)
+                .recording_id(recording_id)
+                .set_sinks(vec![
+                    Box::new(rerun::sink::GrpcSink::new(uri)) as Box<dyn rerun::sink::LogSink>
+                ])
+                .map_err(rerun_err)?;
+            rec.send_blueprint(blueprint, activation);
+            canvas.live = Some(rec);
+        }
         canvas.row(
             "__properties",
             None,
             &rerun::RecordingInfo::new().with_name(name),
         );
-        default_blueprint()
-            .send(canvas.rec(), blueprint::BlueprintActivation::default())
-            .map_err(rerun_err)?;
         Ok(canvas)
     }
 
@@ -571,10 +678,6 @@ impl RerunCanvas {
         if let Err(e) = r {
             self.error.get_or_insert(e);
         }
-    }
-
-    fn rec(&self) -> &RecordingStream {
-        self.rec.as_ref().expect("recording open until finished")
     }
 
     /// Sends rows of `entity` as one chunk, with the next row and chunk ids.
@@ -588,14 +691,9 @@ impl RerunCanvas {
             let Some(rows) = columns.first().map(|c| c.list_array.len()) else {
                 return Ok(());
             };
-            let row_ids: Vec<RowId> = (0..rows as u64)
-                .map(|i| RowId::from_u128((ID_EPOCH_NANOS << 64) | u128::from(self.next_row + i)))
-                .collect();
-            self.next_row += rows as u64;
-            let chunk_id = ChunkId::from_u128((ID_EPOCH_NANOS << 64) | u128::from(self.next_chunk));
-            self.next_chunk += 1;
+            let row_ids = self.ids.rows(rows);
             let chunk = Chunk::from_native_row_ids(
-                chunk_id,
+                self.ids.chunk(),
                 entity.into(),
                 None,
                 &row_ids,
@@ -609,7 +707,12 @@ impl RerunCanvas {
                     .collect(),
             )
             .map_err(rerun_err)?;
-            self.rec().send_chunk(chunk);
+            if let Some((rrd, _, _)) = &self.file {
+                rrd.chunk(&chunk).map_err(rerun_err)?;
+            }
+            if let Some(rec) = &self.live {
+                rec.send_chunk(chunk);
+            }
             Ok(())
         });
         self.keep(r);
@@ -732,30 +835,30 @@ impl RerunCanvas {
     /// Sends what is buffered, ends the stream (the .rrd file gets its footer) and moves the
     /// file into place. The first error of the recording, if any, is returned.
     pub fn finish(&mut self) -> Result<(), RecordingError> {
-        if self.rec.is_some() {
+        if self.live.is_some() || self.file.is_some() {
             self.flush_all();
-            let rec = self.rec.take().expect("checked");
+        }
+        if let Some(rec) = self.live.take() {
             if let Err(e) = rec.flush_blocking() {
-                // The file sink cannot fail to flush short of an I/O error, which it reports
-                // when written; a failed flush is the viewer not answering.
-                let e = match &self.url {
-                    Some(url) => RecordingError::Unreachable {
-                        url: url.clone(),
-                        message: e.to_string(),
-                    },
-                    None => rerun_err(e),
-                };
-                self.error.get_or_insert(e);
+                // A failed flush is the viewer not answering.
+                self.error.get_or_insert(RecordingError::Unreachable {
+                    url: self.url.clone().unwrap_or_default(),
+                    message: e.to_string(),
+                });
             }
-            // Dropping the last handle joins the file writer, which writes the footer.
-            drop(rec);
-            if let Some((temp, target)) = self.file.take() {
-                if let Err(source) = std::fs::rename(&temp, &target) {
-                    self.error.get_or_insert(RecordingError::Write {
-                        path: target.display().to_string(),
-                        source,
-                    });
-                }
+        }
+        if let Some((mut rrd, temp, target)) = self.file.take() {
+            if let Err(e) = rrd.finish() {
+                self.error.get_or_insert(RecordingError::Write {
+                    path: target.display().to_string(),
+                    source: std::io::Error::other(e),
+                });
+            }
+            if let Err(source) = std::fs::rename(&temp, &target) {
+                self.error.get_or_insert(RecordingError::Write {
+                    path: target.display().to_string(),
+                    source,
+                });
             }
         }
         match self.error.take() {
@@ -902,7 +1005,7 @@ impl Canvas for RerunCanvas {
 impl RerunCanvas {
     /// With a viewer connected, everything buffered is sent at each whole simulated second.
     fn live_flush(&mut self, t: f64) {
-        if self.live && t >= self.next_live_flush {
+        if self.live.is_some() && t >= self.next_live_flush {
             self.flush_all();
             self.next_live_flush = t.floor() + 1.0;
         }

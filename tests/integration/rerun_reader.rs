@@ -196,3 +196,122 @@ fn counterexample_recordings_read_back_with_the_official_reader() {
         eprintln!("{model}: {}", out.trim());
     }
 }
+
+/// Switches its push proximity sensor on, drives, switches it off, and drives on.
+#[derive(Debug, Clone)]
+struct Sentry {
+    range: f64,
+}
+
+impl nekosim::Algorithm for Sentry {
+    fn name(&self) -> &str {
+        "sentry"
+    }
+
+    fn run(&self, robot: nekosim::Robot) -> nekosim::AlgorithmFuture {
+        let range = self.range;
+        Box::pin(async move {
+            let start = robot.gps().self_position(0.0).await;
+            robot.activate_proximity(range, 1.0).await;
+            let leg = nekosim::world::geometry::Point::new(start.x + 30.0, start.y);
+            robot.move_to(leg, 5.0, 90.0).await;
+            robot.deactivate_proximity().await;
+            let back = nekosim::world::geometry::Point::new(start.x, start.y + 20.0);
+            robot.move_to(back, 5.0, 90.0).await;
+        })
+    }
+}
+
+#[test]
+fn push_sensor_circles_follow_their_robots_while_active() {
+    use nekosim::recording::Target;
+    use nekosim::runner::{self, RunOptions};
+    use nekosim::scenario::{Overrides, Registry, Source};
+
+    let py = python();
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("sentries.ron");
+    std::fs::write(
+        &scenario,
+        r#"Scenario(name: "sentries", seed: 1, until: 30.0,
+            world: (size: Bounded(width: 200.0, height: 200.0), origin: (0.0, 0.0)),
+            robots: [
+                Robot(id: 0, radius: 2.0, at: (20.0, 20.0), algorithm: Custom(name: "sentry", params: {"range": 6.0})),
+                Robot(id: 1, radius: 3.0, at: (20.0, 100.0), algorithm: Idle),
+                Robot(id: 2, radius: 2.5, at: (100.0, 20.0), algorithm: Custom(name: "sentry", params: {"range": 9.0})),
+            ],
+            animation: (framerate: 10.0))"#,
+    )
+    .unwrap();
+    let mut registry = Registry::new();
+    registry.register("sentry", |p| {
+        Ok(Box::new(Sentry {
+            range: p.get("range").copied().unwrap_or(5.0),
+        }) as Box<dyn nekosim::Algorithm>)
+    });
+    let built = Source::load(&scenario)
+        .unwrap()
+        .build(Overrides::default(), &registry)
+        .unwrap();
+    let (rrd, trace) = (dir.path().join("s.rrd"), dir.path().join("s.jsonl"));
+    runner::run(
+        built,
+        RunOptions {
+            trace: Some(trace.clone()),
+            recording: Target {
+                rrd: Some(rrd.clone()),
+                connect: None,
+            },
+            ..RunOptions::default()
+        },
+    )
+    .unwrap();
+    let out = run(Command::new(&py)
+        .arg(root().join("tests/rerun/verify_rrd.py"))
+        .arg(&rrd)
+        .arg(&trace)
+        .arg("10"));
+    // Two sentries, each switching on and off, and circles checked at frames while they drive.
+    assert!(out.contains(" 4 sensor switches"), "{out}");
+    assert!(!out.contains(" 0 sensor frames"), "{out}");
+    eprintln!("{}", out.trim());
+}
+
+/// The bytes of an .rrd stream before its footer: Rerun's framing is a 12-byte stream header,
+/// then messages of a 16-byte header (kind, length: little-endian u64) and a payload; the
+/// end-of-stream message (kind 0) carries the footer.
+fn before_footer(rrd: &[u8]) -> &[u8] {
+    let mut at = 12;
+    while at + 16 <= rrd.len() {
+        let kind = u64::from_le_bytes(rrd[at..at + 8].try_into().unwrap());
+        let len = u64::from_le_bytes(rrd[at + 8..at + 16].try_into().unwrap()) as usize;
+        if kind == 0 {
+            return &rrd[..at];
+        }
+        at += 16 + len;
+    }
+    panic!("no end-of-stream message in {} bytes", rrd.len());
+}
+
+#[test]
+fn the_same_run_gives_the_same_recording_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    for (scenario, extra) in [
+        ("examples/scenarios/collision.ron", &[][..]),
+        (
+            "examples/scenarios/random_movement.ron",
+            &["--until", "5"][..],
+        ),
+    ] {
+        let mut files = Vec::new();
+        for i in 0..2 {
+            let sub = dir.path().join(format!("{i}"));
+            std::fs::create_dir_all(&sub).unwrap();
+            let (rrd, _) = record(scenario, extra, &sub);
+            files.push(std::fs::read(rrd).unwrap());
+        }
+        let (a, b) = (before_footer(&files[0]), before_footer(&files[1]));
+        assert!(a.len() > 10_000, "{scenario}: {} bytes", a.len());
+        assert!(a == b, "{scenario}: recordings differ before the footer");
+    }
+}

@@ -122,6 +122,18 @@ class Rows:
         return None if best is None else best[1]
 
 
+    def latest_at_event(self, entity: str, component: str, seq: int):
+        """The component's value at event `seq` on the `event` timeline."""
+        best = None
+        for _, event, row_id, cols in self.by_entity.get(entity, []):
+            if event is None or event > seq or component not in cols:
+                continue
+            key = (event, row_id)
+            if best is None or key > best[0]:
+                best = (key, cols[component])
+        return None if best is None else best[1]
+
+
 def rrd_verify(rrd: Path) -> None:
     """The SDK is the pinned version and `rerun rrd verify` accepts the file."""
     if rr.__version__ != EXPECTED_VERSION:
@@ -237,6 +249,7 @@ def main() -> None:
     radius = {r["robot"]: r["radius"] for r in trace if r["kind"] == "spawn"}
     reach: dict[int, float] = {}
     switches = 0
+    switch_log: list[tuple[float, dict[int, float]]] = []
     for r in trace:
         if r["kind"] != "sensor_request":
             continue
@@ -251,14 +264,33 @@ def main() -> None:
         name, _ = group(r["robot"])
         active = sorted(p for p in reach if group(p)[0] == name)
         entity = f"/world/sensors/{name}"
-        centers = rows.latest_at(entity, "Ellipses2D:centers", ns(r["t"])) or []
-        half = rows.latest_at(entity, "Ellipses2D:half_sizes", ns(r["t"])) or []
+        centers = rows.latest_at_event(entity, "Ellipses2D:centers", r["seq"]) or []
+        half = rows.latest_at_event(entity, "Ellipses2D:half_sizes", r["seq"]) or []
         if len(centers) != len(active) or len(half) != len(active):
             fail(f"{entity} at {r['t']}: {len(centers)} circles, active sensors {active}")
         for p, c, h in zip(active, centers, half):
             want = pos_at(paths[p], r["t"])
             if max(abs(c[0] - want[0]), abs(c[1] - want[1])) > 1e-3 or abs(h[0] - reach[p]) > 1e-3:
                 fail(f"{entity} at {r['t']}: circle {c} r {h} for robot {p}, want {want} r {reach[p]}")
+        switch_log.append((r["t"], dict(reach)))
+    # Between switches, at animation frames, the circles have moved with their robots.
+    frames_checked = 0
+    if framerate > 0:
+        for (t0, active), (t1, _) in zip(switch_log, switch_log[1:] + [(end, {})]):
+            k = int(t0 * framerate) + 1
+            while k / framerate < t1:
+                t = k / framerate
+                k += 1
+                for name in {group(p)[0] for p in active}:
+                    mine = sorted(p for p in active if group(p)[0] == name)
+                    centers = rows.latest_at(f"/world/sensors/{name}", "Ellipses2D:centers", ns(t))
+                    for p, c in zip(mine, centers or []):
+                        want = pos_at(paths[p], t)
+                        if max(abs(c[0] - want[0]), abs(c[1] - want[1])) > 1e-3:
+                            fail(f"sensor of robot {p} at frame {t}: circle at {c}, robot at {want}")
+                    if centers is None or len(centers) != len(mine):
+                        fail(f"sensors {name} at frame {t}: {centers}, active {mine}")
+                    frames_checked += 1
 
     log_rows = sum(1 for _, ev, _, cols in rows.by_entity.get("/log", []) if "TextLog:text" in cols)
     if log_rows != len(trace):
@@ -268,6 +300,7 @@ def main() -> None:
         f"verify_rrd: ok: {rrd.name}: {rows_checked} pose rows on the trace's paths, "
         f"{checked} latest-at positions at {len(instants)} instants, "
         f"{markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
+        f"{frames_checked} sensor frames, "
         f"{log_rows} log lines"
     )
 
