@@ -6,7 +6,7 @@
 //!
 //! - [`Recorder`] (always compiled, pure): turns the run's [`Record`]s, the same stream the
 //!   JSONL trace and the Neko log are written from, into calls on a [`Canvas`]. It keeps the
-//!   little state a drawing needs (each robot's kinematic state, trail, sensor, messages in
+//!   little state a drawing needs (each robot's kinematic state, last corner, sensor, messages in
 //!   flight) and samples the animation frames.
 //! - [`rerun_canvas::RerunCanvas`] (cargo feature `rerun`): a [`Canvas`] that writes Rerun
 //!   entities, buffered per entity and sent as columns.
@@ -29,7 +29,7 @@
 //! are on simulated time, `events/s` counts events per simulated second, and robot and layer
 //! colours come from ids and names, never from a hash map's order or the wall clock.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::BTreeMap;
 
 use nekosim_actors::world::geometry::{normalize_deg, Point, Vector};
 use nekosim_actors::world::motion::Kinematics;
@@ -106,8 +106,9 @@ impl Target {
 /// Animation frames per simulated second when a scenario does not say.
 pub const DEFAULT_FRAMERATE: f64 = 25.0;
 
-/// Corners of a robot's path kept in its trail.
-pub const TRAIL: usize = 8;
+/// How long a leg of a robot's path stays drawn behind it [simulated s] (the default
+/// blueprint's visible time range of `world/paths`).
+pub const TRAIL_SECONDS: f64 = 10.0;
 
 /// When a drawing holds: a simulated instant [s], and the trace `seq` of the record that caused
 /// it (`None` for animation frames and metric samples, which lie between events).
@@ -163,8 +164,9 @@ pub trait Canvas {
     fn spawn(&mut self, robot: RobotId, radius: f64, colour: Rgb);
     /// A robot's colour changes (grey when it crashed).
     fn colour(&mut self, robot: RobotId, colour: Rgb);
-    /// The robot's recent path: its last corners, ending where its current motion began.
-    fn path(&mut self, robot: RobotId, corners: &[Point]);
+    /// A leg of the robot's path, from its previous corner to where it is at `at`, drawn at
+    /// `at` (a viewer shows the legs of the last [`TRAIL_SECONDS`]).
+    fn leg(&mut self, at: Stamp, robot: RobotId, from: Point, to: Point);
     /// Where the robot's current motion ends (`None`: no motion).
     fn destination(&mut self, robot: RobotId, dest: Option<Point>);
     /// The reach of the robot's push sensor, centre to border (`None`: none active); the
@@ -187,7 +189,7 @@ pub trait Canvas {
 }
 
 /// Robots per drawn group (one Rerun entity per group and entity family).
-pub const ROBOT_GROUP: u32 = 32;
+pub const ROBOT_GROUP: u32 = 16;
 
 /// A canvas that draws nothing (the recorder's own cost, and builds without Rerun).
 #[derive(Clone, Copy, Debug, Default)]
@@ -197,7 +199,7 @@ impl Canvas for NoCanvas {
     fn world(&mut self, _: Option<(Point, Point)>) {}
     fn spawn(&mut self, _: RobotId, _: f64, _: Rgb) {}
     fn colour(&mut self, _: RobotId, _: Rgb) {}
-    fn path(&mut self, _: RobotId, _: &[Point]) {}
+    fn leg(&mut self, _: Stamp, _: RobotId, _: Point, _: Point) {}
     fn destination(&mut self, _: RobotId, _: Option<Point>) {}
     fn sensor(&mut self, _: RobotId, _: Option<f64>) {}
     fn poses(&mut self, _: Stamp, _: RobotId, _: &[(Point, f64)]) {}
@@ -215,7 +217,8 @@ struct RobotState {
     state: Kinematics,
     radius: f64,
     crashed: bool,
-    trail: VecDeque<Point>,
+    /// Where the robot was at its latest kinematic record.
+    corner: Point,
     /// Reach of an active push proximity sensor, centre to border [units].
     reach: Option<f64>,
 }
@@ -410,21 +413,16 @@ impl<C: Canvas> Recorder<C> {
         self.canvas.poses(at, first, &self.poses);
     }
 
-    /// A new kinematic state: the trail gets a corner when the robot changed place.
-    fn kinematic(&mut self, robot: RobotId, t: f64, state: Kinematics) {
+    /// A new kinematic state: a leg of the path when the robot changed place.
+    fn kinematic(&mut self, at: Stamp, robot: RobotId, state: Kinematics) {
         let Some(r) = self.robots.get_mut(robot as usize) else {
             return;
         };
-        r.t = t;
+        r.t = at.t;
         r.state = state;
-        if r.trail.back() != Some(&state.pos) {
-            if r.trail.len() == TRAIL {
-                r.trail.pop_front();
-            }
-            r.trail.push_back(state.pos);
-            let (slice_a, slice_b) = r.trail.as_slices();
-            let corners: Vec<Point> = slice_a.iter().chain(slice_b).copied().collect();
-            self.canvas.path(robot, &corners);
+        if r.corner != state.pos {
+            let from = std::mem::replace(&mut r.corner, state.pos);
+            self.canvas.leg(at, robot, from, state.pos);
         }
     }
 
@@ -454,7 +452,7 @@ impl<C: Canvas> Recorder<C> {
                     state,
                     radius: *radius,
                     crashed: false,
-                    trail: VecDeque::new(),
+                    corner: *pos,
                     reach: None,
                 };
                 if self.robots.len() <= i {
@@ -470,7 +468,7 @@ impl<C: Canvas> Recorder<C> {
                 }
                 self.robots[i] = fresh;
                 self.canvas.spawn(*robot, *radius, robot_colour(*robot));
-                self.kinematic(*robot, rec.t, state);
+                self.kinematic(at, *robot, state);
                 self.commit(at, *robot);
             }
             Observation::MotionStep {
@@ -479,17 +477,17 @@ impl<C: Canvas> Recorder<C> {
                 progress,
                 ..
             } => {
-                self.kinematic(*robot, rec.t, *state);
+                self.kinematic(at, *robot, *state);
                 self.canvas.destination(*robot, Some(progress.dest));
                 self.commit(at, *robot);
             }
             Observation::MotionFinish { robot, state, .. } => {
-                self.kinematic(*robot, rec.t, *state);
+                self.kinematic(at, *robot, *state);
                 self.canvas.destination(*robot, None);
                 self.commit(at, *robot);
             }
             Observation::Crash { robot, state } => {
-                self.kinematic(*robot, rec.t, *state);
+                self.kinematic(at, *robot, *state);
                 if let Some(r) = self.robots.get_mut(*robot as usize) {
                     r.crashed = true;
                     if r.reach.take().is_some() {
@@ -645,8 +643,15 @@ mod tests {
         fn colour(&mut self, robot: RobotId, c: Rgb) {
             self.0.push(format!("colour p{robot} {c:?}"));
         }
-        fn path(&mut self, robot: RobotId, corners: &[Point]) {
-            self.0.push(format!("path p{robot} {}", corners.len()));
+        fn leg(&mut self, at: Stamp, robot: RobotId, from: Point, to: Point) {
+            self.0.push(format!(
+                "{} leg p{robot} {} {} -> {} {}",
+                s(at),
+                from.x,
+                from.y,
+                to.x,
+                to.y
+            ));
         }
         fn destination(&mut self, robot: RobotId, dest: Option<Point>) {
             self.0
@@ -747,9 +752,8 @@ mod tests {
             [
                 "world Some(([0.0, 0.0], [10.0, 10.0]))",
                 "spawn p0 r0.5",
-                "path p0 1",
                 "0#0 poses g0 [1 0 0]",
-                // Starting on the spot: no new corner, a destination.
+                // Starting on the spot: no leg, a destination.
                 "dest p0 Some((4.0, 0.0))",
                 "0#1 poses g0 [1 0 0]",
                 // Frames at 0, 0.5 and 1 s: x = 1 + 2 t; metrics every frame period.
@@ -758,7 +762,7 @@ mod tests {
                 "0.5 metrics c0 f0 d0 e4",
                 "1 poses g0 [3 0 0]",
                 "1 metrics c0 f0 d0 e0",
-                "path p0 2",
+                "1.5#2 leg p0 1 0 -> 4 0",
                 "dest p0 None",
                 "1.5#2 poses g0 [4 0 0]",
                 // At rest from 1.5 s on: no more frames, only metric samples.

@@ -178,9 +178,9 @@ struct GroupRows {
     radii: Col<f32>,
     colours: Col<Rgb>,
     labels: Col<String>,
-    /// Trails and routes with their colours, on rows where one changed.
-    strips: Col<Vec<[f32; 2]>>,
-    strip_colours: Col<Rgb>,
+    /// Destinations of current motions with their robots' colours, on rows where one changed.
+    dests: Col<[f32; 2]>,
+    dest_colours: Col<Rgb>,
     /// Push sensor circles, on rows where one is active or one was switched off.
     centres: Col<[f32; 2]>,
     half_sizes: Col<[f32; 2]>,
@@ -193,7 +193,7 @@ impl GroupRows {
 
     /// Values buffered, to decide when to send.
     fn size(&self) -> usize {
-        self.positions.values.len() + self.strips.values.len() * 4
+        self.positions.values.len()
     }
 
     /// The chunks of the group whose first robot is `first`: `(entity, times, columns)`.
@@ -264,18 +264,18 @@ impl GroupRows {
             out.push((group_entity("headings", first), times.clone(), headings));
         }
 
-        let mut paths = rows.strips.columns(|v, n| {
-            archetypes::LineStrips2D::update_fields()
-                .with_strips(v)
+        let mut dests = rows.dests.columns(|v, n| {
+            archetypes::Points2D::update_fields()
+                .with_positions(v)
                 .columns(n)
         })?;
-        paths.extend(rows.strip_colours.columns(|v, n| {
-            archetypes::LineStrips2D::update_fields()
+        dests.extend(rows.dest_colours.columns(|v, n| {
+            archetypes::Points2D::update_fields()
                 .with_colors(v)
                 .columns(n)
         })?);
-        if !paths.is_empty() {
-            out.push((group_entity("paths", first), times.clone(), paths));
+        if !dests.is_empty() {
+            out.push((group_entity("destinations", first), times.clone(), dests));
         }
 
         let mut sensors = rows.centres.columns(|v, n| {
@@ -300,14 +300,13 @@ impl GroupRows {
 struct Group {
     radius: Vec<f64>,
     colour: Vec<Rgb>,
-    /// Each robot's trail (corners), and where its current motion ends.
-    trail: Vec<Vec<[f32; 2]>>,
+    /// Where each robot's current motion ends.
     dest: Vec<Option<[f32; 2]>>,
     /// Active push sensors' reach.
     reach: Vec<Option<f64>>,
     /// What changed since the group's last row.
     style_changed: bool,
-    paths_changed: bool,
+    dests_changed: bool,
     sensors_changed: bool,
     events: GroupRows,
     frames: GroupRows,
@@ -318,7 +317,6 @@ impl Group {
         if self.radius.len() < n {
             self.radius.resize(n, 0.0);
             self.colour.resize(n, super::GREY);
-            self.trail.resize(n, Vec::new());
             self.dest.resize(n, None);
             self.reach.resize(n, None);
         }
@@ -354,25 +352,15 @@ impl Group {
             rows.colours.skip();
             rows.labels.skip();
         }
-        if std::mem::take(&mut self.paths_changed) {
-            let mut strips = Vec::new();
-            let mut colours = Vec::new();
-            for i in 0..poses.len() {
-                let trail = &self.trail[i];
-                if trail.len() >= 2 {
-                    strips.push(trail.clone());
-                    colours.push(self.colour[i]);
-                }
-                if let (Some(dest), Some(last)) = (self.dest[i], trail.last()) {
-                    strips.push(vec![*last, dest]);
-                    colours.push(self.colour[i]);
-                }
-            }
-            rows.strips.push(strips);
-            rows.strip_colours.push(colours);
+        if std::mem::take(&mut self.dests_changed) {
+            let n = poses.len();
+            let dests = self.dest[..n].iter().zip(&self.colour[..n]);
+            rows.dests.push(dests.clone().filter_map(|(d, _)| *d));
+            rows.dest_colours
+                .push(dests.filter_map(|(d, c)| d.map(|_| *c)));
         } else {
-            rows.strips.skip();
-            rows.strip_colours.skip();
+            rows.dests.skip();
+            rows.dest_colours.skip();
         }
         let active = self.reach.iter().any(Option::is_some);
         if std::mem::take(&mut self.sensors_changed) || active {
@@ -436,6 +424,8 @@ pub struct RerunCanvas {
     groups: Vec<Group>,
     log: Rows<String>,
     metrics: Rows<Metrics>,
+    /// Legs of the robots' paths: `(from, to, colour)`.
+    legs: Rows<([f32; 2], [f32; 2], Rgb)>,
     /// Markers of the current collision group so far, and its rows.
     collision_group: Vec<([f32; 2], String)>,
     collision_count: u64,
@@ -482,10 +472,13 @@ fn blueprint_msgs(
     ids: &mut Ids,
 ) -> Result<(Vec<LogMsg>, BlueprintActivationCommand), RecordingError> {
     use rerun::external::re_sdk_types::blueprint::archetypes::{
-        ContainerBlueprint, ViewBlueprint, ViewContents, ViewportBlueprint,
+        ContainerBlueprint, ViewBlueprint, ViewContents, ViewportBlueprint, VisibleTimeRanges,
     };
     use rerun::external::re_sdk_types::blueprint::components::{
         ContainerKind, IncludedContent, QueryExpression, RootContainer, ViewClass,
+    };
+    use rerun::external::re_sdk_types::datatypes::{
+        TimeInt, TimeRange, TimeRangeBoundary, VisibleTimeRange,
     };
 
     let store = StoreId::new(
@@ -532,6 +525,24 @@ fn blueprint_msgs(
             ),
         ));
     }
+    // Legs of the robots' paths stay drawn for the last TRAIL_SECONDS of simulated time (a
+    // per-entity visible time range, where the Python SDK's `overrides=` puts it).
+    let trail = VisibleTimeRange {
+        timeline: "sim_time".into(),
+        range: TimeRange {
+            start: TimeRangeBoundary::CursorRelative(TimeInt(-(super::TRAIL_SECONDS * 1e9) as i64)),
+            end: TimeRangeBoundary::CursorRelative(TimeInt(0)),
+        },
+    };
+    rows.push((
+        format!(
+            "{}/ViewContents/overrides/world/paths/visualizers",
+            path("view", world)
+        ),
+        Box::new(VisibleTimeRanges::new([
+            rerun::external::re_sdk_types::blueprint::components::VisibleTimeRange(trail),
+        ])),
+    ));
     let contents = |children: &[(&str, u8)]| -> Vec<IncludedContent> {
         children
             .iter()
@@ -646,6 +657,7 @@ impl RerunCanvas {
             groups: Vec::new(),
             log: Rows::default(),
             metrics: Rows::default(),
+            legs: Rows::default(),
             collision_group: Vec::new(),
             collision_count: 0,
             collisions: Rows::default(),
@@ -777,6 +789,21 @@ impl RerunCanvas {
         self.send(&entity, times, columns);
     }
 
+    fn flush_legs(&mut self) {
+        let (times, legs) = self.legs.take();
+        if legs.is_empty() {
+            return;
+        }
+        let (strips, colours): (Vec<[[f32; 2]; 2]>, Vec<Rgb>) =
+            legs.into_iter().map(|(a, b, c)| ([a, b], c)).unzip();
+        let columns = archetypes::LineStrips2D::update_fields()
+            .with_strips(strips)
+            .with_colors(colours)
+            .columns_of_unit_batches()
+            .map(|c| c.collect());
+        self.send("world/paths", times, columns);
+    }
+
     fn flush_log(&mut self) {
         let (times, lines) = self.log.take();
         if lines.is_empty() {
@@ -814,6 +841,7 @@ impl RerunCanvas {
             self.flush_group(g);
         }
         self.flush_log();
+        self.flush_legs();
         self.flush_metrics();
         if let Some(k) = self.collision_count.checked_sub(1) {
             self.flush_collisions(k / COLLISION_GROUP);
@@ -910,20 +938,22 @@ impl Canvas for RerunCanvas {
         group.radius[i] = radius;
         group.colour[i] = colour;
         group.style_changed = true;
-        group.paths_changed = true;
     }
 
     fn colour(&mut self, robot: RobotId, colour: Rgb) {
         let (group, i) = self.group(robot);
         group.colour[i] = colour;
         group.style_changed = true;
-        group.paths_changed = true;
+        group.dests_changed |= group.dest[i].is_some();
     }
 
-    fn path(&mut self, robot: RobotId, corners: &[Point]) {
+    fn leg(&mut self, at: Stamp, robot: RobotId, from: Point, to: Point) {
         let (group, i) = self.group(robot);
-        group.trail[i] = corners.iter().map(|p| p32(*p)).collect();
-        group.paths_changed = true;
+        let colour = group.colour[i];
+        self.legs.push(at, (p32(from), p32(to), colour));
+        if self.legs.len() >= FLUSH_ROWS {
+            self.flush_legs();
+        }
     }
 
     fn destination(&mut self, robot: RobotId, dest: Option<Point>) {
@@ -931,7 +961,7 @@ impl Canvas for RerunCanvas {
         let dest = dest.map(p32);
         if group.dest[i] != dest {
             group.dest[i] = dest;
-            group.paths_changed = true;
+            group.dests_changed = true;
         }
     }
 

@@ -23,7 +23,7 @@ impl Canvas for Poses {
     fn world(&mut self, _: Option<(Point, Point)>) {}
     fn spawn(&mut self, _: RobotId, _: f64, _: Rgb) {}
     fn colour(&mut self, _: RobotId, _: Rgb) {}
-    fn path(&mut self, _: RobotId, _: &[Point]) {}
+    fn leg(&mut self, _: Stamp, _: RobotId, _: Point, _: Point) {}
     fn destination(&mut self, _: RobotId, _: Option<Point>) {}
     fn sensor(&mut self, _: RobotId, _: Option<f64>) {}
     fn poses(&mut self, at: Stamp, first: RobotId, poses: &[(Point, f64)]) {

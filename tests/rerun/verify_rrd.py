@@ -6,11 +6,13 @@ Independently of nekosim's code, it checks that:
 - `rerun rrd verify` accepts the file;
 - the recording loads with `rerun.experimental.RrdReader` and has the `sim_time` and `event`
   timelines;
-- robots are drawn in groups of 32 (`world/robots/0-31`, ...: robot `i` is instance `i % 32`);
+- robots are drawn in groups of 16 (`world/robots/0-15`, ...: robot `i` is instance `i % 16`);
   every robot's exact pose (`nekosim.Pose:pose`, 64-bit, three floats per robot) equals the
   position rebuilt from the JSONL trace of the same run within 1e-6, on every row, and read
   back with latest-at semantics at animation-frame instants and event instants (all robots);
   the drawn 32-bit marker and the heading arrow's origin agree with it to float precision;
+- every leg of a robot's path (from one kinematic record to the next where it moved) is a
+  `world/paths` row at the event that ended it, from the earlier position to the later one;
 - while a push proximity sensor is active, the robot's group has a circle of its reach
   (radius + range) around it, and none once it is switched off;
 - the number of collision markers equals the number of `collision` records of the trace;
@@ -35,7 +37,7 @@ import rerun as rr
 import rerun.experimental as rrx
 
 TOLERANCE = 1e-6
-GROUP = 32
+GROUP = 16
 
 
 def group(robot: int) -> tuple[str, int]:
@@ -159,7 +161,7 @@ def main() -> None:
     for timeline in ("sim_time", "event"):
         if timeline not in rows.timelines:
             fail(f"timeline {timeline} missing; have {sorted(rows.timelines)}")
-    if "/world/robots/0-31" not in rows.by_entity:
+    if "/world/robots/0-15" not in rows.by_entity:
         fail(f"no robots entity; have {sorted(rows.by_entity)}")
 
     # Every recorded pose lies on the trajectory rebuilt from the trace, at its own instant.
@@ -215,6 +217,28 @@ def main() -> None:
                 if abs(d - w) > 2**-22 * max(1.0, abs(w)) or o != d:
                     fail(f"{entity} at {t}: robot {robot} drawn {drawn}, arrow {origin}, trace {want}")
             checked += 1
+
+    # Legs: one row per move, from the previous corner to the new one.
+    legs = {ev: cols for _, ev, _, cols in rows.by_entity.get("/world/paths", [])}
+    corner: dict[int, tuple[float, float]] = {}
+    moves = 0
+    for r in trace:
+        if not (r["kind"] == "spawn" or "pos" in r and r["kind"] != "collision"):
+            continue
+        pos = tuple(r["pos"])
+        before = corner.get(r["robot"])
+        corner[r["robot"]] = pos
+        if before is None or before == pos:
+            continue
+        moves += 1
+        strip = (legs.get(r["seq"]) or {}).get("LineStrips2D:strips")
+        if strip is None or len(strip) != 1 or len(strip[0]) != 2:
+            fail(f"move of robot {r['robot']} at #{r['seq']}: no leg in /world/paths ({strip})")
+        for got, want in zip(strip[0], (before, pos)):
+            if max(abs(g - w) for g, w in zip(got, want)) > 2**-22 * max(1.0, *map(abs, want)):
+                fail(f"leg of robot {r['robot']} at #{r['seq']}: {strip[0]}, expected {before} -> {pos}")
+    if len(legs) != moves:
+        fail(f"{len(legs)} legs in /world/paths, the trace has {moves} moves")
 
     collisions = sum(1 for r in trace if r["kind"] == "collision")
     # Each row of a collision group shows the group's markers so far: its last row has them all.
@@ -299,7 +323,7 @@ def main() -> None:
     print(
         f"verify_rrd: ok: {rrd.name}: {rows_checked} pose rows on the trace's paths, "
         f"{checked} latest-at positions at {len(instants)} instants, "
-        f"{markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
+        f"{moves} legs, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, "
         f"{log_rows} log lines"
     )
