@@ -228,16 +228,19 @@ impl GroupRows {
                 .with_labels(v)
                 .columns(n)
         })?);
-        robots.extend(rows.exact.columns(|v, n| {
+        if !robots.is_empty() {
+            out.push((group_entity("robots", first), times.clone(), robots));
+        }
+        let poses = rows.exact.columns(|v, n| {
             SerializedComponentBatch::new(
                 Arc::new(Float64Array::from(v)) as ArrayRef,
                 pose_descriptor(),
             )
             .partitioned(n)
             .map(|c| [c])
-        })?);
-        if !robots.is_empty() {
-            out.push((group_entity("robots", first), times.clone(), robots));
+        })?;
+        if !poses.is_empty() {
+            out.push((group_entity("poses", first), times.clone(), poses));
         }
 
         let origins = Col {
@@ -304,6 +307,9 @@ struct Group {
     dest: Vec<Option<[f32; 2]>>,
     /// Active push sensors' reach.
     reach: Vec<Option<f64>>,
+    /// The headings last drawn and their arrows.
+    angle: Vec<f64>,
+    vector: Vec<[f32; 2]>,
     /// What changed since the group's last row.
     style_changed: bool,
     dests_changed: bool,
@@ -319,6 +325,8 @@ impl Group {
             self.colour.resize(n, super::GREY);
             self.dest.resize(n, None);
             self.reach.resize(n, None);
+            self.angle.resize(n, f64::NAN);
+            self.vector.resize(n, [0.0; 2]);
         }
     }
 
@@ -334,13 +342,24 @@ impl Group {
         };
         rows.sim.push(at.t);
         rows.positions.push(poses.iter().map(|(p, _)| p32(*p)));
-        rows.vectors
-            .push(poses.iter().enumerate().map(|(i, (_, a))| {
+        // A heading arrow is recomputed only when the heading changed.
+        for (i, (_, a)) in poses.iter().enumerate() {
+            if self.angle[i] != *a {
+                self.angle[i] = *a;
                 let v = heading_vector(*a) * (1.5 * self.radius[i]);
-                [v.x as f32, v.y as f32]
-            }));
-        rows.exact
-            .push(poses.iter().flat_map(|(p, a)| [p.x, p.y, *a]));
+                self.vector[i] = [v.x as f32, v.y as f32];
+            }
+        }
+        rows.vectors
+            .push(self.vector[..poses.len()].iter().copied());
+        // Exact poses at events only: between events, the motion formulas give them.
+        if at.seq.is_some() {
+            rows.exact.values.reserve(3 * poses.len());
+            rows.exact
+                .push(poses.iter().flat_map(|(p, a)| [p.x, p.y, *a]));
+        } else {
+            rows.exact.skip();
+        }
         if std::mem::take(&mut self.style_changed) {
             let n = poses.len();
             rows.radii.push(self.radius[..n].iter().map(|r| *r as f32));
@@ -937,6 +956,7 @@ impl Canvas for RerunCanvas {
         let (group, i) = self.group(robot);
         group.radius[i] = radius;
         group.colour[i] = colour;
+        group.angle[i] = f64::NAN;
         group.style_changed = true;
     }
 

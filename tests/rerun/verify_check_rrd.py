@@ -37,7 +37,7 @@ def main() -> None:
     steps = int(trace[-1]["seq"])
     for p in range(processes):
         name, j = group(p)
-        entity = f"/world/robots/{name}"
+        entity = f"/world/poses/{name}"
         for step in range(steps + 1):
             pose = rows.latest_at(entity, "nekosim.Pose:pose", ns(step))
             if pose is None or len(pose) < 3 * j + 3:

@@ -7,10 +7,11 @@ Independently of nekosim's code, it checks that:
 - the recording loads with `rerun.experimental.RrdReader` and has the `sim_time` and `event`
   timelines;
 - robots are drawn in groups of 16 (`world/robots/0-15`, ...: robot `i` is instance `i % 16`);
-  every robot's exact pose (`nekosim.Pose:pose`, 64-bit, three floats per robot) equals the
-  position rebuilt from the JSONL trace of the same run within 1e-6, on every row, and read
-  back with latest-at semantics at animation-frame instants and event instants (all robots);
-  the drawn 32-bit marker and the heading arrow's origin agree with it to float precision;
+  at every event row, every robot's exact pose (`world/poses/...`, `nekosim.Pose:pose`, 64-bit,
+  three floats per robot) equals the position rebuilt from the JSONL trace of the same run
+  within 1e-6; read back with latest-at semantics at event instants the exact poses still do,
+  and at event and animation-frame instants the drawn 32-bit markers and heading arrows'
+  origins equal the trace's positions to float precision;
 - every leg of a robot's path (from one kinematic record to the next where it moved) is a
   `world/paths` row at the event that ended it, from the earlier position to the later one;
 - while a push proximity sensor is active, the robot's group has a circle of its reach
@@ -168,7 +169,7 @@ def main() -> None:
     paths = rebuild(trace)
     rows_checked = 0
     for entity, rs in rows.by_entity.items():
-        if not entity.startswith("/world/robots/"):
+        if not entity.startswith("/world/poses/"):
             continue
         first = int(entity.rsplit("/", 1)[1].split("-")[0])
         for sim, _, _, cols in rs:
@@ -184,6 +185,23 @@ def main() -> None:
                 if abs(x - want[0]) > TOLERANCE or abs(y - want[1]) > TOLERANCE:
                     fail(f"robot {first + j} row at sim_time {sim} ns: recording {(x, y)}, trace {want}")
                 rows_checked += 1
+
+    # Every drawn marker (event rows and animation frames) is on the trace's path, to the
+    # precision of 32-bit floats.
+    drawn_checked = 0
+    for entity, rs in rows.by_entity.items():
+        if not entity.startswith("/world/robots/"):
+            continue
+        first = int(entity.rsplit("/", 1)[1].split("-")[0])
+        for sim, _, _, cols in rs:
+            for j, d in enumerate(cols.get("Points2D:positions") or []):
+                path = paths.get(first + j)
+                if path is None or path[0][0] > sim / 1e9:
+                    continue
+                want = pos_at(path, sim / 1e9)
+                if max(abs(a - b) for a, b in zip(d, want)) > 2**-22 * max(1.0, *map(abs, want)):
+                    fail(f"robot {first + j} drawn at {d} at sim_time {sim} ns, trace {want}")
+                drawn_checked += 1
 
     # Read back with latest-at: at animation frames and at event instants of a robot's group,
     # every robot of the group is where the trace puts it.
@@ -204,12 +222,13 @@ def main() -> None:
             want = pos_at(path, t)
             name, j = group(robot)
             entity = f"/world/robots/{name}"
-            pose = rows.latest_at(entity, "nekosim.Pose:pose", ns(t))
-            if pose is None or len(pose) < 3 * j + 3:
-                fail(f"{entity}: no pose of robot {robot} at sim_time {t}")
-            x, y = pose[3 * j], pose[3 * j + 1]
-            if abs(x - want[0]) > TOLERANCE or abs(y - want[1]) > TOLERANCE:
-                fail(f"{entity} at {t}: robot {robot} at {(x, y)}, trace {want}")
+            if only is not None:
+                pose = rows.latest_at(f"/world/poses/{name}", "nekosim.Pose:pose", ns(t))
+                if pose is None or len(pose) < 3 * j + 3:
+                    fail(f"/world/poses/{name}: no pose of robot {robot} at sim_time {t}")
+                x, y = pose[3 * j], pose[3 * j + 1]
+                if abs(x - want[0]) > TOLERANCE or abs(y - want[1]) > TOLERANCE:
+                    fail(f"/world/poses/{name} at {t}: robot {robot} at {(x, y)}, trace {want}")
             drawn = rows.latest_at(entity, "Points2D:positions", ns(t))[j]
             origin = rows.latest_at(f"/world/headings/{name}", "Arrows2D:origins", ns(t))[j]
             for d, o, w in zip(drawn, origin, want):
@@ -322,6 +341,7 @@ def main() -> None:
 
     print(
         f"verify_rrd: ok: {rrd.name}: {rows_checked} pose rows on the trace's paths, "
+        f"{drawn_checked} drawn positions, "
         f"{checked} latest-at positions at {len(instants)} instants, "
         f"{moves} legs, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, "
