@@ -215,10 +215,11 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
     let wall_seconds = started.elapsed().as_secs_f64();
     // The recording is finished whatever the outcome: a failed run's recording shows what
     // happened up to the failure.
-    let recorded = finish_recording(
-        recorder.borrow_mut().take().and_then(Background::join),
-        out.as_ref().map_or(f64::NAN, |o| o.stats.end_time),
-    );
+    let end = out.as_ref().map_or(f64::NAN, |o| o.stats.end_time);
+    let recorded = recorder
+        .borrow_mut()
+        .take()
+        .map_or(Ok(()), |r| r.finish(end));
     let out = out?;
     recorded?;
     let (log, trace, _, meter) = Rc::try_unwrap(outputs)
@@ -287,26 +288,41 @@ const RECORD_BATCH: usize = 1024;
 /// Batches of records in flight to the recording thread before the run waits for it.
 const BATCHES_IN_FLIGHT: usize = 16;
 
+/// What the run sends the recording thread.
+enum ToRecorder {
+    Records(Vec<Record>),
+    /// The run ended at this simulated time: finish the recording.
+    Finish(f64),
+}
+
 /// The recorder on its own thread: the run hands it copies of the records in batches, so
-/// drawing and Rerun's encoding overlap with the simulation (docs/performance.md).
+/// drawing and Rerun's encoding overlap with the simulation, and the thread also finishes the
+/// recording (docs/performance.md).
 struct Background {
     batch: Vec<Record>,
-    tx: Option<std::sync::mpsc::SyncSender<Vec<Record>>>,
-    thread: Option<std::thread::JoinHandle<Recorder>>,
+    tx: Option<std::sync::mpsc::SyncSender<ToRecorder>>,
+    thread: Option<std::thread::JoinHandle<Result<(), RecordingError>>>,
 }
 
 impl Background {
     fn start(mut recorder: Recorder) -> Result<Self, RunError> {
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<Record>>(BATCHES_IN_FLIGHT);
+        let (tx, rx) = std::sync::mpsc::sync_channel::<ToRecorder>(BATCHES_IN_FLIGHT);
         let thread = std::thread::Builder::new()
             .name("nekosim-recording".into())
             .spawn(move || {
-                for batch in rx {
-                    for r in &batch {
-                        recorder.record(r);
+                for msg in rx {
+                    match msg {
+                        ToRecorder::Records(batch) => {
+                            for r in &batch {
+                                recorder.record(r);
+                            }
+                        }
+                        ToRecorder::Finish(end) => return finish_recording(recorder, end),
                     }
                 }
-                recorder
+                // The run went away without finishing (it panicked): dropping the recorder
+                // still completes the file.
+                Ok(())
             })
             .map_err(|e| {
                 RecordingError::Rerun(format!("cannot start the recording thread: {e}"))
@@ -330,22 +346,26 @@ impl Background {
             return;
         }
         let batch = std::mem::replace(&mut self.batch, Vec::with_capacity(RECORD_BATCH));
-        // A closed channel means the thread panicked; `join` reports it.
+        // A closed channel means the thread panicked; `finish` reports it.
         if let Some(tx) = &self.tx {
-            if tx.send(batch).is_err() {
+            if tx.send(ToRecorder::Records(batch)).is_err() {
                 self.tx = None;
             }
         }
     }
 
-    /// Hands over the remaining records and waits for the thread; a panic on the recording
-    /// thread is resumed here.
-    fn join(mut self) -> Option<Recorder> {
+    /// Hands over the remaining records, has the thread finish the recording at simulated time
+    /// `end`, and waits for it; a panic on the recording thread is resumed here.
+    fn finish(mut self, end: f64) -> Result<(), RecordingError> {
         self.send();
-        self.tx = None;
-        let thread = self.thread.take()?;
+        if let Some(tx) = self.tx.take() {
+            let _ = tx.send(ToRecorder::Finish(end));
+        }
+        let Some(thread) = self.thread.take() else {
+            return Ok(());
+        };
         match thread.join() {
-            Ok(recorder) => Some(recorder),
+            Ok(r) => r,
             Err(panic) => std::panic::resume_unwind(panic),
         }
     }
@@ -353,7 +373,7 @@ impl Background {
 
 impl Drop for Background {
     fn drop(&mut self) {
-        // Unwinding without `join`: let the thread finish, so the recorder (and its file) is
+        // Unwinding without `finish`: let the thread end, so the recorder (and its file) is
         // dropped in order.
         self.tx = None;
         if let Some(t) = self.thread.take() {
@@ -362,10 +382,8 @@ impl Drop for Background {
     }
 }
 
-fn finish_recording(recorder: Option<Recorder>, end: f64) -> Result<(), RunError> {
-    let Some(mut r) = recorder else {
-        return Ok(());
-    };
+/// Draws the last frames and completes the recording.
+fn finish_recording(mut r: Recorder, end: f64) -> Result<(), RecordingError> {
     r.finish(end);
     #[cfg(feature = "rerun")]
     r.canvas_mut().finish()?;

@@ -32,7 +32,7 @@ pub const FLUSH_ROWS: usize = 4096;
 
 /// Robot instances (rows × robots of the group) buffered per group entity before they are
 /// sent as one chunk.
-pub const FLUSH_INSTANCES: usize = 1 << 16;
+pub const FLUSH_INSTANCES: usize = 1 << 14;
 
 /// Name of the group of robot `robot` under an entity family: `world/robots/0-31`.
 pub fn group_entity(family: &str, robot: RobotId) -> String {
@@ -397,10 +397,6 @@ impl Group {
     }
 }
 
-/// Collision markers per entity (`world/collisions/<k / COLLISION_GROUP>`): each row shows the
-/// group's markers so far, so every marker stays visible from its instant on.
-pub const COLLISION_GROUP: u64 = 64;
-
 /// A column with a value (possibly an empty list) on rows where `present`, null elsewhere.
 fn sparse(
     column: SerializedComponentColumn,
@@ -445,10 +441,8 @@ pub struct RerunCanvas {
     metrics: Rows<Metrics>,
     /// Legs of the robots' paths: `(from, to, colour)`.
     legs: Rows<([f32; 2], [f32; 2], Rgb)>,
-    /// Markers of the current collision group so far, and its rows.
-    collision_group: Vec<([f32; 2], String)>,
-    collision_count: u64,
-    collisions: Rows<Vec<([f32; 2], String)>>,
+    /// Collision markers, one per row: `(contact point, label)`.
+    collisions: Rows<([f32; 2], String)>,
     ids: Ids,
     /// With a viewer connected, everything is flushed at every whole simulated second.
     next_live_flush: f64,
@@ -560,6 +554,23 @@ fn blueprint_msgs(
         ),
         Box::new(VisibleTimeRanges::new([
             rerun::external::re_sdk_types::blueprint::components::VisibleTimeRange(trail),
+        ])),
+    ));
+    // Collision markers stay from their instant on.
+    let collisions = VisibleTimeRange {
+        timeline: "sim_time".into(),
+        range: TimeRange {
+            start: TimeRangeBoundary::Infinite,
+            end: TimeRangeBoundary::CursorRelative(TimeInt(0)),
+        },
+    };
+    rows.push((
+        format!(
+            "{}/ViewContents/overrides/world/collisions/visualizers",
+            path("view", world)
+        ),
+        Box::new(VisibleTimeRanges::new([
+            rerun::external::re_sdk_types::blueprint::components::VisibleTimeRange(collisions),
         ])),
     ));
     let contents = |children: &[(&str, u8)]| -> Vec<IncludedContent> {
@@ -677,8 +688,6 @@ impl RerunCanvas {
             log: Rows::default(),
             metrics: Rows::default(),
             legs: Rows::default(),
-            collision_group: Vec::new(),
-            collision_count: 0,
             collisions: Rows::default(),
             ids,
             next_live_flush: 1.0,
@@ -701,6 +710,13 @@ impl RerunCanvas {
             "__properties",
             None,
             &rerun::RecordingInfo::new().with_name(name),
+        );
+        canvas.row(
+            "world/collisions",
+            None,
+            &archetypes::Points2D::update_fields()
+                .with_colors([[255, 40, 40]])
+                .with_radii([2.0]),
         );
         Ok(canvas)
     }
@@ -788,24 +804,18 @@ impl RerunCanvas {
         }
     }
 
-    fn flush_collisions(&mut self, group: u64) {
+    fn flush_collisions(&mut self) {
         let (times, data) = self.collisions.take();
         if data.is_empty() {
             return;
         }
-        let lengths: Vec<usize> = data.iter().map(Vec::len).collect();
-        let (points, labels): (Vec<[f32; 2]>, Vec<String>) = data.into_iter().flatten().unzip();
+        let (points, labels): (Vec<[f32; 2]>, Vec<String>) = data.into_iter().unzip();
         let columns = archetypes::Points2D::update_fields()
             .with_positions(points)
             .with_labels(labels)
-            .columns(lengths)
+            .columns_of_unit_batches()
             .map(|c| c.collect::<Vec<_>>());
-        let style = archetypes::Points2D::update_fields()
-            .with_colors([[255, 40, 40]])
-            .with_radii([2.0]);
-        let entity = format!("world/collisions/{group}");
-        self.row(&entity, None, &style);
-        self.send(&entity, times, columns);
+        self.send("world/collisions", times, columns);
     }
 
     fn flush_legs(&mut self) {
@@ -862,9 +872,7 @@ impl RerunCanvas {
         self.flush_log();
         self.flush_legs();
         self.flush_metrics();
-        if let Some(k) = self.collision_count.checked_sub(1) {
-            self.flush_collisions(k / COLLISION_GROUP);
-        }
+        self.flush_collisions();
     }
 
     /// The group of `robot` and the robot's index in it.
@@ -1014,15 +1022,11 @@ impl Canvas for RerunCanvas {
         self.row(&entity, Some(at), &e);
     }
 
-    fn collision(&mut self, at: Stamp, k: u64, point: Point, label: &str) {
-        let group = k / COLLISION_GROUP;
-        if k % COLLISION_GROUP == 0 && k > 0 {
-            self.flush_collisions(group - 1);
-            self.collision_group.clear();
+    fn collision(&mut self, at: Stamp, _: u64, point: Point, label: &str) {
+        self.collisions.push(at, (p32(point), label.to_string()));
+        if self.collisions.len() >= FLUSH_ROWS {
+            self.flush_collisions();
         }
-        self.collision_group.push((p32(point), label.to_string()));
-        self.collisions.push(at, self.collision_group.clone());
-        self.collision_count = k + 1;
     }
 
     fn messages(&mut self, at: Stamp, layer: &str, colour: Rgb, flights: &[Flight]) {

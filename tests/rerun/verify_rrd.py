@@ -16,7 +16,8 @@ Independently of nekosim's code, it checks that:
   `world/paths` row at the event that ended it, from the earlier position to the later one;
 - while a push proximity sensor is active, the robot's group has a circle of its reach
   (radius + range) around it, and none once it is switched off;
-- the number of collision markers equals the number of `collision` records of the trace;
+- the number of collision markers (`world/collisions`, one row each) equals the number of
+  `collision` records of the trace;
 - a crashed robot is grey from its crash on;
 - every `send` record has a message-arrow row at its event with at least one arrow per receiver;
 - the text log has one line per trace record.
@@ -260,16 +261,28 @@ def main() -> None:
         fail(f"{len(legs)} legs in /world/paths, the trace has {moves} moves")
 
     collisions = sum(1 for r in trace if r["kind"] == "collision")
-    # Each row of a collision group shows the group's markers so far: its last row has them all.
-    markers = 0
-    for entity, rs in rows.by_entity.items():
-        if entity.startswith("/world/collisions/"):
-            temporal = [r for r in rs if r[0] is not None and "Points2D:positions" in r[3]]
-            if temporal:
-                last = max(temporal, key=lambda r: (r[0], r[2]))
-                markers += len(last[3]["Points2D:positions"])
+    # One marker per row of world/collisions, at the collision's event.
+    markers = sum(
+        len(cols["Points2D:positions"])
+        for sim, _, _, cols in rows.by_entity.get("/world/collisions", [])
+        if sim is not None and "Points2D:positions" in cols
+    )
     if markers != collisions:
         fail(f"{markers} collision markers, the trace has {collisions} collisions")
+    # Each marker is at its collision's event, at the contact point: on the boundary, or
+    # between the two centres in the ratio of the radii.
+    at_event = {ev: cols for _, ev, _, cols in rows.by_entity.get("/world/collisions", []) if ev is not None}
+    radius = {r["robot"]: r["radius"] for r in trace if r["kind"] == "spawn"}
+    for c in (r for r in trace if r["kind"] == "collision"):
+        (x, y), (ox, oy) = c["pos"], c["other_pos"]
+        if isinstance(c["other"], int):
+            k = radius[c["robot"]] / (radius[c["robot"]] + radius[c["other"]])
+            want = (x + (ox - x) * k, y + (oy - y) * k)
+        else:
+            want = (ox, oy)
+        got = (at_event.get(c["seq"]) or {}).get("Points2D:positions")
+        if not got or max(abs(g - w) for g, w in zip(got[0], want)) > 2**-22 * max(1.0, *map(abs, want)):
+            fail(f"collision #{c['seq']}: marker {got}, contact point {want}")
 
     sends = [r for r in trace if r["kind"] == "send"]
     for s in sends:
