@@ -1,22 +1,28 @@
-//! The [`Canvas`] that writes Rerun entities (docs/visualization.md), to an .rrd file, a
-//! running viewer, or both.
+//! The [`Canvas`] that writes Rerun entities (docs/visualization.md), to an .rrd file
+//! ([`super::rrd_file`]), a running viewer, or both.
 //!
-//! Robots produce most of the rows (a pose per event and per animation frame). Each robot is
-//! one entity carrying several archetypes (marker, heading, trail, sensor), buffered as columns
-//! and sent with `send_columns` in chunks of up to [`FLUSH_ROWS`] rows: a chunk costs a fixed
-//! overhead in time and bytes, so a 1k-robot run must not make thousands of them per entity
-//! family. A row only carries what changed; the other components are null there, so Rerun's
-//! latest-at keeps showing their earlier values. Collision markers are grouped in entities of
-//! [`COLLISION_GROUP`]. Rare drawings (messages, queries) are logged row by row. When a viewer
-//! is connected, every buffer is also flushed each simulated second so the live view keeps up.
+//! Robots produce most of the rows (a row per event and per animation frame). They are drawn
+//! in groups of [`ROBOT_GROUP`] per entity, one entity per group and family (markers,
+//! headings, exact poses, destinations, sensors): a Rerun row replaces a whole batch, so a row
+//! carries the group's robots, and a chunk costs a fixed overhead in time and bytes, so a
+//! 1k-robot run must not make thousands of entities. Rows are buffered as columns and sent in
+//! chunks of up to [`FLUSH_INSTANCES`] robot instances (other entities: [`FLUSH_ROWS`] rows).
+//! A row only carries what changed; the other components are null there, so Rerun's latest-at
+//! keeps showing their earlier values. Path legs and collision markers are one row each, kept
+//! on screen by visible time ranges in the default blueprint. Rare drawings (messages,
+//! queries) are single rows. When a viewer is connected, every buffer is also flushed each
+//! simulated second so the live view keeps up.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use nekosim_actors::world::geometry::{heading_vector, Point};
 use nekosim_actors::world::RobotId;
-use rerun::external::arrow::array::{Array as _, ArrayRef, Float64Array, ListArray};
+use rerun::external::arrow::array::{
+    Array as _, ArrayRef, FixedSizeListArray, Float32Array, Float64Array, ListArray,
+};
 use rerun::external::arrow::buffer::NullBuffer;
+use rerun::external::arrow::datatypes::{DataType, Field};
 use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, StoreId, StoreKind};
 use rerun::log::Chunk;
 use rerun::{
@@ -202,12 +208,19 @@ impl GroupRows {
         let times = time_columns(rows.sim, rows.seq);
         let mut out = Vec::new();
 
-        let positions = rows.positions.values.clone();
-        let mut robots = rows.positions.columns(|v, n| {
-            archetypes::Points2D::update_fields()
-                .with_positions(v)
-                .columns(n)
-        })?;
+        // Markers and heading arrows share one array of positions.
+        let positions = vec2_array(rows.positions.values);
+        let mut robots = Vec::new();
+        if rows.positions.present.contains(&true) {
+            robots.push(sparse(
+                SerializedComponentBatch::new(
+                    positions.clone(),
+                    archetypes::Points2D::descriptor_positions(),
+                )
+                .partitioned(rows.positions.lengths.iter().copied())?,
+                &rows.positions.present,
+            )?);
+        }
         robots.extend(rows.radii.columns(|v, n| {
             archetypes::Points2D::update_fields()
                 .with_radii(v)
@@ -243,21 +256,21 @@ impl GroupRows {
             out.push((group_entity("poses", first), times.clone(), poses));
         }
 
-        let origins = Col {
-            values: positions,
-            lengths: rows.vectors.lengths.clone(),
-            present: rows.vectors.present.clone(),
-        };
-        let mut headings = origins.columns(|v, n| {
-            archetypes::Arrows2D::update_fields()
-                .with_origins(v)
-                .columns(n)
-        })?;
-        headings.extend(rows.vectors.columns(|v, n| {
-            archetypes::Arrows2D::update_fields()
-                .with_vectors(v)
-                .columns(n)
-        })?);
+        let mut headings = Vec::new();
+        if rows.vectors.present.contains(&true) {
+            headings.push(sparse(
+                SerializedComponentBatch::new(
+                    positions,
+                    archetypes::Arrows2D::descriptor_origins(),
+                )
+                .partitioned(rows.vectors.lengths.iter().copied())?,
+                &rows.vectors.present,
+            )?);
+        }
+        headings.extend(
+            rows.vectors
+                .columns(|v, n| vec2_column(v, archetypes::Arrows2D::descriptor_vectors(), n))?,
+        );
         headings.extend(heading_colours.columns(|v, n| {
             archetypes::Arrows2D::update_fields()
                 .with_colors(v)
@@ -267,11 +280,9 @@ impl GroupRows {
             out.push((group_entity("headings", first), times.clone(), headings));
         }
 
-        let mut dests = rows.dests.columns(|v, n| {
-            archetypes::Points2D::update_fields()
-                .with_positions(v)
-                .columns(n)
-        })?;
+        let mut dests = rows
+            .dests
+            .columns(|v, n| vec2_column(v, archetypes::Points2D::descriptor_positions(), n))?;
         dests.extend(rows.dest_colours.columns(|v, n| {
             archetypes::Points2D::update_fields()
                 .with_colors(v)
@@ -281,16 +292,14 @@ impl GroupRows {
             out.push((group_entity("destinations", first), times.clone(), dests));
         }
 
-        let mut sensors = rows.centres.columns(|v, n| {
-            archetypes::Ellipses2D::update_fields()
-                .with_centers(v)
-                .columns(n)
-        })?;
-        sensors.extend(rows.half_sizes.columns(|v, n| {
-            archetypes::Ellipses2D::update_fields()
-                .with_half_sizes(v)
-                .columns(n)
-        })?);
+        let mut sensors = rows
+            .centres
+            .columns(|v, n| vec2_column(v, archetypes::Ellipses2D::descriptor_centers(), n))?;
+        sensors.extend(
+            rows.half_sizes.columns(|v, n| {
+                vec2_column(v, archetypes::Ellipses2D::descriptor_half_sizes(), n)
+            })?,
+        );
         if !sensors.is_empty() {
             out.push((group_entity("sensors", first), times, sensors));
         }
@@ -421,6 +430,30 @@ fn sparse(
         list_array: list,
         descriptor: column.descriptor,
     })
+}
+
+/// 2D vectors as the Arrow array of Rerun's `Vec2D`-based components (positions, origins,
+/// vectors, centres, half sizes: a fixed-size list of two 32-bit floats), built without copying
+/// or going through the archetype builders, which convert value by value.
+fn vec2_array(values: Vec<[f32; 2]>) -> ArrayRef {
+    let floats = Float32Array::from(values.into_flattened());
+    Arc::new(FixedSizeListArray::new(
+        Arc::new(Field::new("item", DataType::Float32, false)),
+        2,
+        Arc::new(floats),
+        None,
+    ))
+}
+
+/// A component column of 2D vectors, `lengths` of them per row.
+fn vec2_column(
+    values: Vec<[f32; 2]>,
+    descriptor: ComponentDescriptor,
+    lengths: Vec<usize>,
+) -> Result<[SerializedComponentColumn; 1], rerun::SerializationError> {
+    SerializedComponentBatch::new(vec2_array(values), descriptor)
+        .partitioned(lengths)
+        .map(|c| [c])
 }
 
 fn p32(p: Point) -> [f32; 2] {
