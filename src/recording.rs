@@ -172,6 +172,9 @@ pub trait Canvas {
     /// The reach of the robot's push sensor, centre to border (`None`: none active); the
     /// circle follows the robot.
     fn sensor(&mut self, robot: RobotId, reach: Option<f64>);
+    /// A robot's exact pose at one of its kinematic records (spawn, motion step or finish,
+    /// crash), in 64-bit floats: where the motion formulas start from.
+    fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64);
     /// The exact poses `(position, heading)` at `at` of robots `first, first + 1, ...` (a whole
     /// group, `first` a multiple of [`ROBOT_GROUP`]), at an event or an animation frame: one
     /// row of the group, with the changes set since its last row.
@@ -202,6 +205,7 @@ impl Canvas for NoCanvas {
     fn leg(&mut self, _: Stamp, _: RobotId, _: Point, _: Point) {}
     fn destination(&mut self, _: RobotId, _: Option<Point>) {}
     fn sensor(&mut self, _: RobotId, _: Option<f64>) {}
+    fn pose(&mut self, _: Stamp, _: RobotId, _: Point, _: f64) {}
     fn poses(&mut self, _: Stamp, _: RobotId, _: &[(Point, f64)]) {}
     fn query(&mut self, _: Stamp, _: RobotId, _: Option<(Point, f64)>) {}
     fn collision(&mut self, _: Stamp, _: u64, _: Point, _: &str) {}
@@ -420,6 +424,7 @@ impl<C: Canvas> Recorder<C> {
         };
         r.t = at.t;
         r.state = state;
+        self.canvas.pose(at, robot, state.pos, state.angle);
         if r.corner != state.pos {
             let from = std::mem::replace(&mut r.corner, state.pos);
             self.canvas.leg(at, robot, from, state.pos);
@@ -660,6 +665,14 @@ mod tests {
         fn sensor(&mut self, robot: RobotId, reach: Option<f64>) {
             self.0.push(format!("sensor p{robot} {reach:?}"));
         }
+        fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64) {
+            self.0.push(format!(
+                "{} pose p{robot} {} {} {angle}",
+                s(at),
+                pos.x,
+                pos.y
+            ));
+        }
         fn poses(&mut self, at: Stamp, first: RobotId, poses: &[(Point, f64)]) {
             let p: Vec<String> = poses
                 .iter()
@@ -752,8 +765,10 @@ mod tests {
             [
                 "world Some(([0.0, 0.0], [10.0, 10.0]))",
                 "spawn p0 r0.5",
+                "0#0 pose p0 1 0 0",
                 "0#0 poses g0 [1 0 0]",
                 // Starting on the spot: no leg, a destination.
+                "0#1 pose p0 1 0 0",
                 "dest p0 Some((4.0, 0.0))",
                 "0#1 poses g0 [1 0 0]",
                 // Frames at 0, 0.5 and 1 s: x = 1 + 2 t; metrics every frame period.
@@ -762,6 +777,7 @@ mod tests {
                 "0.5 metrics c0 f0 d0 e4",
                 "1 poses g0 [3 0 0]",
                 "1 metrics c0 f0 d0 e0",
+                "1.5#2 pose p0 4 0 0",
                 "1.5#2 leg p0 1 0 -> 4 0",
                 "dest p0 None",
                 "1.5#2 poses g0 [4 0 0]",

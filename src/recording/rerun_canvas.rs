@@ -3,7 +3,7 @@
 //!
 //! Robots produce most of the rows (a row per event and per animation frame). They are drawn
 //! in groups of [`ROBOT_GROUP`] per entity, one entity per group and family (markers,
-//! headings, exact poses, destinations, sensors): a Rerun row replaces a whole batch, so a row
+//! headings, destinations, sensors): a Rerun row replaces a whole batch, so a row
 //! carries the group's robots, and a chunk costs a fixed overhead in time and bytes, so a
 //! 1k-robot run must not make thousands of entities. Rows are buffered as columns and sent in
 //! chunks of up to [`FLUSH_INSTANCES`] robot instances (other entities: [`FLUSH_ROWS`] rows).
@@ -19,7 +19,7 @@ use std::sync::Arc;
 use nekosim_actors::world::geometry::{heading_vector, Point};
 use nekosim_actors::world::RobotId;
 use rerun::external::arrow::array::{
-    Array as _, ArrayRef, FixedSizeListArray, Float32Array, Float64Array, ListArray,
+    Array as _, ArrayRef, FixedSizeListArray, Float32Array, Float64Array, ListArray, UInt32Array,
 };
 use rerun::external::arrow::buffer::NullBuffer;
 use rerun::external::arrow::datatypes::{DataType, Field};
@@ -54,10 +54,15 @@ pub const METRICS: [&str; 4] = [
     "metrics/events_per_second",
 ];
 
-/// The component holding the robots' exact poses, `[x, y, angle]` per robot as 64-bit floats
-/// (the drawn positions are 32-bit, Rerun's point type).
+/// The component holding a robot's exact pose, `[x, y, angle]` as 64-bit floats (the drawn
+/// positions are 32-bit, Rerun's point type).
 pub fn pose_descriptor() -> ComponentDescriptor {
     ComponentDescriptor::partial("nekosim.Pose:pose").with_archetype("nekosim.Pose".into())
+}
+
+/// The component naming the robot of an exact pose.
+pub fn pose_robot_descriptor() -> ComponentDescriptor {
+    ComponentDescriptor::partial("nekosim.Pose:robot").with_archetype("nekosim.Pose".into())
 }
 
 /// Rows of one entity: simulated times, trace sequence numbers (when on the `event` timeline)
@@ -178,8 +183,6 @@ struct GroupRows {
     positions: Col<[f32; 2]>,
     /// Heading arrows' vectors.
     vectors: Col<[f32; 2]>,
-    /// Exact poses, three floats per robot.
-    exact: Col<f64>,
     /// Radii, colours and labels, on rows where a robot spawned or changed colour.
     radii: Col<f32>,
     colours: Col<Rgb>,
@@ -244,18 +247,6 @@ impl GroupRows {
         if !robots.is_empty() {
             out.push((group_entity("robots", first), times.clone(), robots));
         }
-        let poses = rows.exact.columns(|v, n| {
-            SerializedComponentBatch::new(
-                Arc::new(Float64Array::from(v)) as ArrayRef,
-                pose_descriptor(),
-            )
-            .partitioned(n)
-            .map(|c| [c])
-        })?;
-        if !poses.is_empty() {
-            out.push((group_entity("poses", first), times.clone(), poses));
-        }
-
         let mut headings = Vec::new();
         if rows.vectors.present.contains(&true) {
             headings.push(sparse(
@@ -361,14 +352,6 @@ impl Group {
         }
         rows.vectors
             .push(self.vector[..poses.len()].iter().copied());
-        // Exact poses at events only: between events, the motion formulas give them.
-        if at.seq.is_some() {
-            rows.exact.values.reserve(3 * poses.len());
-            rows.exact
-                .push(poses.iter().flat_map(|(p, a)| [p.x, p.y, *a]));
-        } else {
-            rows.exact.skip();
-        }
         if std::mem::take(&mut self.style_changed) {
             let n = poses.len();
             rows.radii.push(self.radius[..n].iter().map(|r| *r as f32));
@@ -472,6 +455,8 @@ pub struct RerunCanvas {
     groups: Vec<Group>,
     log: Rows<String>,
     metrics: Rows<Metrics>,
+    /// Exact poses at kinematic records: `(robot, [x, y, angle])`.
+    exact: Rows<(RobotId, [f64; 3])>,
     /// Legs of the robots' paths: `(from, to, colour)`.
     legs: Rows<([f32; 2], [f32; 2], Rgb)>,
     /// Collision markers, one per row: `(contact point, label)`.
@@ -721,6 +706,7 @@ impl RerunCanvas {
             log: Rows::default(),
             metrics: Rows::default(),
             legs: Rows::default(),
+            exact: Rows::default(),
             collisions: Rows::default(),
             ids,
             next_live_flush: 1.0,
@@ -851,6 +837,29 @@ impl RerunCanvas {
         self.send("world/collisions", times, columns);
     }
 
+    fn flush_exact(&mut self) {
+        let (times, poses) = self.exact.take();
+        if poses.is_empty() {
+            return;
+        }
+        let (robots, poses): (Vec<RobotId>, Vec<[f64; 3]>) = poses.into_iter().unzip();
+        let n = robots.len();
+        let columns = SerializedComponentBatch::new(
+            Arc::new(UInt32Array::from(robots)) as ArrayRef,
+            pose_robot_descriptor(),
+        )
+        .partitioned(std::iter::repeat_n(1, n))
+        .and_then(|robots| {
+            SerializedComponentBatch::new(
+                Arc::new(Float64Array::from(poses.into_flattened())) as ArrayRef,
+                pose_descriptor(),
+            )
+            .partitioned(std::iter::repeat_n(3, n))
+            .map(|poses| vec![robots, poses])
+        });
+        self.send("world/poses", times, columns);
+    }
+
     fn flush_legs(&mut self) {
         let (times, legs) = self.legs.take();
         if legs.is_empty() {
@@ -903,6 +912,7 @@ impl RerunCanvas {
             self.flush_group(g);
         }
         self.flush_log();
+        self.flush_exact();
         self.flush_legs();
         self.flush_metrics();
         self.flush_collisions();
@@ -1030,6 +1040,13 @@ impl Canvas for RerunCanvas {
         let (group, i) = self.group(robot);
         group.reach[i] = reach;
         group.sensors_changed = true;
+    }
+
+    fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64) {
+        self.exact.push(at, (robot, [pos.x, pos.y, angle]));
+        if self.exact.len() >= FLUSH_ROWS {
+            self.flush_exact();
+        }
     }
 
     fn poses(&mut self, at: Stamp, first: RobotId, poses: &[(Point, f64)]) {

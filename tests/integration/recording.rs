@@ -26,6 +26,7 @@ impl Canvas for Poses {
     fn leg(&mut self, _: Stamp, _: RobotId, _: Point, _: Point) {}
     fn destination(&mut self, _: RobotId, _: Option<Point>) {}
     fn sensor(&mut self, _: RobotId, _: Option<f64>) {}
+    fn pose(&mut self, _: Stamp, _: RobotId, _: Point, _: f64) {}
     fn poses(&mut self, at: Stamp, first: RobotId, poses: &[(Point, f64)]) {
         assert_eq!(
             first % ROBOT_GROUP,

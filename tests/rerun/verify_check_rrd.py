@@ -35,16 +35,26 @@ def main() -> None:
             fail(f"timeline {timeline} missing; have {sorted(rows.timelines)}")
 
     steps = int(trace[-1]["seq"])
+    # Each lane is drawn where it stands at every step, and its exact pose is there.
     for p in range(processes):
         name, j = group(p)
-        entity = f"/world/poses/{name}"
+        entity = f"/world/robots/{name}"
         for step in range(steps + 1):
-            pose = rows.latest_at(entity, "nekosim.Pose:pose", ns(step))
-            if pose is None or len(pose) < 3 * j + 3:
-                fail(f"{entity}: no pose of process {p} at step {step}")
-            x, y = pose[3 * j], pose[3 * j + 1]
-            if abs(x - LANE * p) > TOLERANCE or abs(y) > TOLERANCE:
+            drawn = rows.latest_at(entity, "Points2D:positions", ns(step))
+            if drawn is None or len(drawn) <= j:
+                fail(f"{entity}: no marker of process {p} at step {step}")
+            x, y = drawn[j]
+            if abs(x - LANE * p) > 1e-4 or abs(y) > 1e-4:
                 fail(f"{entity} at step {step}: process {p} at {(x, y)}, expected its lane ({LANE * p}, 0)")
+    spawned = {
+        cols["nekosim.Pose:robot"][0]: cols["nekosim.Pose:pose"]
+        for sim, _, _, cols in rows.by_entity.get("/world/poses", [])
+        if sim == 0 and "nekosim.Pose:pose" in cols
+    }
+    for p in range(processes):
+        pose = spawned.get(p)
+        if pose is None or abs(pose[0] - LANE * p) > TOLERANCE or abs(pose[1]) > TOLERANCE:
+            fail(f"process {p}: exact pose at step 0 is {pose}, expected its lane ({LANE * p}, 0)")
 
     sends = [r for r in trace if r["kind"] == "send"]
     for s in sends:

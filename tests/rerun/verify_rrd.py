@@ -7,11 +7,12 @@ Independently of nekosim's code, it checks that:
 - the recording loads with `rerun.experimental.RrdReader` and has the `sim_time` and `event`
   timelines;
 - robots are drawn in groups of 16 (`world/robots/0-15`, ...: robot `i` is instance `i % 16`);
-  at every event row, every robot's exact pose (`world/poses/...`, `nekosim.Pose:pose`, 64-bit,
-  three floats per robot) equals the position rebuilt from the JSONL trace of the same run
-  within 1e-6; read back with latest-at semantics at event instants the exact poses still do,
-  and at event and animation-frame instants the drawn 32-bit markers and heading arrows'
-  origins equal the trace's positions to float precision;
+  every kinematic record (spawn, motion step or finish, crash) has a `world/poses` row at its
+  event naming its robot (`nekosim.Pose:robot`) with the exact pose (`nekosim.Pose:pose`,
+  64-bit) equal to the trace's within 1e-6, and no other rows; every drawn 32-bit marker, on
+  every row (events and animation frames), is where the path rebuilt from the trace puts the
+  robot at that row's instant, to float precision; read back with latest-at semantics at
+  event and frame instants, the markers and the heading arrows' origins still are;
 - every leg of a robot's path (from one kinematic record to the next where it moved) is a
   `world/paths` row at the event that ended it, from the earlier position to the later one;
 - while a push proximity sensor is active, the robot's group has a circle of its reach
@@ -166,26 +167,27 @@ def main() -> None:
     if "/world/robots/0-15" not in rows.by_entity:
         fail(f"no robots entity; have {sorted(rows.by_entity)}")
 
-    # Every recorded pose lies on the trajectory rebuilt from the trace, at its own instant.
+    # Every kinematic record has its exact pose at its event, and nothing else does.
     paths = rebuild(trace)
-    rows_checked = 0
-    for entity, rs in rows.by_entity.items():
-        if not entity.startswith("/world/poses/"):
-            continue
-        first = int(entity.rsplit("/", 1)[1].split("-")[0])
-        for sim, _, _, cols in rs:
-            pose = cols.get("nekosim.Pose:pose")
-            if pose is None:
-                continue
-            for j in range(len(pose) // 3):
-                path = paths.get(first + j)
-                if path is None or path[0][0] > sim / 1e9:
-                    continue  # not spawned yet: drawn invisible
-                want = pos_at(path, sim / 1e9)
-                x, y = pose[3 * j], pose[3 * j + 1]
-                if abs(x - want[0]) > TOLERANCE or abs(y - want[1]) > TOLERANCE:
-                    fail(f"robot {first + j} row at sim_time {sim} ns: recording {(x, y)}, trace {want}")
-                rows_checked += 1
+    exact = {}
+    for sim, ev, _, cols in rows.by_entity.get("/world/poses", []):
+        if "nekosim.Pose:pose" in cols:
+            exact[ev] = (sim, cols["nekosim.Pose:robot"], cols["nekosim.Pose:pose"])
+    kinematic_records = [
+        r for r in trace if r["kind"] == "spawn" or "pos" in r and r["kind"] != "collision"
+    ]
+    for r in kinematic_records:
+        got = exact.get(r["seq"])
+        if got is None:
+            fail(f"{r['kind']} #{r['seq']} of robot {r['robot']}: no exact pose row")
+        sim, robot, pose = got
+        if robot != [r["robot"]] or sim != ns(r["t"]) or len(pose) != 3:
+            fail(f"#{r['seq']}: exact pose row {got}, expected robot {r['robot']} at {r['t']}")
+        if max(abs(pose[0] - r["pos"][0]), abs(pose[1] - r["pos"][1])) > TOLERANCE:
+            fail(f"#{r['seq']}: exact pose {pose}, trace {r['pos']}")
+    if len(exact) != len(kinematic_records):
+        fail(f"{len(exact)} exact pose rows, the trace has {len(kinematic_records)} kinematic records")
+    rows_checked = len(exact)
 
     # Every drawn marker (event rows and animation frames) is on the trace's path, to the
     # precision of 32-bit floats.
@@ -223,13 +225,6 @@ def main() -> None:
             want = pos_at(path, t)
             name, j = group(robot)
             entity = f"/world/robots/{name}"
-            if only is not None:
-                pose = rows.latest_at(f"/world/poses/{name}", "nekosim.Pose:pose", ns(t))
-                if pose is None or len(pose) < 3 * j + 3:
-                    fail(f"/world/poses/{name}: no pose of robot {robot} at sim_time {t}")
-                x, y = pose[3 * j], pose[3 * j + 1]
-                if abs(x - want[0]) > TOLERANCE or abs(y - want[1]) > TOLERANCE:
-                    fail(f"/world/poses/{name} at {t}: robot {robot} at {(x, y)}, trace {want}")
             drawn = rows.latest_at(entity, "Points2D:positions", ns(t))[j]
             origin = rows.latest_at(f"/world/headings/{name}", "Arrows2D:origins", ns(t))[j]
             for d, o, w in zip(drawn, origin, want):
@@ -353,7 +348,7 @@ def main() -> None:
         fail(f"{log_rows} log lines, the trace has {len(trace)} records")
 
     print(
-        f"verify_rrd: ok: {rrd.name}: {rows_checked} pose rows on the trace's paths, "
+        f"verify_rrd: ok: {rrd.name}: {rows_checked} exact poses at their records, "
         f"{drawn_checked} drawn positions, "
         f"{checked} latest-at positions at {len(instants)} instants, "
         f"{moves} legs, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
