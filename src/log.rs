@@ -11,14 +11,61 @@ use nekosim_actors::world::sensor::{SensorQuery, SensorValue};
 use nekosim_actors::world::{MotionOutcome, Obstacle, RobotId};
 use nekosim_protocols::Wire;
 
-/// Three decimals, with no negative zero.
+/// Three decimals, as `format!("{v:.3}")` writes them, with no negative zero.
+///
+/// The log writes hundreds of thousands of these, so finite values up to 2^60 are rounded in
+/// integers: `v = m 2^e` exactly, and `1000 m 2^e` is rounded to the nearest integer, ties to
+/// even, which is what the standard formatter does with the exact value. The unit test checks
+/// it against `format!` on random values and on every kind of tie.
 pub fn num(v: f64) -> String {
-    let s = format!("{v:.3}");
-    if s == "-0.000" {
-        "0.000".into()
-    } else {
-        s
+    match thousandths(v) {
+        Some(0) => "0.000".into(),
+        Some(k) => {
+            let sign = if v < 0.0 { "-" } else { "" };
+            format!("{sign}{}.{:03}", k / 1000, k % 1000)
+        }
+        None => {
+            let s = format!("{v:.3}");
+            if s == "-0.000" {
+                "0.000".into()
+            } else {
+                s
+            }
+        }
     }
+}
+
+/// `|v|` in thousandths, rounded to nearest with ties to even; `None` when not finite or
+/// beyond 2^60.
+fn thousandths(v: f64) -> Option<u128> {
+    if !v.is_finite() {
+        return None;
+    }
+    let bits = v.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i32;
+    let frac = u128::from(bits & ((1 << 52) - 1));
+    let (m, e) = if exp == 0 {
+        (frac, -1074)
+    } else {
+        (frac | 1 << 52, exp - 1075)
+    };
+    let n = m * 1000;
+    if e >= 0 {
+        return (e <= 7).then(|| n << e);
+    }
+    let s = e.unsigned_abs();
+    if s >= 127 {
+        // Below 2^-63: rounds to zero.
+        return Some(0);
+    }
+    let q = n >> s;
+    let r = n - (q << s);
+    let half = 1u128 << (s - 1);
+    Some(if r > half || (r == half && q & 1 == 1) {
+        q + 1
+    } else {
+        q
+    })
 }
 
 fn pt(p: Point) -> String {
@@ -233,6 +280,67 @@ impl NekoLog {
                 sensor.name(),
                 value_text(value)
             ),
+        }
+    }
+}
+
+#[cfg(test)]
+mod num_tests {
+    use super::num;
+    use proptest::prelude::*;
+
+    /// The standard formatter, the oracle.
+    fn std_num(v: f64) -> String {
+        let s = format!("{v:.3}");
+        if s == "-0.000" {
+            "0.000".into()
+        } else {
+            s
+        }
+    }
+
+    #[test]
+    fn ties_and_edges_match_the_standard_formatter() {
+        // i / 16 are exact ties at three decimals (x.xxx5); i / 2^k for larger k are near
+        // ties on either side.
+        for i in -100_000i64..100_000 {
+            for d in [16.0, 32.0, 64.0, 1024.0, 8.0, 2000.0, 1000.0] {
+                let v = i as f64 / d;
+                assert_eq!(num(v), std_num(v), "{v:e}");
+            }
+        }
+        for v in [
+            0.0,
+            -0.0,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            5e-324,
+            0.0005,
+            -0.0005,
+            0.0004999999999999999,
+            1e15,
+            1.2345678e17,
+            1.152921504606847e18,
+            1.152921504606847e19,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ] {
+            assert_eq!(num(v), std_num(v), "{v:e}");
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn random_values_match_the_standard_formatter(bits in any::<u64>()) {
+            let v = f64::from_bits(bits);
+            prop_assert_eq!(num(v), std_num(v));
+        }
+
+        #[test]
+        fn everyday_values_match_the_standard_formatter(v in -1e7f64..1e7) {
+            prop_assert_eq!(num(v), std_num(v));
         }
     }
 }
