@@ -120,8 +120,12 @@ fn invalid(e: impl std::fmt::Display) -> Failure {
 }
 
 fn main() -> ExitCode {
+    // Errors only unless RUST_LOG says otherwise; the Rerun client's own report of an
+    // unreachable viewer is left out, since nekosim reports it in one line (exit 2).
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("error,re_grpc_client=off"));
     tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::from_default_env())
+        .with_env_filter(filter)
         .with_writer(std::io::stderr)
         .init();
     let cli = match Cli::try_parse() {

@@ -494,6 +494,41 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// The application id of recordings.
 const APP: &str = "nekosim";
 
+/// How long a viewer has to answer `--connect`, and to take the rest of the stream at the end.
+pub const VIEWER_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(5);
+
+/// A gRPC sink connected to the viewer at `url`, or why there is none. Waiting on the wall
+/// clock here is about the network, not the simulation.
+fn connect(
+    url: &str,
+    uri: rerun::external::re_uri::ProxyUri,
+) -> Result<rerun::sink::GrpcSink, RecordingError> {
+    use rerun::sink::GrpcSinkConnectionState as State;
+    let sink = rerun::sink::GrpcSink::new(uri);
+    let start = std::time::Instant::now();
+    loop {
+        match sink.status() {
+            State::Connected => return Ok(sink),
+            State::Disconnected(r) => {
+                return Err(RecordingError::Unreachable {
+                    url: url.to_string(),
+                    message: match r {
+                        Err(e) => e.to_string(),
+                        Ok(()) => "disconnected".into(),
+                    },
+                })
+            }
+            State::Connecting { .. } if start.elapsed() > VIEWER_TIMEOUT => {
+                return Err(RecordingError::Unreachable {
+                    url: url.to_string(),
+                    message: format!("no answer in {} s", VIEWER_TIMEOUT.as_secs()),
+                })
+            }
+            State::Connecting { .. } => std::thread::sleep(std::time::Duration::from_millis(20)),
+        }
+    }
+}
+
 /// The default layout: the 2D world beside the log above the metrics, as blueprint messages
 /// (header and chunks) and its activation, with fixed view and container ids and the next row
 /// and chunk ids, so that it is the same in every recording. (The SDK's `Blueprint` builder
@@ -686,6 +721,12 @@ impl RerunCanvas {
             }
             None => None,
         };
+        // A viewer must answer before the run starts: the SDK would otherwise queue the
+        // recording and block once its queue is full.
+        let viewer = match viewer {
+            Some((url, uri)) => Some((url.clone(), connect(&url, uri)?)),
+            None => None,
+        };
         let (blueprint, activation) = blueprint_msgs(&recording_id, &mut ids)?;
         let mut file = None;
         if let Some(path) = &target.rrd {
@@ -715,12 +756,10 @@ impl RerunCanvas {
             error: None,
         };
         // From here on, dropping the canvas on an error finishes and places the file.
-        if let Some((_, uri)) = viewer {
+        if let Some((_, sink)) = viewer {
             let rec = RecordingStreamBuilder::new(APP)
                 .recording_id(recording_id)
-                .set_sinks(vec![
-                    Box::new(rerun::sink::GrpcSink::new(uri)) as Box<dyn rerun::sink::LogSink>
-                ])
+                .set_sinks(vec![Box::new(sink) as Box<dyn rerun::sink::LogSink>])
                 .map_err(rerun_err)?;
             rec.send_blueprint(blueprint, activation);
             canvas.live = Some(rec);
@@ -937,12 +976,18 @@ impl RerunCanvas {
             self.flush_all();
         }
         if let Some(rec) = self.live.take() {
-            if let Err(e) = rec.flush_blocking() {
-                // A failed flush is the viewer not answering.
-                self.error.get_or_insert(RecordingError::Unreachable {
-                    url: self.url.clone().unwrap_or_default(),
-                    message: e.to_string(),
-                });
+            match rec.flush_with_timeout(VIEWER_TIMEOUT) {
+                Ok(()) => drop(rec),
+                Err(e) => {
+                    // The viewer went away during the run. The SDK's sending thread may be
+                    // blocked on it for good, and dropping the stream would wait for that
+                    // thread: the stream is leaked instead, on this error path only.
+                    self.error.get_or_insert(RecordingError::Unreachable {
+                        url: self.url.clone().unwrap_or_default(),
+                        message: e.to_string(),
+                    });
+                    std::mem::forget(rec);
+                }
             }
         }
         if let Some((mut rrd, temp, target)) = self.file.take() {

@@ -315,3 +315,81 @@ fn the_same_run_gives_the_same_recording_bytes() {
         assert!(a == b, "{scenario}: recordings differ before the footer");
     }
 }
+
+/// A local TCP port nobody listens on (as far as the kernel knows right now).
+fn free_port() -> u16 {
+    let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    l.local_addr().unwrap().port()
+}
+
+#[test]
+fn connect_streams_to_a_running_viewer_and_refuses_a_missing_one() {
+    let py = python();
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = root().join("examples/scenarios/collision.ron");
+
+    // Nobody at the URL: one line, exit 2, before the run, and no file.
+    let port = free_port();
+    let rrd = dir.path().join("nobody.rrd");
+    let out = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .arg("run")
+        .arg(&scenario)
+        .args(["--quiet", "--connect"])
+        .arg(format!("rerun+http://127.0.0.1:{port}/proxy"))
+        .arg("--rrd")
+        .arg(&rrd)
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("cannot stream to the Rerun viewer"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+
+    // Rerun's own gRPC server (the viewer's, headless) from rerun-sdk 0.36.3.
+    let port = free_port();
+    let rerun = py.parent().unwrap().join("rerun");
+    let mut server = Command::new(rerun)
+        .args(["--serve-grpc", "--port", &port.to_string()])
+        .env("CI", "1")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let up = (0..200).any(|_| {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        std::net::TcpStream::connect(("127.0.0.1", port)).is_ok()
+    });
+    let rrd = dir.path().join("live.rrd");
+    let trace = dir.path().join("live.jsonl");
+    let out = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .arg("run")
+        .arg(&scenario)
+        .args(["--quiet", "--connect"])
+        .arg(format!("rerun+http://127.0.0.1:{port}/proxy"))
+        .arg("--rrd")
+        .arg(&rrd)
+        .arg("--trace")
+        .arg(&trace)
+        .output()
+        .unwrap();
+    let _ = server.kill();
+    let _ = server.wait();
+    assert!(up, "rerun --serve-grpc did not listen on {port}");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The file written beside the stream is a complete recording.
+    let out = run(Command::new(&py)
+        .arg(root().join("tests/rerun/verify_rrd.py"))
+        .arg(&rrd)
+        .arg(&trace)
+        .arg("25"));
+    assert!(out.contains("verify_rrd: ok"), "{out}");
+}
