@@ -197,7 +197,8 @@ fn counterexample_recordings_read_back_with_the_official_reader() {
     }
 }
 
-/// Switches its push proximity sensor on, drives, switches it off, and drives on.
+/// Switches its push proximity sensor on, drives, looks around (view, proximity), switches
+/// it off, and drives on.
 #[derive(Debug, Clone)]
 struct Sentry {
     range: f64,
@@ -215,6 +216,9 @@ impl nekosim::Algorithm for Sentry {
             robot.activate_proximity(range, 1.0).await;
             let leg = nekosim::world::geometry::Point::new(start.x + 30.0, start.y);
             robot.move_to(leg, 5.0, 90.0).await;
+            // Pull queries: drawn from request to reply.
+            robot.robots_in_view(40.0).await;
+            robot.proximity(7.0).await;
             robot.deactivate_proximity().await;
             let back = nekosim::world::geometry::Point::new(start.x, start.y + 20.0);
             robot.move_to(back, 5.0, 90.0).await;
@@ -271,8 +275,10 @@ fn push_sensor_circles_follow_their_robots_while_active() {
         .arg(&rrd)
         .arg(&trace)
         .arg("10"));
-    // Two sentries, each switching on and off, and circles checked at frames while they drive.
+    // Two sentries, each switching on and off, and circles checked at frames while they drive;
+    // each makes a view and a proximity query.
     assert!(out.contains(" 4 sensor switches"), "{out}");
+    assert!(out.contains(" 4 queries"), "{out}");
     assert!(!out.contains(" 0 sensor frames"), "{out}");
     eprintln!("{}", out.trim());
 }

@@ -20,6 +20,8 @@ Independently of nekosim's code, it checks that:
 - the number of collision markers (`world/collisions`, one row each) equals the number of
   `collision` records of the trace;
 - a crashed robot is grey from its crash on;
+- every view or proximity query is a circle of its range around the robot from its request
+  to its reply; the last metric samples count the trace's collisions and deliveries;
 - every `send` record has a message-arrow row at its event with at least one arrow per receiver;
 - the text log has one line per trace record.
 
@@ -343,6 +345,33 @@ def main() -> None:
                         fail(f"sensors {name} at frame {t}: {centers}, active {mine}")
                     frames_checked += 1
 
+    # View and proximity queries: a circle of their range around the robot from the request
+    # (`world/queries/<robot>`, at its event) to the reply (cleared).
+    queries = 0
+    for r in trace:
+        if r["kind"] == "sensor_request" and r["value"]["query"] in ("view", "proximity"):
+            reach = r["value"]["range"] + (radius[r["robot"]] if r["value"]["query"] == "proximity" else 0.0)
+            cols = rows.latest_at_event(f"/world/queries/{r['robot']}", "Ellipses2D:centers", r["seq"])
+            half = rows.latest_at_event(f"/world/queries/{r['robot']}", "Ellipses2D:half_sizes", r["seq"])
+            want = pos_at(paths[r["robot"]], r["t"])
+            if not cols or not half or max(abs(c - w) for c, w in zip(cols[0], want)) > 1e-3 or abs(half[0][0] - reach) > 1e-3:
+                fail(f"query #{r['seq']} of robot {r['robot']}: circle {cols} {half}, expected {want} r {reach}")
+            queries += 1
+        elif r["kind"] == "sensor_reply" and r["sensor"] in ("view", "proximity") and not r["interrupt"]:
+            cols = rows.latest_at_event(f"/world/queries/{r['robot']}", "Ellipses2D:centers", r["seq"])
+            if cols:
+                fail(f"reply #{r['seq']} of robot {r['robot']}: the query circle is still drawn: {cols}")
+
+    # Metrics: the last samples (at the run's end, which may follow the last record) count the
+    # trace's collisions and deliveries.
+    for entity, want in (
+        ("/metrics/collisions", sum(1 for r in trace if r["kind"] == "collision")),
+        ("/metrics/deliveries", sum(1 for r in trace if r["kind"] == "deliver")),
+    ):
+        last = rows.latest_at(entity, "Scalars:scalars", 2**62)
+        if last != [float(want)]:
+            fail(f"{entity} ends at {last}, the trace has {want}")
+
     log_rows = sum(1 for _, ev, _, cols in rows.by_entity.get("/log", []) if "TextLog:text" in cols)
     if log_rows != len(trace):
         fail(f"{log_rows} log lines, the trace has {len(trace)} records")
@@ -352,7 +381,7 @@ def main() -> None:
         f"{drawn_checked} drawn positions, "
         f"{checked} latest-at positions at {len(instants)} instants, "
         f"{moves} legs, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
-        f"{frames_checked} sensor frames, "
+        f"{frames_checked} sensor frames, {queries} queries, "
         f"{log_rows} log lines"
     )
 
