@@ -800,7 +800,8 @@ impl RerunCanvas {
             let chunk = Chunk::from_native_row_ids(
                 self.ids.chunk(),
                 entity.into(),
-                None,
+                // Row ids count up, so the rows are sorted by them.
+                Some(true),
                 &row_ids,
                 times
                     .into_iter()
