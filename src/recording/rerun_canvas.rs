@@ -40,6 +40,12 @@ pub const FLUSH_ROWS: usize = 4096;
 /// sent as one chunk.
 pub const FLUSH_INSTANCES: usize = 1 << 14;
 
+/// Robot instances of event rows buffered per group before they are sent: groups fill with
+/// event rows much more slowly than with frames, and sending them during the run leaves less
+/// to encode at its end. Measured (docs/performance.md): 1,024 is worse (more chunks), 1,536
+/// best, 2,048 and 4,096 slightly worse.
+pub const EVENT_FLUSH_INSTANCES: usize = 1536;
+
 /// Name of the group of robot `robot` under an entity family: `world/robots/0-31`.
 pub fn group_entity(family: &str, robot: RobotId) -> String {
     let first = robot - robot % ROBOT_GROUP;
@@ -1099,7 +1105,9 @@ impl Canvas for RerunCanvas {
         let g = (first / ROBOT_GROUP) as usize;
         let (group, _) = self.group(first);
         group.row(at, first, poses);
-        if group.events.size() + group.frames.size() >= FLUSH_INSTANCES {
+        if group.events.size() >= EVENT_FLUSH_INSTANCES
+            || group.events.size() + group.frames.size() >= FLUSH_INSTANCES
+        {
             self.flush_group(g);
         }
         self.live_flush(at.t);

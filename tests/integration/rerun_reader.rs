@@ -356,12 +356,18 @@ fn connect_streams_to_a_running_viewer_and_refuses_a_missing_one() {
     );
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 
-    // Rerun's own gRPC server (the viewer's, headless) from rerun-sdk 0.36.3.
+    // Rerun's own gRPC server (the viewer's, headless) from rerun-sdk 0.36.3. The package's
+    // `rerun` script runs the binary as a child process, which killing the script would leave
+    // running: the binary is started directly, with nothing attached.
     let port = free_port();
-    let rerun = py.parent().unwrap().join("rerun");
-    let mut server = Command::new(rerun)
+    let binary = run(Command::new(&py).args([
+        "-c",
+        "import os, rerun_cli; print(os.path.join(os.path.dirname(rerun_cli.__file__), 'rerun'))",
+    ]));
+    let mut server = Command::new(binary.trim())
         .args(["--serve-grpc", "--port", &port.to_string()])
         .env("CI", "1")
+        .stdin(std::process::Stdio::null())
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
