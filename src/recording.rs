@@ -13,9 +13,8 @@
 //!
 //! **Input.** The recorder consumes [`Record`]s rather than JSONL lines: they are what the
 //! engine produces, they are typed, and the trace is a projection of them, so every trace
-//! object corresponds to exactly one record. A future `nekosim check` counterexample is to be
-//! turned into `Record`s (sends, receives, deliveries, decisions) and fed through the same
-//! recorder.
+//! object corresponds to exactly one record. `nekosim check --rrd` turns a counterexample into
+//! `Record`s (spawns, sends, receives, crashes) and feeds them through the same recorder.
 //!
 //! **Animation.** Between two kinematic records of a robot (spawn, motion step, motion finish,
 //! crash) the built-in motion patterns are exactly linear in time: the position is
@@ -27,7 +26,9 @@
 //!
 //! **Determinism.** Everything drawn is a function of the records and the scenario: frames
 //! are on simulated time, `events/s` counts events per simulated second, and robot and layer
-//! colours come from ids and names, never from a hash map's order or the wall clock.
+//! colours come from ids and names, never from a hash map's order or the wall clock. Buffers
+//! are sent when they reach a size, never on a timer, so the .rrd file's chunks and ids
+//! ([`rrd_file`]) are a function of the run too.
 
 use std::collections::BTreeMap;
 
