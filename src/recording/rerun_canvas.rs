@@ -127,7 +127,7 @@ fn time_columns(sim: Vec<f64>, seq: Vec<i64>) -> Vec<TimeColumn> {
 /// One component's values over buffered rows: the flat values, how many each row has, and
 /// whether the row has the component at all (a row without it leaves it null, so Rerun's
 /// latest-at keeps showing the earlier value).
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 struct Col<T> {
     values: Vec<T>,
     lengths: Vec<usize>,
@@ -237,11 +237,7 @@ impl GroupRows {
                 .with_radii(v)
                 .columns(n)
         })?);
-        let heading_colours = Col {
-            values: rows.colours.values.clone(),
-            lengths: rows.colours.lengths.clone(),
-            present: rows.colours.present.clone(),
-        };
+        let heading_colours = rows.colours.clone();
         robots.extend(rows.colours.columns(|v, n| {
             archetypes::Points2D::update_fields()
                 .with_colors(v)

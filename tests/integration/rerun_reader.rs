@@ -328,6 +328,19 @@ fn free_port() -> u16 {
     l.local_addr().unwrap().port()
 }
 
+/// `nekosim run SCENARIO --connect` to a local port, also saving to `rrd`.
+fn connected(scenario: &Path, port: u16, rrd: &Path) -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_nekosim"));
+    cmd.arg("run")
+        .arg(scenario)
+        .args(["--quiet", "--connect"])
+        .arg(format!("rerun+http://127.0.0.1:{port}/proxy"))
+        .arg("--rrd")
+        .arg(rrd)
+        .env_remove("RUST_LOG");
+    cmd
+}
+
 #[test]
 fn connect_streams_to_a_running_viewer_and_refuses_a_missing_one() {
     let py = python();
@@ -335,18 +348,8 @@ fn connect_streams_to_a_running_viewer_and_refuses_a_missing_one() {
     let scenario = root().join("examples/scenarios/collision.ron");
 
     // Nobody at the URL: one line, exit 2, before the run, and no file.
-    let port = free_port();
     let rrd = dir.path().join("nobody.rrd");
-    let out = Command::new(env!("CARGO_BIN_EXE_nekosim"))
-        .arg("run")
-        .arg(&scenario)
-        .args(["--quiet", "--connect"])
-        .arg(format!("rerun+http://127.0.0.1:{port}/proxy"))
-        .arg("--rrd")
-        .arg(&rrd)
-        .env_remove("RUST_LOG")
-        .output()
-        .unwrap();
+    let out = connected(&scenario, free_port(), &rrd).output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
@@ -378,13 +381,7 @@ fn connect_streams_to_a_running_viewer_and_refuses_a_missing_one() {
     });
     let rrd = dir.path().join("live.rrd");
     let trace = dir.path().join("live.jsonl");
-    let out = Command::new(env!("CARGO_BIN_EXE_nekosim"))
-        .arg("run")
-        .arg(&scenario)
-        .args(["--quiet", "--connect"])
-        .arg(format!("rerun+http://127.0.0.1:{port}/proxy"))
-        .arg("--rrd")
-        .arg(&rrd)
+    let out = connected(&scenario, port, &rrd)
         .arg("--trace")
         .arg(&trace)
         .output()

@@ -16,7 +16,17 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from verify_rrd import TOLERANCE, Rows, fail, group, load_trace, ns, rrd_verify
+from verify_rrd import (
+    TOLERANCE,
+    Rows,
+    check_crashes_grey,
+    check_sends,
+    fail,
+    group,
+    load_trace,
+    ns,
+    rrd_verify,
+)
 
 LANE = 10.0
 
@@ -56,21 +66,8 @@ def main() -> None:
         if pose is None or abs(pose[0] - LANE * p) > TOLERANCE or abs(pose[1]) > TOLERANCE:
             fail(f"process {p}: exact pose at step 0 is {pose}, expected its lane ({LANE * p}, 0)")
 
-    sends = [r for r in trace if r["kind"] == "send"]
-    for s in sends:
-        entity = f"/world/messages/{s['layer']}"
-        at_step = [cols for _, ev, _, cols in rows.by_entity.get(entity, []) if ev == s["seq"]]
-        if not at_step or len(at_step[-1].get("Arrows2D:vectors", [])) < len(s["to"]):
-            fail(f"send at step {s['seq']} on {s['layer']}: no arrow per receiver in {entity}")
-
-    grey = 0x808080FF
-    crashes = [r for r in trace if r["kind"] == "crash"]
-    for c in crashes:
-        name, j = group(c["robot"])
-        entity = f"/world/robots/{name}"
-        colour = rows.latest_at(entity, "Points2D:colors", ns(c["t"]))
-        if colour is None or colour[j] != grey:
-            fail(f"process {c['robot']} crashed at step {c['t']} but its colour is {colour}")
+    sends = check_sends(rows, trace)
+    crashes = check_crashes_grey(rows, trace)
 
     texts = [
         text

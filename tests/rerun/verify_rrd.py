@@ -155,6 +155,30 @@ def rrd_verify(rrd: Path) -> None:
         fail(f"rerun rrd verify: {verify.stdout}{verify.stderr}")
 
 
+def check_sends(rows: "Rows", trace: list[dict]) -> list[dict]:
+    """Every `send` record has a message-arrow row at its event, one arrow per receiver."""
+    sends = [r for r in trace if r["kind"] == "send"]
+    for s in sends:
+        entity = f"/world/messages/{s['layer']}"
+        at_event = [cols for _, ev, _, cols in rows.by_entity.get(entity, []) if ev == s["seq"]]
+        if not at_event or len(at_event[-1].get("Arrows2D:vectors", [])) < len(s["to"]):
+            fail(f"send #{s['seq']} on {s['layer']}: no arrow per receiver in {entity}")
+    return sends
+
+
+def check_crashes_grey(rows: "Rows", trace: list[dict]) -> list[dict]:
+    """Crashed robots are grey from their crash on."""
+    grey = 0x808080FF
+    crashes = [r for r in trace if r["kind"] == "crash"]
+    for c in crashes:
+        name, j = group(c["robot"])
+        entity = f"/world/robots/{name}"
+        colour = rows.latest_at(entity, "Points2D:colors", ns(c["t"]))
+        if colour is None or colour[j] != grey:
+            fail(f"robot {c['robot']} crashed at {c['t']} but its colour is {colour}")
+    return crashes
+
+
 def main() -> None:
     if len(sys.argv) != 4:
         fail(__doc__)
@@ -281,21 +305,8 @@ def main() -> None:
         if not got or max(abs(g - w) for g, w in zip(got[0], want)) > 2**-22 * max(1.0, *map(abs, want)):
             fail(f"collision #{c['seq']}: marker {got}, contact point {want}")
 
-    sends = [r for r in trace if r["kind"] == "send"]
-    for s in sends:
-        entity = f"/world/messages/{s['layer']}"
-        at_event = [cols for _, ev, _, cols in rows.by_entity.get(entity, []) if ev == s["seq"]]
-        if not at_event or len(at_event[-1].get("Arrows2D:vectors", [])) < len(s["to"]):
-            fail(f"send #{s['seq']} on {s['layer']}: no arrow per receiver in {entity}")
-
-    # Crashed robots are grey from their crash on.
-    grey = 0x808080FF
-    for c in (r for r in trace if r["kind"] == "crash"):
-        name, j = group(c["robot"])
-        entity = f"/world/robots/{name}"
-        colour = rows.latest_at(entity, "Points2D:colors", ns(c["t"]))
-        if colour is None or colour[j] != grey:
-            fail(f"robot {c['robot']} crashed at {c['t']} but its colour is {colour}")
+    sends = check_sends(rows, trace)
+    check_crashes_grey(rows, trace)
 
     # Push sensors: at each switch, the group's circles are those of its active sensors, in
     # robot order, around the robots.
