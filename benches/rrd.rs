@@ -1,7 +1,7 @@
 //! Cost of a Rerun recording (`cargo bench --bench rrd`): the same 1k-robot random-movement
 //! run (seed 5.1 at the seed's density, as `benches/engine.rs`) through the runner without a
-//! recording, with `--rrd` at event instants only (`framerate: 0`), and with `--rrd` at the
-//! default 25 animation frames per simulated second. Figures in docs/performance.md.
+//! recording, and with `--rrd` at event instants only (`framerate: 0`), at 5 and 10 animation
+//! frames per simulated second, and at the default 25. Figures in docs/performance.md.
 
 use std::path::Path;
 
@@ -12,6 +12,8 @@ use nekosim::scenario::{Built, Overrides, Registry, Source};
 
 const ROBOTS: usize = 1_000;
 const UNTIL: f64 = 100.0;
+/// Animation rates compared: event instants only, a few lower rates, and the default.
+const FRAMERATES: [f64; 4] = [0.0, 5.0, 10.0, 25.0];
 
 fn scenario(dir: &Path, framerate: f64) -> Built {
     // The seed's density: 100 robots of radius 5 per 800×800.
@@ -48,7 +50,7 @@ fn rrd(c: &mut Criterion) {
         "rrd: {ROBOTS} robots, {UNTIL} simulated s, {} events, {} collisions",
         s.events, s.collisions
     );
-    for fr in [0.0, 25.0] {
+    for fr in FRAMERATES {
         runner::run(scenario(dir.path(), fr), options(Some(&file))).unwrap();
         let size = std::fs::metadata(&file).unwrap().len();
         eprintln!("rrd: framerate {fr}: {:.1} MB", size as f64 / 1e6);
@@ -62,7 +64,7 @@ fn rrd(c: &mut Criterion) {
             BatchSize::PerIteration,
         )
     });
-    for fr in [0.0, 25.0] {
+    for fr in FRAMERATES {
         g.bench_function(format!("1000_robots_100s/rrd_framerate_{fr}"), |b| {
             b.iter_batched(
                 || scenario(dir.path(), fr),

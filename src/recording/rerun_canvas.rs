@@ -533,9 +533,9 @@ fn connect(
     }
 }
 
-/// The default layout: the 2D world beside the log above the metrics, as blueprint messages
-/// (header and chunks) and its activation, with fixed view and container ids and the next row
-/// and chunk ids, so that it is the same in every recording. (The SDK's `Blueprint` builder
+/// The default layout: the 2D world beside the log above a grid of metric plots, as blueprint
+/// messages (header and chunks) and its activation, with fixed view and container ids and the
+/// next row and chunk ids, so that it is the same in every recording. (The SDK's `Blueprint` builder
 /// makes the same layout with random ids and wall-clock times.)
 fn blueprint_msgs(
     recording_id: &str,
@@ -575,13 +575,21 @@ fn blueprint_msgs(
             &hex[20..32]
         )
     };
-    let (world, log, metrics, root, right) = (1, 2, 3, 10, 11);
+    // Views 1-2 and 3.. (one per metric, so that each plot has its own scale: events per
+    // second run to thousands while collisions count in tens), containers from 10.
+    let (world, log, root, right, plots) = (1, 2, 10, 11, 12);
+    let metric_views: Vec<(u8, &str)> = METRICS.iter().zip(3..).map(|(m, n)| (n, *m)).collect();
     let mut rows: Vec<(String, Box<dyn rerun::AsComponents>)> = Vec::new();
-    for (n, class, name, origin) in [
-        (world, "2D", "world", "/world"),
-        (log, "TextLog", "log", "/log"),
-        (metrics, "TimeSeries", "metrics", "/metrics"),
-    ] {
+    let views = [
+        (world, "2D", "world", "/world".to_owned()),
+        (log, "TextLog", "log", "/log".to_owned()),
+    ]
+    .into_iter()
+    .chain(metric_views.iter().map(|(n, entity)| {
+        let name = entity.rsplit('/').next().unwrap_or(entity);
+        (*n, "TimeSeries", name, format!("/{entity}"))
+    }));
+    for (n, class, name, origin) in views {
         rows.push((
             format!("{}/ViewContents", path("view", n)),
             Box::new(ViewContents::new([QueryExpression("$origin/**".into())])),
@@ -591,7 +599,7 @@ fn blueprint_msgs(
             Box::new(
                 ViewBlueprint::new(ViewClass(class.into()))
                     .with_display_name(name)
-                    .with_space_origin(origin),
+                    .with_space_origin(origin.as_str()),
             ),
         ));
     }
@@ -636,11 +644,16 @@ fn blueprint_msgs(
             .map(|(kind, n)| IncludedContent(format!("/{}", path(kind, *n)).into()))
             .collect()
     };
+    let plot_views: Vec<(&str, u8)> = metric_views.iter().map(|(n, _)| ("view", *n)).collect();
+    rows.push((
+        path("container", plots),
+        Box::new(ContainerBlueprint::new(ContainerKind::Grid).with_contents(contents(&plot_views))),
+    ));
     rows.push((
         path("container", right),
         Box::new(
             ContainerBlueprint::new(ContainerKind::Vertical)
-                .with_contents(contents(&[("view", log), ("view", metrics)])),
+                .with_contents(contents(&[("view", log), ("container", plots)])),
         ),
     ));
     rows.push((

@@ -23,7 +23,10 @@ Independently of nekosim's code, it checks that:
 - every view or proximity query is a circle of its range around the robot from its request
   to its reply; the last metric samples count the trace's collisions and deliveries;
 - every `send` record has a message-arrow row at its event with at least one arrow per receiver;
-- the text log has one line per trace record.
+- the text log has one line per trace record;
+- the default blueprint reaches, from its viewport, a 2D view of `/world`, a text log of `/log`
+  and one time-series view per metric, each over an entity the recording has, with the
+  trails' (last 10 s) and collision markers' (up to the cursor) visible time ranges.
 
 Prints one summary line and exits 0, or prints what differs and exits 1.
 """
@@ -179,6 +182,65 @@ def check_crashes_grey(rows: "Rows", trace: list[dict]) -> list[dict]:
     return crashes
 
 
+def check_blueprint(rrd: Path, rows: "Rows") -> int:
+    """The default blueprint lays out, from its viewport's root container, a 2D view of
+    `/world`, a text log of `/log` and one time-series view per metric entity of the recording;
+    every view shows an entity the recording has, and the trails and collision markers have
+    their visible time ranges. Returns the number of views."""
+    reader = rrx.RrdReader(str(rrd))
+    blueprints = reader.blueprints()
+    if len(blueprints) != 1:
+        fail(f"{len(blueprints)} blueprint stores, expected 1")
+    entities: dict[str, dict] = {}
+    for chunk in reader.store(store=blueprints[0]).stream():
+        batch = chunk.to_record_batch()
+        for n in batch.schema.names:
+            if ":" in n:
+                value = batch.column(n).to_pylist()[-1]
+                entities.setdefault(chunk.entity_path, {})[n] = value
+    def path_of(uuid_bytes: list[int], kind: str) -> str:
+        h = bytes(uuid_bytes).hex()
+        return f"/{kind}/{h[0:8]}-{h[8:12]}-{h[12:16]}-{h[16:20]}-{h[20:32]}"
+    root = entities.get("/viewport", {}).get("ViewportBlueprint:root_container")
+    if not root:
+        fail("the blueprint has no viewport root container")
+    views = []
+    todo = [path_of(root[0], "container")]
+    while todo:
+        node = todo.pop()
+        cols = entities.get(node)
+        if cols is None:
+            fail(f"blueprint: {node} is referenced but not defined")
+        if "ContainerBlueprint:contents" in cols:
+            todo.extend(cols["ContainerBlueprint:contents"])
+        elif "ViewBlueprint:class_identifier" in cols:
+            views.append(
+                (cols["ViewBlueprint:class_identifier"][0], cols["ViewBlueprint:space_origin"][0], node)
+            )
+        else:
+            fail(f"blueprint: {node} is neither a container nor a view: {cols}")
+    metric_entities = sorted(e for e in rows.by_entity if e.startswith("/metrics/"))
+    want = sorted([("2D", "/world"), ("TextLog", "/log")] + [("TimeSeries", e) for e in metric_entities])
+    got = sorted((c, o) for c, o, _ in views)
+    if got != want or len(metric_entities) != 4:
+        fail(f"blueprint views {got}, expected {want}")
+    for cls, origin, node in views:
+        if not any(e == origin or e.startswith(origin + "/") for e in rows.by_entity):
+            fail(f"blueprint: the {cls} view of {origin} shows no entity of the recording")
+        if entities.get(f"{node}/ViewContents", {}).get("ViewContents:query") != ["$origin/**"]:
+            fail(f"blueprint: the {cls} view of {origin} does not show its origin's subtree")
+    world = next(node for cls, _, node in views if cls == "2D")
+    ranges = {
+        e: entities.get(f"{world}/ViewContents/overrides/world/{e}/visualizers", {}).get("VisibleTimeRanges:ranges")
+        for e in ("paths", "collisions")
+    }
+    if ranges["paths"] != [{"timeline": "sim_time", "range": {"start": -10 * 10**9, "end": 0}}]:
+        fail(f"blueprint: trails are visible over {ranges['paths']}, expected the last 10 s")
+    if ranges["collisions"] != [{"timeline": "sim_time", "range": {"start": None, "end": 0}}]:
+        fail(f"blueprint: collision markers are visible over {ranges['collisions']}, expected up to the cursor")
+    return len(views)
+
+
 def main() -> None:
     if len(sys.argv) != 4:
         fail(__doc__)
@@ -192,6 +254,7 @@ def main() -> None:
             fail(f"timeline {timeline} missing; have {sorted(rows.timelines)}")
     if "/world/robots/0-15" not in rows.by_entity:
         fail(f"no robots entity; have {sorted(rows.by_entity)}")
+    views = check_blueprint(rrd, rows)
 
     # Every kinematic record has its exact pose at its event, and nothing else does.
     paths = rebuild(trace)
@@ -393,7 +456,7 @@ def main() -> None:
         f"{checked} latest-at positions at {len(instants)} instants, "
         f"{moves} legs, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, {queries} queries, "
-        f"{log_rows} log lines"
+        f"{log_rows} log lines, {views} blueprint views"
     )
 
 
