@@ -7,7 +7,7 @@ Checks that `rerun rrd verify` accepts the file; it has the `sim_time` and `even
 process p stands on its lane, (10 p, 0), at every step; every `send` of the trace has an arrow
 per receiver at its step; a crashed process is grey from its crash on; the text log has one
 line per lane's birth and per trace record plus the verdict naming PROPERTY, at the start and
-at the end.
+at the end; the default blueprint is the layout of `nekosim run` recordings (verify_rrd.py).
 Prints one summary line and exits 0, or prints what differs and exits 1.
 """
 
@@ -19,6 +19,7 @@ from pathlib import Path
 from verify_rrd import (
     TOLERANCE,
     Rows,
+    check_blueprint,
     check_crashes_grey,
     check_sends,
     fail,
@@ -68,6 +69,7 @@ def main() -> None:
 
     sends = check_sends(rows, trace)
     crashes = check_crashes_grey(rows, trace)
+    views = check_blueprint(rrd, rows)
 
     texts = [
         text
@@ -83,7 +85,8 @@ def main() -> None:
 
     print(
         f"verify_check_rrd: ok: {rrd.name}: {processes} lanes over {steps} steps, "
-        f"{len(sends)} sends with arrows, {len(crashes)} crashes grey, {len(texts)} log lines"
+        f"{len(sends)} sends with arrows, {len(crashes)} crashes grey, {len(texts)} log lines, "
+        f"{views} blueprint views"
     )
 
 
