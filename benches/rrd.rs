@@ -10,6 +10,10 @@ use nekosim::recording::Target;
 use nekosim::runner::{self, RunOptions};
 use nekosim::scenario::{Built, Overrides, Registry, Source};
 
+// The allocator of the `nekosim` command (src/main.rs), so the bench measures what it runs.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 const ROBOTS: usize = 1_000;
 const UNTIL: f64 = 100.0;
 /// Animation rates compared: event instants only, a few lower rates, and the default.

@@ -3,6 +3,9 @@
 //! Exit codes: 0 success, 2 invalid input (the message names FILE:LINE:COL where it can),
 //! 1 internal error, or for `check` a counterexample found.
 
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
