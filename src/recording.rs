@@ -30,7 +30,7 @@
 //! are sent when they reach a size, never on a timer, so the .rrd file's chunks and ids
 //! ([`rrd_file`]) are a function of the run too.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 
 use nekosim_actors::world::geometry::{normalize_deg, Point, Vector};
 use nekosim_actors::world::motion::Kinematics;
@@ -111,6 +111,10 @@ pub const DEFAULT_FRAMERATE: f64 = 25.0;
 /// blueprint's visible time range of `world/paths`).
 pub const TRAIL_SECONDS: f64 = 10.0;
 
+/// Window of the `events_per_second` metric [simulated s]: one second, so the rate does not
+/// depend on the sampling period (a frame period is too short to count events meaningfully).
+pub const EVENT_RATE_WINDOW: f64 = 1.0;
+
 /// When a drawing holds: a simulated instant [s], and the trace `seq` of the record that caused
 /// it (`None` for animation frames and metric samples, which lie between events).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -135,7 +139,7 @@ pub struct Metrics {
     pub in_flight: u64,
     /// Broadcast deliveries to algorithms so far.
     pub deliveries: u64,
-    /// Records per simulated second over the last sampling period.
+    /// Records per simulated second over the last [`EVENT_RATE_WINDOW`] (a sliding window).
     pub events_per_second: f64,
 }
 
@@ -298,7 +302,8 @@ pub struct Recorder<C: Canvas> {
     period: f64,
     next_sample: u64,
     metrics: Metrics,
-    events_in_period: u64,
+    /// Times of the records in the last [`EVENT_RATE_WINDOW`] before the next sample.
+    recent: VecDeque<f64>,
     /// Copies in flight, per layer, in send order.
     flights: BTreeMap<String, Vec<(FlightKey, Flight)>>,
     last_t: f64,
@@ -332,7 +337,7 @@ impl<C: Canvas> Recorder<C> {
             },
             next_sample: 1,
             metrics: Metrics::default(),
-            events_in_period: 0,
+            recent: VecDeque::new(),
             flights: BTreeMap::new(),
             last_t: 0.0,
             poses: Vec::new(),
@@ -381,10 +386,21 @@ impl<C: Canvas> Recorder<C> {
     }
 
     fn sample(&mut self, t: f64) {
-        self.metrics.events_per_second = self.events_in_period as f64 / self.period;
-        self.events_in_period = 0;
+        self.metrics.events_per_second = self.event_rate(t);
         self.canvas.metrics(Stamp { t, seq: None }, &self.metrics);
         self.next_sample += 1;
+    }
+
+    /// Records per simulated second in the window `(t - EVENT_RATE_WINDOW, t]`.
+    fn event_rate(&mut self, t: f64) -> f64 {
+        while self
+            .recent
+            .front()
+            .is_some_and(|&r| r <= t - EVENT_RATE_WINDOW)
+        {
+            self.recent.pop_front();
+        }
+        self.recent.len() as f64 / EVENT_RATE_WINDOW
     }
 
     /// Draws the animation up to `end` (the run's end time, frames at `end` included) and a
@@ -398,7 +414,7 @@ impl<C: Canvas> Recorder<C> {
         self.advance(end + f64::EPSILON * end.abs().max(1.0));
         let last_sample = (self.next_sample - 1) as f64 * self.period;
         if last_sample < end || self.next_sample == 1 {
-            self.metrics.events_per_second = self.events_in_period as f64 / self.period;
+            self.metrics.events_per_second = self.event_rate(end);
             self.canvas
                 .metrics(Stamp { t: end, seq: None }, &self.metrics);
         }
@@ -442,7 +458,7 @@ impl<C: Canvas> Recorder<C> {
     pub fn record(&mut self, rec: &Record) {
         self.advance(rec.t);
         self.last_t = rec.t;
-        self.events_in_period += 1;
+        self.recent.push_back(rec.t);
         let at = Stamp {
             t: rec.t,
             seq: Some(rec.seq),
@@ -781,7 +797,8 @@ mod tests {
                 // Frames at 0, 0.5 and 1 s: x = 1 + 2 t; metrics every frame period.
                 "0 poses g0 [1 0 0]",
                 "0.5 poses g0 [2 0 0]",
-                "0.5 metrics c0 f0 d0 e4",
+                // Events per second over the last second: 2 records at 0 s, then 1 at 1.5 s.
+                "0.5 metrics c0 f0 d0 e2",
                 "1 poses g0 [3 0 0]",
                 "1 metrics c0 f0 d0 e0",
                 "1.5#2 pose p0 4 0 0",
@@ -789,8 +806,8 @@ mod tests {
                 "dest p0 None",
                 "1.5#2 poses g0 [4 0 0]",
                 // At rest from 1.5 s on: no more frames, only metric samples.
-                "1.5 metrics c0 f0 d0 e2",
-                "2 metrics c0 f0 d0 e0",
+                "1.5 metrics c0 f0 d0 e1",
+                "2 metrics c0 f0 d0 e1",
             ]
         );
     }

@@ -21,7 +21,8 @@ Independently of nekosim's code, it checks that:
   `collision` records of the trace;
 - a crashed robot is grey from its crash on;
 - every view or proximity query is a circle of its range around the robot from its request
-  to its reply; the last metric samples count the trace's collisions and deliveries;
+  to its reply; the last metric samples count the trace's collisions and deliveries, and every
+  `events_per_second` sample the trace's records in the simulated second before it;
 - every `send` record has a message-arrow row at its event with at least one arrow per receiver;
 - the text log has one line per trace record;
 - the default blueprint reaches, from its viewport, a 2D view of `/world`, a text log of `/log`
@@ -446,6 +447,26 @@ def main() -> None:
         if last != [float(want)]:
             fail(f"{entity} ends at {last}, the trace has {want}")
 
+    # Events per second: at each sample, the trace's records in the last simulated second.
+    import bisect
+
+    times = sorted(r["t"] for r in trace)
+    rate_samples = 0
+    for sim, _, _, cols in rows.by_entity.get("/metrics/events_per_second", []):
+        if "Scalars:scalars" not in cols:
+            continue
+        t = sim / 1e9
+        # Skip the rare sample whose window starts within a nanosecond of a record.
+        lo = bisect.bisect_right(times, t - 1.0 - 1e-9)
+        if lo < len(times) and times[lo] <= t - 1.0 + 1e-9:
+            continue
+        want = bisect.bisect_right(times, t + 1e-9) - bisect.bisect_right(times, t - 1.0)
+        if cols["Scalars:scalars"] != [float(want)]:
+            fail(f"events_per_second at {t}: {cols['Scalars:scalars']}, the trace has {want} records in the last second")
+        rate_samples += 1
+    if rate_samples == 0:
+        fail("no events_per_second sample checked")
+
     log_rows = sum(1 for _, ev, _, cols in rows.by_entity.get("/log", []) if "TextLog:text" in cols)
     if log_rows != len(trace):
         fail(f"{log_rows} log lines, the trace has {len(trace)} records")
@@ -456,7 +477,7 @@ def main() -> None:
         f"{checked} latest-at positions at {len(instants)} instants, "
         f"{moves} legs, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, {queries} queries, "
-        f"{log_rows} log lines, {views} blueprint views"
+        f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views"
     )
 
 
