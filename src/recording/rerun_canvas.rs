@@ -132,6 +132,9 @@ struct Col<T> {
     values: Vec<T>,
     lengths: Vec<usize>,
     present: Vec<bool>,
+    /// Rows without the component before its first value, not yet in `lengths` and `present`
+    /// (most components are on few rows, and many buffers have none: they cost nothing then).
+    leading: usize,
 }
 
 impl<T> Default for Col<T> {
@@ -140,12 +143,18 @@ impl<T> Default for Col<T> {
             values: Vec::new(),
             lengths: Vec::new(),
             present: Vec::new(),
+            leading: 0,
         }
     }
 }
 
 impl<T> Col<T> {
     fn push(&mut self, values: impl IntoIterator<Item = T>) {
+        if self.leading > 0 {
+            self.lengths.resize(self.leading, 0);
+            self.present.resize(self.leading, false);
+            self.leading = 0;
+        }
         let before = self.values.len();
         self.values.extend(values);
         self.lengths.push(self.values.len() - before);
@@ -153,12 +162,17 @@ impl<T> Col<T> {
     }
 
     fn skip(&mut self) {
-        self.lengths.push(0);
-        self.present.push(false);
+        if self.present.is_empty() {
+            self.leading += 1;
+        } else {
+            self.lengths.push(0);
+            self.present.push(false);
+        }
     }
 
     fn any(&self) -> bool {
-        self.present.contains(&true)
+        // Rows are listed from the first value on.
+        !self.present.is_empty()
     }
 
     /// The columns `build` makes of the values, null on the rows without them.
