@@ -214,7 +214,7 @@ fn write_recording(
     };
     let title = format!("check {name}");
     let id = format!("{title} {:?} {} steps", v.name, steps.len());
-    let canvas = RerunCanvas::start(&title, &id, &target)?;
+    let canvas = RerunCanvas::start(&title, &id, &target, n)?;
     let mut rec = Recorder::new(canvas, &size, 0.0);
     for p in 0..n as u32 {
         rec.record(&Record {

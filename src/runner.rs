@@ -266,7 +266,12 @@ fn start_recording(built: &Built, target: &Target) -> Result<Option<Recorder>, R
         built.until,
         built.robots.len()
     );
-    let canvas = crate::recording::rerun_canvas::RerunCanvas::start(&built.name, &id, target)?;
+    let canvas = crate::recording::rerun_canvas::RerunCanvas::start(
+        &built.name,
+        &id,
+        target,
+        built.robots.len(),
+    )?;
     Ok(Some(crate::recording::Recorder::new(
         canvas,
         &built.world.size,

@@ -48,6 +48,15 @@ pub const FLUSH_INSTANCES: usize = 1 << 15;
 /// best, 2,048 and 4,096 slightly worse.
 pub const EVENT_FLUSH_INSTANCES: usize = 1536;
 
+/// Runs with more robots than this draw their markers without labels (a label per robot would
+/// cover a world of a thousand robots entirely).
+pub const LABELLED_ROBOTS: usize = 100;
+
+/// A static `show_labels: false` for a Points2D entity.
+fn hidden_labels() -> archetypes::Points2D {
+    archetypes::Points2D::update_fields().with_show_labels(false)
+}
+
 /// Name of the group of robot `robot` under an entity family: `world/robots/0-31`.
 pub fn group_entity(family: &str, robot: RobotId) -> String {
     let first = robot - robot % ROBOT_GROUP;
@@ -487,6 +496,8 @@ pub struct RerunCanvas {
     /// The .rrd being written, its temporary name and its target.
     file: Option<(RrdFile, PathBuf, PathBuf)>,
     error: Option<RecordingError>,
+    /// Whether robot and collision markers show their labels (see [`RerunCanvas::start`]).
+    labels: bool,
 }
 
 impl std::fmt::Debug for RerunCanvas {
@@ -724,7 +735,16 @@ impl RerunCanvas {
     ///
     /// The recording's id is derived from `id` (what makes the run: the scenario and its
     /// seed), so the same run gives the same recording.
-    pub fn start(name: &str, id: &str, target: &Target) -> Result<Self, RecordingError> {
+    ///
+    /// `robots` is how many robots the run has: their markers and the collision markers are
+    /// labelled for at most [`LABELLED_ROBOTS`] (beyond, labels would hide the world; hovering
+    /// a marker still names it).
+    pub fn start(
+        name: &str,
+        id: &str,
+        target: &Target,
+        robots: usize,
+    ) -> Result<Self, RecordingError> {
         let recording_id = format!("nekosim-{:016x}", fnv1a(id.as_bytes()));
         let store = StoreId::recording(APP, recording_id.clone());
         let mut ids = Ids::default();
@@ -785,6 +805,7 @@ impl RerunCanvas {
             url: viewer.as_ref().map(|v| v.0.clone()),
             file,
             error: None,
+            labels: robots <= LABELLED_ROBOTS,
         };
         // From here on, dropping the canvas on an error finishes and places the file.
         if let Some((_, sink)) = viewer {
@@ -800,13 +821,15 @@ impl RerunCanvas {
             None,
             &rerun::RecordingInfo::new().with_name(name),
         );
-        canvas.row(
-            "world/collisions",
-            None,
-            &archetypes::Points2D::update_fields()
-                .with_colors([[255, 40, 40]])
-                .with_radii([2.0]),
-        );
+        let collisions = archetypes::Points2D::update_fields()
+            .with_colors([[255, 40, 40]])
+            .with_radii([2.0]);
+        let collisions = if canvas.labels {
+            collisions
+        } else {
+            collisions.with_show_labels(false)
+        };
+        canvas.row("world/collisions", None, &collisions);
         Ok(canvas)
     }
 
@@ -993,7 +1016,14 @@ impl RerunCanvas {
     fn group(&mut self, robot: RobotId) -> (&mut Group, usize) {
         let g = (robot / ROBOT_GROUP) as usize;
         if self.groups.len() <= g {
+            let new = self.groups.len()..=g;
             self.groups.resize_with(g + 1, Group::default);
+            if !self.labels {
+                for n in new {
+                    let entity = group_entity("robots", n as RobotId * ROBOT_GROUP);
+                    self.row(&entity, None, &hidden_labels());
+                }
+            }
         }
         let i = (robot % ROBOT_GROUP) as usize;
         let group = &mut self.groups[g];

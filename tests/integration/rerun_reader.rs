@@ -101,6 +101,7 @@ fn recordings_read_back_with_the_official_reader_match_the_trace() {
             .arg(&trace)
             .arg("25"));
         assert!(out.contains("verify_rrd: ok"), "{scenario}: {out}");
+        assert!(out.contains("labels shown"), "{scenario}: {out}");
         // The checks had something to check.
         if trace_text.contains("\"kind\":\"collision\"") {
             assert!(!out.contains(" 0 collision markers"), "{scenario}: {out}");
@@ -110,6 +111,31 @@ fn recordings_read_back_with_the_official_reader_match_the_trace() {
         }
         eprintln!("{scenario}: {}", out.trim());
     }
+}
+
+/// Beyond 100 robots a label per robot would cover the world: robot and collision markers are
+/// drawn without labels, and the recording still matches the trace.
+#[test]
+fn a_crowd_is_drawn_without_labels() {
+    let py = python();
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("crowd.ron");
+    // The seed's density (100 robots of radius 5 per 800 x 800), 200 robots.
+    std::fs::write(
+        &scenario,
+        "Scenario(name: \"crowd\", seed: 7, until: 8.0,
+           world: (size: Bounded(width: 1131.0, height: 1131.0), origin: (0.0, 0.0)),
+           robots: [Group(count: 200, radius: 5.0, born: Random, algorithm: RandomMovement())])",
+    )
+    .unwrap();
+    let (rrd, trace) = record(scenario.to_str().unwrap(), &[], dir.path());
+    let out = run(Command::new(&py)
+        .arg(root().join("tests/rerun/verify_rrd.py"))
+        .arg(&rrd)
+        .arg(&trace)
+        .arg("25"));
+    assert!(out.contains("verify_rrd: ok"), "{out}");
+    assert!(out.contains("labels hidden"), "{out}");
 }
 
 #[test]

@@ -23,6 +23,8 @@ Independently of nekosim's code, it checks that:
 - every view or proximity query is a circle of its range around the robot from its request
   to its reply; the last metric samples count the trace's collisions and deliveries, and every
   `events_per_second` sample the trace's records in the simulated second before it;
+- with more than 100 robots, robot and collision markers have a static `show_labels: false`,
+  and with 100 or fewer none has;
 - every `send` record has a message-arrow row at its event with at least one arrow per receiver;
 - the text log has one line per trace record;
 - the default blueprint reaches, from its viewport, a 2D view of `/world`, a text log of `/log`
@@ -47,6 +49,8 @@ import rerun.experimental as rrx
 
 TOLERANCE = 1e-6
 GROUP = 16
+# Runs with more robots than this have no marker labels (src/recording/rerun_canvas.rs).
+LABELLED_ROBOTS = 100
 
 
 def group(robot: int) -> tuple[str, int]:
@@ -104,9 +108,15 @@ class Rows:
             fail("no recording store in the file")
         self.timelines: set[str] = set()
         self.by_entity: dict[str, list] = defaultdict(list)
+        # Static components: entity -> component -> value.
+        self.static: dict[str, dict] = defaultdict(dict)
         for chunk in reader.store().stream():
             if chunk.is_static:
                 self.by_entity[chunk.entity_path].append((None, None, b"", {}))
+                batch = chunk.to_record_batch()
+                for n in batch.schema.names:
+                    if ":" in n:
+                        self.static[chunk.entity_path][n] = batch.column(n).to_pylist()[-1]
                 continue
             self.timelines.update(chunk.timeline_names)
             batch: pa.RecordBatch = chunk.to_record_batch()
@@ -447,6 +457,16 @@ def main() -> None:
         if last != [float(want)]:
             fail(f"{entity} ends at {last}, the trace has {want}")
 
+    # Labels: drawn for runs of at most LABELLED_ROBOTS robots; beyond, every robot group and
+    # the collision markers have a static `show_labels: false`.
+    robots = sum(1 for r in trace if r["kind"] == "spawn")
+    labelled = [e for e in rows.by_entity if e.startswith("/world/robots/") or e == "/world/collisions"]
+    hidden = [e for e in labelled if rows.static.get(e, {}).get("Points2D:show_labels") == [False]]
+    if robots > LABELLED_ROBOTS and sorted(hidden) != sorted(labelled):
+        fail(f"{robots} robots: labels shown on {sorted(set(labelled) - set(hidden))}")
+    if robots <= LABELLED_ROBOTS and hidden:
+        fail(f"{robots} robots: labels hidden on {hidden}")
+
     # Events per second: at each sample, the trace's records in the last simulated second.
     import bisect
 
@@ -477,7 +497,8 @@ def main() -> None:
         f"{checked} latest-at positions at {len(instants)} instants, "
         f"{moves} legs, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, {queries} queries, "
-        f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views"
+        f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views, "
+        f"labels {'hidden' if hidden else 'shown'}"
     )
 
 
