@@ -39,7 +39,8 @@ pub const FLUSH_ROWS: usize = 4096;
 /// Robot instances (rows × robots of the group) buffered per group entity before they are
 /// sent as one chunk. Measured at 25 frames per simulated second with 1,000 robots
 /// (docs/performance.md): 8 k instances 351 ms, 16 k 299 ms, 32 k 292 ms; fewer, larger chunks
-/// save Rerun's per-chunk cost, but a group that never fills is all encoded after the run.
+/// save Rerun's per-chunk cost. A group's frames are also sent whenever its event rows are
+/// (see [`EVENT_FLUSH_INSTANCES`]), so they are encoded during the run.
 pub const FLUSH_INSTANCES: usize = 1 << 15;
 
 /// Robot instances of event rows buffered per group before they are sent: groups fill with
