@@ -67,12 +67,10 @@ pub enum RecordingError {
     /// This build has no Rerun support (cargo feature `rerun` off): the user's input.
     #[error("this nekosim was built without Rerun support (cargo feature `rerun`); --rrd and --connect are unavailable")]
     Unsupported,
-    /// The finished .rrd file could not be moved into place.
-    #[error("{path}: cannot write the recording: {source}")]
-    Write {
-        path: String,
-        source: std::io::Error,
-    },
+    /// The finished .rrd file could not be moved into place. (The cause is in the message, not
+    /// a `source`, so that error chains do not print it twice.)
+    #[error("{path}: cannot write the recording: {error}")]
+    Write { path: String, error: std::io::Error },
 }
 
 impl RecordingError {
@@ -106,6 +104,11 @@ impl Target {
 
 /// Animation frames per simulated second when a scenario does not say.
 pub const DEFAULT_FRAMERATE: f64 = 25.0;
+
+/// The highest animation rate a scenario may ask for [frames per simulated second]: a frame is
+/// a row per moving robot group, so a rate far beyond what a viewer can show would only make
+/// the run crawl (10^9 frames per second never ended a 20 s run).
+pub const MAX_FRAMERATE: f64 = 1000.0;
 
 /// How long a leg of a robot's path stays drawn behind it [simulated s] (the default
 /// blueprint's visible time range of `world/paths`).

@@ -829,12 +829,13 @@ impl Source {
         let framerate = match &s.animation {
             None => crate::recording::DEFAULT_FRAMERATE,
             Some(a) => {
-                if !a.framerate.is_finite() || a.framerate < 0.0 {
+                if !(0.0..=crate::recording::MAX_FRAMERATE).contains(&a.framerate) {
                     return Err(self.err(
                         "animation.framerate",
                         format!(
-                            "animation framerate is {}; expected a finite number of frames per simulated second >= 0",
-                            a.framerate
+                            "animation framerate is {}; expected frames per simulated second from 0 to {}",
+                            a.framerate,
+                            crate::recording::MAX_FRAMERATE
                         ),
                     ));
                 }

@@ -1057,13 +1057,13 @@ impl RerunCanvas {
             if let Err(e) = rrd.finish() {
                 self.error.get_or_insert(RecordingError::Write {
                     path: target.display().to_string(),
-                    source: std::io::Error::other(e),
+                    error: std::io::Error::other(e),
                 });
             }
-            if let Err(source) = std::fs::rename(&temp, &target) {
+            if let Err(error) = std::fs::rename(&temp, &target) {
                 self.error.get_or_insert(RecordingError::Write {
                     path: target.display().to_string(),
-                    source,
+                    error,
                 });
             }
         }
@@ -1085,6 +1085,12 @@ fn temp_path(target: &Path) -> std::io::Result<PathBuf> {
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
+    if target.is_dir() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "is a directory; expected a file name such as run.rrd",
+        ));
+    }
     let name = target.file_name().ok_or_else(|| {
         std::io::Error::new(
             std::io::ErrorKind::InvalidInput,

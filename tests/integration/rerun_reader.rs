@@ -367,6 +367,32 @@ fn connected(scenario: &Path, port: u16, rrd: &Path) -> Command {
     cmd
 }
 
+/// `--rrd` naming a directory is refused before the run: exit 2, one line, nothing written.
+#[test]
+fn a_directory_is_not_a_recording_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .arg("run")
+        .arg(root().join("examples/scenarios/collision.ron"))
+        .arg("--rrd")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("cannot create the recording: is a directory"),
+        "{err}"
+    );
+    assert!(
+        o.stdout.is_empty(),
+        "the run started: {}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
 #[test]
 fn connect_streams_to_a_running_viewer_and_refuses_a_missing_one() {
     let py = python();
