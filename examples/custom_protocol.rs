@@ -154,8 +154,7 @@ fn run(scenario: &str) -> Result<(String, String), String> {
         RunOptions {
             log: Some(log.clone()),
             trace: Some(trace.clone()),
-            progress: None,
-            recording: Default::default(),
+            ..RunOptions::default()
         },
     )
     .map_err(|e| e.to_string())?;

@@ -1,7 +1,8 @@
 //! The `nekosim` command: run or validate a scenario file, or model-check a protocol stack.
 //!
 //! Exit codes: 0 success, 2 invalid input (the message names FILE:LINE:COL where it can),
-//! 1 internal error, or for `check` a counterexample found.
+//! 1 internal error, or for `check` a counterexample found; 130 a run ended by Ctrl-C or SIGTERM
+//! (its outputs hold the run up to the virtual time reached).
 
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
@@ -9,6 +10,8 @@ static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use clap::{Parser, Subcommand};
 use nekosim::check::{self, CheckArgs};
@@ -159,6 +162,9 @@ fn main() -> ExitCode {
 }
 
 /// Runs a command; `Ok` carries the exit code (a check's counterexample is 1).
+/// Exit code of a run ended by Ctrl-C or SIGTERM (128 + SIGINT, as shells report it).
+const INTERRUPTED: i32 = 130;
+
 fn execute(command: Command) -> Result<u8, Failure> {
     let registry = Registry::new();
     match command {
@@ -263,6 +269,18 @@ fn execute(command: Command) -> Result<u8, Failure> {
                     b.set_message(format!("{t:.1} s"));
                 }) as Box<dyn FnMut(f64)>
             });
+            // Ctrl-C (or SIGTERM) ends the run at the virtual time reached and writes the
+            // outputs for the run up to there; a second one ends the process at once.
+            let stop = Arc::new(AtomicBool::new(false));
+            {
+                let stop = stop.clone();
+                // Without a handler (e.g. one already set), an interrupt kills the process.
+                let _ = ctrlc::set_handler(move || {
+                    if stop.swap(true, Ordering::Relaxed) {
+                        std::process::exit(INTERRUPTED);
+                    }
+                });
+            }
             let result = runner::run(
                 built,
                 RunOptions {
@@ -270,6 +288,7 @@ fn execute(command: Command) -> Result<u8, Failure> {
                     trace,
                     recording,
                     progress,
+                    stop: Some(stop),
                 },
             );
             if let Some(b) = bar {
@@ -302,6 +321,13 @@ fn execute(command: Command) -> Result<u8, Failure> {
                         l.deliveries, l.mean, l.p50, l.p99, l.throughput
                     );
                 }
+            }
+            if summary.interrupted {
+                eprintln!(
+                    "interrupted at simulated time {:.3} s: the outputs hold the run up to there",
+                    summary.end_time
+                );
+                return Ok(INTERRUPTED as u8);
             }
             Ok(0)
         }

@@ -27,6 +27,9 @@ pub struct RunOptions {
     pub recording: Target,
     /// Called with the virtual time now and then.
     pub progress: Option<Box<dyn FnMut(f64)>>,
+    /// Set (e.g. on Ctrl-C) to end the run at the virtual time reached; the outputs are then
+    /// written as for a run that ended there, and [`Summary::interrupted`] says so.
+    pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 impl std::fmt::Debug for RunOptions {
@@ -35,6 +38,7 @@ impl std::fmt::Debug for RunOptions {
             .field("log", &self.log)
             .field("trace", &self.trace)
             .field("recording", &self.recording)
+            .field("stop", &self.stop)
             .finish()
     }
 }
@@ -55,6 +59,8 @@ pub struct Summary {
     pub wall_seconds: f64,
     /// Delivery latency of messages broadcast by the algorithms, if any were delivered.
     pub latency: Option<Latency>,
+    /// Whether the run was stopped before its end ([`RunOptions::stop`]).
+    pub interrupted: bool,
 }
 
 /// Delivery latency and throughput of broadcasts (Neko's latency test), in simulated time.
@@ -209,6 +215,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
             keep: false,
             sink: Some(sink),
             progress: opts.progress,
+            stop: opts.stop,
         },
         comms: built.comms,
     });
@@ -243,6 +250,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         end_time: out.stats.end_time,
         wall_seconds,
         latency: meter.finish(),
+        interrupted: out.stats.interrupted,
     })
 }
 

@@ -76,6 +76,8 @@ pub struct RunStats {
     pub collisions: u64,
     /// Virtual time at the end [s].
     pub end_time: f64,
+    /// Whether the run was stopped from outside before `until` ([`Observers::stop`]).
+    pub interrupted: bool,
 }
 
 /// What a run hands back.
@@ -119,6 +121,10 @@ pub struct Observers {
     pub sink: Option<Sink>,
     /// Called with the virtual time every [`PROGRESS_EVERY`] events.
     pub progress: Option<Box<dyn FnMut(f64)>>,
+    /// Set from outside the simulation (the user's Ctrl-C) to end the run before its next
+    /// event, at the virtual time reached, as if `until` had come then: the run finishes
+    /// normally and [`RunStats::interrupted`] says so.
+    pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 impl std::fmt::Debug for Observers {
@@ -127,6 +133,7 @@ impl std::fmt::Debug for Observers {
             .field("keep", &self.keep)
             .field("sink", &self.sink.is_some())
             .field("progress", &self.progress.is_some())
+            .field("stop", &self.stop)
             .finish()
     }
 }
@@ -261,7 +268,7 @@ impl Scheduler {
 
     fn finish(&mut self, ctx: &mut Context<Self>) {
         let mut output = std::mem::take(&mut self.output);
-        output.stats.end_time = if self.queue.is_empty() {
+        output.stats.end_time = if self.queue.is_empty() || output.stats.interrupted {
             self.now
         } else {
             self.until.max(self.now)
@@ -297,6 +304,11 @@ impl Handler<Step> for Scheduler {
     type Result = ();
 
     fn handle(&mut self, _: Step, ctx: &mut Context<Self>) {
+        let stop = self.observers.stop.as_ref();
+        if stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed)) {
+            self.output.stats.interrupted = true;
+            return self.finish(ctx);
+        }
         match self.queue.peek_time() {
             Some(t) if t <= self.until => {}
             _ => return self.finish(ctx),

@@ -2,7 +2,10 @@
 //! number of arbiters does not matter.
 
 use nekosim::algorithm::{Gathering, RandomMovement};
-use nekosim::scheduler::RunOutput;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use nekosim::scheduler::{Observers, RunOutput};
 use nekosim::world::observation::Record;
 use nekosim::world::virtual_world::RobotSpec;
 use nekosim::{Algorithm, SimConfig};
@@ -10,6 +13,10 @@ use nekosim::{Algorithm, SimConfig};
 use crate::common::*;
 
 fn run_with(seed: u64, arbiters: usize) -> RunOutput {
+    run_observed(seed, arbiters, Observers::default())
+}
+
+fn run_observed(seed: u64, arbiters: usize, observers: Observers) -> RunOutput {
     let mut robots: Vec<(RobotSpec, Box<dyn Algorithm>)> = Vec::new();
     for i in 0..24 {
         let (x, y) = (20.0 + 25.0 * (i % 6) as f64, 20.0 + 30.0 * (i / 6) as f64);
@@ -30,7 +37,7 @@ fn run_with(seed: u64, arbiters: usize) -> RunOutput {
         robots,
         arbiters,
         record: true,
-        observers: Default::default(),
+        observers,
         comms: Default::default(),
     })
     .expect("run")
@@ -75,4 +82,33 @@ fn time_never_goes_backwards_and_seq_strictly_increases() {
         );
         assert!(w[1].seq > w[0].seq);
     }
+}
+
+/// A run stopped from outside (the user's Ctrl-C) is the beginning of the full run: the same
+/// records up to the stop, flagged as interrupted, ending at the virtual time reached.
+#[test]
+fn a_stopped_run_is_a_prefix_of_the_full_run() {
+    let full = run_with(7, 1);
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    let cut = run_observed(
+        7,
+        1,
+        Observers {
+            // Raised while the 300th record's event is processed.
+            sink: Some(Box::new(move |r: &Record| {
+                if r.seq == 300 {
+                    flag.store(true, Ordering::Relaxed);
+                }
+            })),
+            stop: Some(stop),
+            ..Observers::default()
+        },
+    );
+    assert!(cut.stats.interrupted && !full.stats.interrupted);
+    assert!(cut.records.len() > 300 && cut.records.len() < full.records.len());
+    assert_eq!(text(&cut.records), text(&full.records[..cut.records.len()]));
+    let last = cut.records.last().unwrap();
+    assert_eq!(cut.stats.end_time, last.t);
+    assert!(cut.stats.end_time < full.stats.end_time);
 }

@@ -367,6 +367,69 @@ fn connected(scenario: &Path, port: u16, rrd: &Path) -> Command {
     cmd
 }
 
+/// Ctrl-C ends a run at the virtual time reached: exit 130, and the recording, the trace and
+/// the log are complete for the run up to there (the recording matches the trace), with no
+/// temporary file left.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_run_keeps_complete_outputs() {
+    let py = python();
+    let dir = tempfile::tempdir().unwrap();
+    let (rrd, trace, log) = (
+        dir.path().join("long.rrd"),
+        dir.path().join("long.jsonl"),
+        dir.path().join("long.log"),
+    );
+    let child = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .arg("run")
+        .arg(root().join("examples/scenarios/random_movement.ron"))
+        .args(["--until", "1000000"])
+        .arg("--rrd")
+        .arg(&rrd)
+        .arg("--trace")
+        .arg(&trace)
+        .arg("--log")
+        .arg(&log)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Interrupt once the run is under way: its recording has been created.
+    let started = std::time::Instant::now();
+    while std::fs::read_dir(dir.path()).unwrap().count() == 0 {
+        assert!(started.elapsed().as_secs() < 60, "the run never started");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted at simulated time"), "{err}");
+    let mut left: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["long.jsonl", "long.log", "long.rrd"]);
+    let records = std::fs::read_to_string(&trace).unwrap().lines().count();
+    assert!(records > 0);
+    assert_eq!(
+        std::fs::read_to_string(&log).unwrap().lines().count(),
+        records
+    );
+    let verified = run(Command::new(&py)
+        .arg(root().join("tests/rerun/verify_rrd.py"))
+        .arg(&rrd)
+        .arg(&trace)
+        .arg("25"));
+    assert!(verified.contains("verify_rrd: ok"), "{verified}");
+}
+
 /// `--rrd` naming a directory is refused before the run: exit 2, one line, nothing written.
 #[test]
 fn a_directory_is_not_a_recording_target() {
