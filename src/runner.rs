@@ -141,17 +141,12 @@ impl Summary {
 #[non_exhaustive]
 pub enum RunError {
     /// An output file could not be created (bad path: the user's input).
-    #[error("{path}: cannot create the output file: {source}")]
-    CreateOutput {
-        path: String,
-        source: std::io::Error,
-    },
+    #[error("{path}: cannot create the output file: {error}")]
+    CreateOutput { path: String, error: std::io::Error },
     /// An output file could not be written (an internal error; nothing is left behind).
-    #[error("{path}: cannot write the output file: {source}")]
-    WriteOutput {
-        path: String,
-        source: std::io::Error,
-    },
+    /// (The causes are in the messages, not `source`s, so that error chains print them once.)
+    #[error("{path}: cannot write the output file: {error}")]
+    WriteOutput { path: String, error: std::io::Error },
     /// The simulation failed.
     #[error(transparent)]
     Sim(#[from] SimError),
@@ -163,9 +158,9 @@ pub enum RunError {
 fn create(path: &Option<PathBuf>) -> Result<Option<AtomicFile>, RunError> {
     path.as_deref()
         .map(|p: &Path| {
-            AtomicFile::create(p).map_err(|source| RunError::CreateOutput {
+            AtomicFile::create(p).map_err(|error| RunError::CreateOutput {
                 path: p.display().to_string(),
-                source,
+                error,
             })
         })
         .transpose()
@@ -234,9 +229,9 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         .into_inner();
     for (file, path) in [(log, &opts.log), (trace, &opts.trace)] {
         if let (Some(f), Some(p)) = (file, path) {
-            f.commit().map_err(|source| RunError::WriteOutput {
+            f.commit().map_err(|error| RunError::WriteOutput {
                 path: p.display().to_string(),
-                source,
+                error,
             })?;
         }
     }
