@@ -79,6 +79,21 @@ pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> 
         partial_multicasts: defaults.partial_multicasts,
     };
     let model = build(&def.target(), &opts, |_, _| {})?;
+    // Outputs that can never be written are refused before the search, which may be long.
+    let is_dir = || io::Error::new(io::ErrorKind::InvalidInput, "is a directory");
+    if let Some(path) = args.trace.as_ref().filter(|p| p.is_dir()) {
+        return Err(CheckError::Trace {
+            path: path.clone(),
+            source: is_dir(),
+        });
+    }
+    if let Some(path) = args.rrd.as_ref().filter(|p| p.is_dir()) {
+        return Err(RecordingError::Create {
+            path: path.display().to_string(),
+            message: is_dir().to_string(),
+        }
+        .into());
+    }
     // The command times the checker; the models crate never reads the wall clock.
     let start = std::time::Instant::now();
     let outcome = run(

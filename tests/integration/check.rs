@@ -119,4 +119,21 @@ fn bad_arguments_exit_2_with_one_line() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("expected one of lamport-abcast"), "{err}");
+    // An output naming a directory is refused before the search: no report, one line.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    for (flag, says) in [
+        ("--trace", "cannot write the trace"),
+        ("--rrd", "cannot create the recording"),
+    ] {
+        let o = nekosim(&["check", "reliable-broadcast", "--network", "lossy", flag, d]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{flag}: {err}");
+        assert!(o.stdout.is_empty(), "{flag}: the search ran");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(
+            err.contains(says) && err.contains("is a directory"),
+            "{err}"
+        );
+    }
 }
