@@ -244,9 +244,8 @@ impl RobotState {
     fn at(&self, t: f64) -> (Point, f64) {
         let dt = t - self.t;
         let angle = self.state.angle + self.state.omega * dt;
-        // Most robots do not turn at a given instant: their heading is already normalised
-        // (`normalize_deg` is the identity on [0, 360)), and the remainder is not worth its cost
-        // for every robot at every frame.
+        // The heading usually stays in [0, 360), where `normalize_deg` is the identity: the
+        // remainder is not worth its cost for every robot at every frame.
         let angle = if (0.0..360.0).contains(&angle) {
             angle
         } else {

@@ -561,8 +561,8 @@ fn connect(
 
 /// The default layout: the 2D world beside the log above a grid of metric plots, as blueprint
 /// messages (header and chunks) and its activation, with fixed view and container ids and the
-/// next row and chunk ids, so that it is the same in every recording. (The SDK's `Blueprint` builder
-/// makes the same layout with random ids and wall-clock times.)
+/// next row and chunk ids, so that it is the same in every recording. (The SDK's `Blueprint`
+/// builder makes the same layout with random ids and wall-clock times.)
 fn blueprint_msgs(
     recording_id: &str,
     ids: &mut Ids,
@@ -738,8 +738,7 @@ impl RerunCanvas {
     /// seed), so the same run gives the same recording.
     ///
     /// `robots` is how many robots the run has: their markers and the collision markers are
-    /// labelled for at most [`LABELLED_ROBOTS`] (beyond, labels would hide the world; hovering
-    /// a marker still names it).
+    /// labelled for at most [`LABELLED_ROBOTS`] (beyond, labels would hide the world).
     pub fn start(
         name: &str,
         id: &str,
