@@ -36,6 +36,7 @@ Prints one summary line and exits 0, or prints what differs and exits 1.
 
 from __future__ import annotations
 
+import bisect
 import json
 import os
 import subprocess
@@ -468,8 +469,6 @@ def main() -> None:
         fail(f"{robots} robots: labels hidden on {hidden}")
 
     # Events per second: at each sample, the trace's records in the last simulated second.
-    import bisect
-
     times = sorted(r["t"] for r in trace)
     rate_samples = 0
     for sim, _, _, cols in rows.by_entity.get("/metrics/events_per_second", []):
