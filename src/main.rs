@@ -246,6 +246,7 @@ fn execute(command: Command) -> Result<u8, Failure> {
                 rrd,
                 connect: connect.map(|u| (!u.is_empty()).then_some(u)),
             };
+            let saved = recording.rrd.clone();
             let source = Source::load(&scenario).map_err(invalid)?;
             let built = source
                 .build(Overrides { seed, until }, &registry)
@@ -319,6 +320,15 @@ fn execute(command: Command) -> Result<u8, Failure> {
                     println!(
                         "deliveries: {}, latency mean: {:.3} s, p50: {:.3} s, p99: {:.3} s, throughput: {:.3} deliveries/s",
                         l.deliveries, l.mean, l.p50, l.p99, l.throughput
+                    );
+                }
+                if let Some(path) = &saved {
+                    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+                    println!(
+                        "recording: {} ({:.1} MB); view it with `rerun {}`",
+                        path.display(),
+                        size as f64 / 1e6,
+                        path.display()
                     );
                 }
             }

@@ -410,6 +410,14 @@ fn an_interrupted_run_keeps_complete_outputs() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(130), "{err}");
     assert!(err.contains("interrupted at simulated time"), "{err}");
+    // The summary names the recording and how to open it.
+    let summary = String::from_utf8_lossy(&out.stdout);
+    let shown = format!("recording: {} (", rrd.display());
+    assert!(summary.contains(&shown), "{summary}");
+    assert!(
+        summary.contains(&format!("view it with `rerun {}`", rrd.display())),
+        "{summary}"
+    );
     let mut left: Vec<String> = std::fs::read_dir(dir.path())
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
