@@ -55,6 +55,15 @@ fn install() -> PathBuf {
     py
 }
 
+/// `verify_rrd.py RRD TRACE FRAMERATE` with the pinned SDK: its summary line.
+fn verify_rrd(py: &Path, rrd: &Path, trace: &Path, framerate: u32) -> String {
+    run(Command::new(py)
+        .arg(root().join("tests/rerun/verify_rrd.py"))
+        .arg(rrd)
+        .arg(trace)
+        .arg(framerate.to_string()))
+}
+
 fn record(scenario: &str, extra: &[&str], dir: &Path) -> (PathBuf, PathBuf) {
     let name = Path::new(scenario).file_stem().unwrap().to_string_lossy();
     let rrd = dir.join(format!("{name}.rrd"));
@@ -95,11 +104,7 @@ fn recordings_read_back_with_the_official_reader_match_the_trace() {
     ] {
         let (rrd, trace) = record(scenario, extra, dir.path());
         let trace_text = std::fs::read_to_string(&trace).unwrap();
-        let out = run(Command::new(&py)
-            .arg(root().join("tests/rerun/verify_rrd.py"))
-            .arg(&rrd)
-            .arg(&trace)
-            .arg("25"));
+        let out = verify_rrd(&py, &rrd, &trace, 25);
         assert!(out.contains("verify_rrd: ok"), "{scenario}: {out}");
         assert!(out.contains("labels shown"), "{scenario}: {out}");
         // The checks had something to check.
@@ -129,11 +134,7 @@ fn a_crowd_is_drawn_without_labels() {
     )
     .unwrap();
     let (rrd, trace) = record(scenario.to_str().unwrap(), &[], dir.path());
-    let out = run(Command::new(&py)
-        .arg(root().join("tests/rerun/verify_rrd.py"))
-        .arg(&rrd)
-        .arg(&trace)
-        .arg("25"));
+    let out = verify_rrd(&py, &rrd, &trace, 25);
     assert!(out.contains("verify_rrd: ok"), "{out}");
     assert!(out.contains("labels hidden"), "{out}");
 }
@@ -296,11 +297,7 @@ fn push_sensor_circles_follow_their_robots_while_active() {
         },
     )
     .unwrap();
-    let out = run(Command::new(&py)
-        .arg(root().join("tests/rerun/verify_rrd.py"))
-        .arg(&rrd)
-        .arg(&trace)
-        .arg("10"));
+    let out = verify_rrd(&py, &rrd, &trace, 10);
     // Two sentries, each switching on and off, and circles checked at frames while they drive;
     // each makes a view and a proximity query.
     assert!(out.contains(" 4 sensor switches"), "{out}");
@@ -430,11 +427,7 @@ fn an_interrupted_run_keeps_complete_outputs() {
         std::fs::read_to_string(&log).unwrap().lines().count(),
         records
     );
-    let verified = run(Command::new(&py)
-        .arg(root().join("tests/rerun/verify_rrd.py"))
-        .arg(&rrd)
-        .arg(&trace)
-        .arg("25"));
+    let verified = verify_rrd(&py, &rrd, &trace, 25);
     assert!(verified.contains("verify_rrd: ok"), "{verified}");
 }
 
@@ -518,10 +511,6 @@ fn connect_streams_to_a_running_viewer_and_refuses_a_missing_one() {
         String::from_utf8_lossy(&out.stderr)
     );
     // The file written beside the stream is a complete recording.
-    let out = run(Command::new(&py)
-        .arg(root().join("tests/rerun/verify_rrd.py"))
-        .arg(&rrd)
-        .arg(&trace)
-        .arg("25"));
+    let out = verify_rrd(&py, &rrd, &trace, 25);
     assert!(out.contains("verify_rrd: ok"), "{out}");
 }
