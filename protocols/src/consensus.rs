@@ -12,27 +12,75 @@
 //! decides and the decision is relayed by everybody (reliable broadcast).
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::fmt;
 
-use crate::protocol::Microprotocol;
-use crate::service::{Ctx, Indication, LayerIx, Out, Request};
-use crate::wire::{Pid, Wire};
+use serde::{Deserialize, Serialize};
+
+use crate::payload::Payload;
+use crate::protocol::{ConfigError, Microprotocol, NoConfig, Out};
+use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
+use crate::wire::Pid;
+
+/// Chandra-Toueg's messages, of instance `k` and round `r`.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum CtMsg {
+    /// A participant's estimate and its timestamp, to the round's coordinator.
+    Estimate {
+        k: u64,
+        r: u64,
+        est: Payload,
+        ts: u64,
+    },
+    /// The coordinator's proposal.
+    Propose {
+        k: u64,
+        r: u64,
+        value: Payload,
+    },
+    Ack {
+        k: u64,
+        r: u64,
+    },
+    Nack {
+        k: u64,
+        r: u64,
+    },
+    /// The decision, relayed by everybody.
+    Decide {
+        k: u64,
+        value: Payload,
+    },
+}
+
+impl CtMsg {
+    /// The round a message belongs to (a decision belongs to none).
+    pub fn round(&self) -> Option<u64> {
+        match self {
+            CtMsg::Estimate { r, .. }
+            | CtMsg::Propose { r, .. }
+            | CtMsg::Ack { r, .. }
+            | CtMsg::Nack { r, .. } => Some(*r),
+            CtMsg::Decide { .. } => None,
+        }
+    }
+}
 
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 struct Instance {
     proposed: bool,
     round: u64,
-    est: Option<Wire>,
+    est: Option<Payload>,
     ts: u64,
     /// Waiting for the proposal of `round`'s coordinator.
     waiting: bool,
     /// As coordinator: estimates by round.
-    estimates: BTreeMap<u64, BTreeMap<Pid, (Wire, u64)>>,
+    estimates: BTreeMap<u64, BTreeMap<Pid, (Payload, u64)>>,
     /// As coordinator: what was proposed, by round.
-    proposed_in: BTreeMap<u64, Wire>,
+    proposed_in: BTreeMap<u64, Payload>,
     /// As coordinator: acks (true) and nacks by round.
     replies: BTreeMap<u64, BTreeMap<Pid, bool>>,
     /// As participant: proposals received, by round.
-    proposals: BTreeMap<u64, Wire>,
+    proposals: BTreeMap<u64, Payload>,
 }
 
 /// The consensus layer.
@@ -40,7 +88,7 @@ struct Instance {
 pub struct ChandraToueg {
     suspected: BTreeSet<Pid>,
     instances: BTreeMap<u64, Instance>,
-    decided: BTreeMap<u64, Wire>,
+    decided: BTreeMap<u64, Payload>,
     /// Quorums of one instead of a majority (the deliberately broken variant).
     minority: bool,
 }
@@ -66,7 +114,7 @@ impl ChandraToueg {
         (r % ctx.n as u64) as Pid
     }
 
-    fn enter_round(&mut self, ctx: &Ctx, k: u64, r: u64, out: &mut Out) {
+    fn enter_round(&mut self, ctx: &Ctx, k: u64, r: u64, out: &mut Out<Self>) {
         let inst = self.instances.entry(k).or_default();
         inst.round = r;
         inst.waiting = true;
@@ -75,22 +123,14 @@ impl ChandraToueg {
         if c == ctx.me {
             self.on_estimate(ctx, k, r, ctx.me, est, ts, out);
         } else {
-            out.send(
-                vec![c],
-                Wire::CtEstimate {
-                    k,
-                    r,
-                    est: Box::new(est),
-                    ts,
-                },
-            );
+            out.send(vec![c], CtMsg::Estimate { k, r, est, ts });
         }
         self.check_wait(ctx, k, out);
     }
 
     /// A participant waiting in its round moves on once the proposal is there or the
     /// coordinator is suspected.
-    fn check_wait(&mut self, ctx: &Ctx, k: u64, out: &mut Out) {
+    fn check_wait(&mut self, ctx: &Ctx, k: u64, out: &mut Out<Self>) {
         if self.decided.contains_key(&k) {
             return;
         }
@@ -115,9 +155,9 @@ impl ChandraToueg {
         if c == ctx.me {
             self.on_reply(ctx, k, r, ctx.me, ack, out);
         } else if ack {
-            out.send(vec![c], Wire::CtAck { k, r });
+            out.send(vec![c], CtMsg::Ack { k, r });
         } else {
-            out.send(vec![c], Wire::CtNack { k, r });
+            out.send(vec![c], CtMsg::Nack { k, r });
         }
         if !self.decided.contains_key(&k) {
             self.enter_round(ctx, k, r + 1, out);
@@ -131,9 +171,9 @@ impl ChandraToueg {
         k: u64,
         r: u64,
         from: Pid,
-        est: Wire,
+        est: Payload,
         ts: u64,
-        out: &mut Out,
+        out: &mut Out<Self>,
     ) {
         if self.decided.contains_key(&k) {
             return;
@@ -158,16 +198,16 @@ impl ChandraToueg {
         inst.estimates.remove(&r);
         out.send(
             ctx.others(),
-            Wire::CtPropose {
+            CtMsg::Propose {
                 k,
                 r,
-                value: Box::new(best.clone()),
+                value: best.clone(),
             },
         );
         self.on_propose(ctx, k, r, best, out);
     }
 
-    fn on_propose(&mut self, ctx: &Ctx, k: u64, r: u64, value: Wire, out: &mut Out) {
+    fn on_propose(&mut self, ctx: &Ctx, k: u64, r: u64, value: Payload, out: &mut Out<Self>) {
         if self.decided.contains_key(&k) {
             return;
         }
@@ -179,7 +219,7 @@ impl ChandraToueg {
         self.check_wait(ctx, k, out);
     }
 
-    fn on_reply(&mut self, ctx: &Ctx, k: u64, r: u64, from: Pid, ack: bool, out: &mut Out) {
+    fn on_reply(&mut self, ctx: &Ctx, k: u64, r: u64, from: Pid, ack: bool, out: &mut Out<Self>) {
         if self.decided.contains_key(&k) {
             return;
         }
@@ -197,7 +237,14 @@ impl ChandraToueg {
         }
     }
 
-    fn decide(&mut self, ctx: &Ctx, k: u64, value: Wire, from: Option<Pid>, out: &mut Out) {
+    fn decide(
+        &mut self,
+        ctx: &Ctx,
+        k: u64,
+        value: Payload,
+        from: Option<Pid>,
+        out: &mut Out<Self>,
+    ) {
         if self.decided.contains_key(&k) {
             return;
         }
@@ -210,9 +257,9 @@ impl ChandraToueg {
             .collect();
         out.send(
             relay,
-            Wire::CtDecide {
+            CtMsg::Decide {
                 k,
-                value: Box::new(value.clone()),
+                value: value.clone(),
             },
         );
         out.up(Indication::Decide { k, value });
@@ -220,11 +267,24 @@ impl ChandraToueg {
 }
 
 impl Microprotocol for ChandraToueg {
-    fn name(&self) -> &'static str {
-        "ConsensusCT"
+    type Msg = CtMsg;
+    type Timer = ();
+    type Config = NoConfig;
+    const NAME: &'static str = "ConsensusCT";
+
+    fn shape(_: &NoConfig) -> Shape {
+        Shape {
+            provides: Service::CONSENSUS,
+            needs_below: Service::P2P,
+            needs_uses: vec![Service::FAILURE_DETECTOR],
+        }
     }
 
-    fn on_request(&mut self, ctx: &Ctx, _from: LayerIx, req: Request, out: &mut Out) {
+    fn new(_: NoConfig) -> Result<Self, ConfigError> {
+        Ok(Self::default())
+    }
+
+    fn on_request(&mut self, ctx: &Ctx, _from: LayerIx, req: Request, out: &mut Out<Self>) {
         let Request::Propose { k, value } = req else {
             return;
         };
@@ -243,7 +303,7 @@ impl Microprotocol for ChandraToueg {
         self.enter_round(ctx, k, 0, out);
     }
 
-    fn on_indication(&mut self, ctx: &Ctx, _from: LayerIx, ind: Indication, out: &mut Out) {
+    fn on_indication(&mut self, ctx: &Ctx, _from: LayerIx, ind: Indication, out: &mut Out<Self>) {
         match ind {
             Indication::Suspect(p) => {
                 self.suspected.insert(p);
@@ -255,17 +315,29 @@ impl Microprotocol for ChandraToueg {
             Indication::Trust(p) => {
                 self.suspected.remove(&p);
             }
-            Indication::Deliver { from, msg } => match msg {
-                Wire::CtEstimate { k, r, est, ts } => {
-                    self.on_estimate(ctx, k, r, from, *est, ts, out)
-                }
-                Wire::CtPropose { k, r, value } => self.on_propose(ctx, k, r, *value, out),
-                Wire::CtAck { k, r } => self.on_reply(ctx, k, r, from, true, out),
-                Wire::CtNack { k, r } => self.on_reply(ctx, k, r, from, false, out),
-                Wire::CtDecide { k, value } => self.decide(ctx, k, *value, Some(from), out),
-                _ => {}
-            },
             _ => {}
+        }
+    }
+
+    fn on_message(&mut self, ctx: &Ctx, from: Pid, m: CtMsg, out: &mut Out<Self>) {
+        match m {
+            CtMsg::Estimate { k, r, est, ts } => self.on_estimate(ctx, k, r, from, est, ts, out),
+            CtMsg::Propose { k, r, value } => self.on_propose(ctx, k, r, value, out),
+            CtMsg::Ack { k, r } => self.on_reply(ctx, k, r, from, true, out),
+            CtMsg::Nack { k, r } => self.on_reply(ctx, k, r, from, false, out),
+            CtMsg::Decide { k, value } => self.decide(ctx, k, value, Some(from), out),
+        }
+    }
+
+    fn render(m: &CtMsg, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match m {
+            CtMsg::Estimate { k, r, est, ts } => {
+                write!(f, "CT_ESTIMATE(k {k}, r {r}, {est}, ts {ts})")
+            }
+            CtMsg::Propose { k, r, value } => write!(f, "CT_PROPOSE(k {k}, r {r}, {value})"),
+            CtMsg::Ack { k, r } => write!(f, "CT_ACK(k {k}, r {r})"),
+            CtMsg::Nack { k, r } => write!(f, "CT_NACK(k {k}, r {r})"),
+            CtMsg::Decide { k, value } => write!(f, "CT_DECIDE(k {k}, {value})"),
         }
     }
 }

@@ -7,34 +7,55 @@
 //! sequence).
 
 use std::collections::BTreeMap;
+use std::fmt;
 
-use crate::protocol::Microprotocol;
-use crate::service::{Ctx, Indication, LayerIx, Out, Request};
-use crate::wire::{Pid, Wire};
+use serde::{Deserialize, Serialize};
+
+use crate::payload::Payload;
+use crate::protocol::{ConfigError, Microprotocol, NoConfig, Out};
+use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
+use crate::wire::Pid;
+
+/// The FIFO layer's message: the payload of layer `up` with its per-link number.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct FifoMsg {
+    pub seq: u64,
+    pub up: LayerIx,
+    pub payload: Payload,
+}
 
 /// The FIFO layer.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Fifo {
     next: BTreeMap<Pid, u64>,
     expected: BTreeMap<Pid, u64>,
-    held: BTreeMap<(Pid, u64), (LayerIx, Wire)>,
+    held: BTreeMap<(Pid, u64), (LayerIx, Payload)>,
 }
 
 impl Microprotocol for Fifo {
-    fn name(&self) -> &'static str {
-        "Fifo"
+    type Msg = FifoMsg;
+    type Timer = ();
+    type Config = NoConfig;
+    const NAME: &'static str = "Fifo";
+
+    fn shape(_: &NoConfig) -> Shape {
+        Shape::on_links(Service::FIFO_P2P)
     }
 
-    fn on_request(&mut self, _ctx: &Ctx, from: LayerIx, req: Request, out: &mut Out) {
+    fn new(_: NoConfig) -> Result<Self, ConfigError> {
+        Ok(Self::default())
+    }
+
+    fn on_request(&mut self, _ctx: &Ctx, from: LayerIx, req: Request, out: &mut Out<Self>) {
         if let Request::Send { to, msg } = req {
             for d in to {
                 let seq = self.next.entry(d).or_insert(0);
                 out.send(
                     vec![d],
-                    Wire::Fifo {
+                    FifoMsg {
                         seq: *seq,
                         up: from,
-                        inner: Box::new(msg.clone()),
+                        payload: msg.clone(),
                     },
                 );
                 *seq += 1;
@@ -42,19 +63,16 @@ impl Microprotocol for Fifo {
         }
     }
 
-    fn on_indication(&mut self, _ctx: &Ctx, _from: LayerIx, ind: Indication, out: &mut Out) {
-        let Indication::Deliver {
-            from,
-            msg: Wire::Fifo { seq, up, inner },
-        } = ind
-        else {
-            return;
-        };
-        self.held.insert((from, seq), (up, *inner));
+    fn on_message(&mut self, _ctx: &Ctx, from: Pid, m: FifoMsg, out: &mut Out<Self>) {
+        self.held.insert((from, m.seq), (m.up, m.payload));
         let expected = self.expected.entry(from).or_insert(0);
         while let Some((up, msg)) = self.held.remove(&(from, *expected)) {
             out.up_to(up, Indication::Deliver { from, msg });
             *expected += 1;
         }
+    }
+
+    fn render(m: &FifoMsg, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "FIFO#{}({})", m.seq, m.payload)
     }
 }

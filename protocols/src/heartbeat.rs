@@ -9,13 +9,36 @@
 //! so the protocol stays time-free and a model checker can run it.
 
 use std::collections::BTreeSet;
+use std::fmt;
 
-use crate::protocol::Microprotocol;
-use crate::service::{Ctx, Indication, LayerIx, Out, Request, TimerId};
-use crate::wire::{Pid, Real, Wire};
+use serde::{Deserialize, Serialize};
 
-const BEAT: TimerId = 1;
-const CHECK: TimerId = 2;
+use crate::protocol::{ConfigError, Microprotocol, Out};
+use crate::service::{Ctx, Indication, Service, Shape};
+use crate::wire::{Pid, Real};
+
+/// The heartbeat.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Beat;
+
+/// The detector's two timers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum HeartbeatTimer {
+    /// Send the next heartbeat.
+    Beat,
+    /// Check whom we heard from.
+    Check,
+}
+
+/// `Heartbeat(period: 1.0, timeout: 3.0)`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeartbeatConfig {
+    /// Heartbeat period [s].
+    pub period: f64,
+    /// Check period [s], at least `period`.
+    pub timeout: f64,
+}
 
 /// The heartbeat failure detector layer.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -28,7 +51,7 @@ pub struct Heartbeat {
 
 impl Heartbeat {
     /// Heartbeats every `period` seconds, checks every `timeout` seconds.
-    pub fn new(period: f64, timeout: f64) -> Self {
+    pub fn with_timing(period: f64, timeout: f64) -> Self {
         Self {
             period: Real::new(period),
             timeout: Real::new(timeout),
@@ -44,35 +67,47 @@ impl Heartbeat {
 }
 
 impl Microprotocol for Heartbeat {
-    fn name(&self) -> &'static str {
-        "failureDetectors.Heartbeat"
+    type Msg = Beat;
+    type Timer = HeartbeatTimer;
+    type Config = HeartbeatConfig;
+    const NAME: &'static str = "failureDetectors.Heartbeat";
+
+    fn shape(_: &HeartbeatConfig) -> Shape {
+        Shape::on_links(Service::FAILURE_DETECTOR)
     }
 
-    fn on_start(&mut self, ctx: &Ctx, out: &mut Out) {
-        out.send(ctx.others(), Wire::Heartbeat);
-        out.set_timer(BEAT, self.period.get());
-        out.set_timer(CHECK, self.timeout.get());
-    }
-
-    fn on_request(&mut self, _ctx: &Ctx, _from: LayerIx, _req: Request, _out: &mut Out) {}
-
-    fn on_indication(&mut self, _ctx: &Ctx, _from: LayerIx, ind: Indication, _out: &mut Out) {
-        if let Indication::Deliver {
-            from,
-            msg: Wire::Heartbeat,
-        } = ind
-        {
-            self.heard.insert(from);
+    fn new(c: HeartbeatConfig) -> Result<Self, ConfigError> {
+        ConfigError::positive_seconds("period", c.period)?;
+        ConfigError::positive_seconds("timeout", c.timeout)?;
+        if c.timeout < c.period {
+            return Err(ConfigError::field(
+                "timeout",
+                format!(
+                    "timeout {} is shorter than the period {}; expected timeout >= period",
+                    c.timeout, c.period
+                ),
+            ));
         }
+        Ok(Self::with_timing(c.period, c.timeout))
     }
 
-    fn on_timer(&mut self, ctx: &Ctx, timer: TimerId, out: &mut Out) {
+    fn on_start(&mut self, ctx: &Ctx, out: &mut Out<Self>) {
+        out.send(ctx.others(), Beat);
+        out.set_timer(HeartbeatTimer::Beat, self.period.get());
+        out.set_timer(HeartbeatTimer::Check, self.timeout.get());
+    }
+
+    fn on_message(&mut self, _ctx: &Ctx, from: Pid, _beat: Beat, _out: &mut Out<Self>) {
+        self.heard.insert(from);
+    }
+
+    fn on_timer(&mut self, ctx: &Ctx, timer: HeartbeatTimer, out: &mut Out<Self>) {
         match timer {
-            BEAT => {
-                out.send(ctx.others(), Wire::Heartbeat);
-                out.set_timer(BEAT, self.period.get());
+            HeartbeatTimer::Beat => {
+                out.send(ctx.others(), Beat);
+                out.set_timer(HeartbeatTimer::Beat, self.period.get());
             }
-            CHECK => {
+            HeartbeatTimer::Check => {
                 for p in ctx.others() {
                     let heard = self.heard.contains(&p);
                     if !heard && self.suspected.insert(p) {
@@ -82,9 +117,12 @@ impl Microprotocol for Heartbeat {
                     }
                 }
                 self.heard.clear();
-                out.set_timer(CHECK, self.timeout.get());
+                out.set_timer(HeartbeatTimer::Check, self.timeout.get());
             }
-            _ => {}
         }
+    }
+
+    fn render(_: &Beat, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "HEARTBEAT")
     }
 }

@@ -8,17 +8,35 @@
 //! make "heard something later from q" mean q will never send anything earlier.
 
 use std::collections::BTreeMap;
+use std::fmt;
 
-use crate::protocol::Microprotocol;
-use crate::service::{Ctx, Indication, LayerIx, Out, Request};
-use crate::wire::{MsgId, Pid, Wire};
+use serde::{Deserialize, Serialize};
+
+use crate::payload::Payload;
+use crate::protocol::{ConfigError, Microprotocol, NoConfig, Out};
+use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
+use crate::wire::{MsgId, Pid};
+
+/// Lamport's messages: a timestamped broadcast message, or an acknowledgement carrying a
+/// clock.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum LamportMsg {
+    Msg {
+        ts: u64,
+        id: MsgId,
+        payload: Payload,
+    },
+    Ack {
+        ts: u64,
+    },
+}
 
 /// The Lamport total-order broadcast layer.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
 pub struct LamportAbcast {
     clock: u64,
     count: u64,
-    pending: BTreeMap<(u64, MsgId), Wire>,
+    pending: BTreeMap<(u64, MsgId), Payload>,
     /// Latest timestamp heard from each process.
     latest: BTreeMap<Pid, u64>,
     /// Deliver without waiting to hear from every process (the deliberately broken variant).
@@ -39,7 +57,7 @@ impl LamportAbcast {
         *l = (*l).max(ts);
     }
 
-    fn try_deliver(&mut self, ctx: &Ctx, out: &mut Out) {
+    fn try_deliver(&mut self, ctx: &Ctx, out: &mut Out<Self>) {
         while let Some((&(ts, id), _)) = self.pending.first_key_value() {
             let ready = self.eager
                 || (0..ctx.n)
@@ -54,11 +72,24 @@ impl LamportAbcast {
 }
 
 impl Microprotocol for LamportAbcast {
-    fn name(&self) -> &'static str {
-        "abcast.Lamport"
+    type Msg = LamportMsg;
+    type Timer = ();
+    type Config = NoConfig;
+    const NAME: &'static str = "abcast.Lamport";
+
+    fn shape(_: &NoConfig) -> Shape {
+        Shape {
+            provides: Service::TOTAL_ORDER,
+            needs_below: Service::FIFO_P2P,
+            needs_uses: vec![],
+        }
     }
 
-    fn on_request(&mut self, ctx: &Ctx, _from: LayerIx, req: Request, out: &mut Out) {
+    fn new(_: NoConfig) -> Result<Self, ConfigError> {
+        Ok(Self::default())
+    }
+
+    fn on_request(&mut self, ctx: &Ctx, _from: LayerIx, req: Request, out: &mut Out<Self>) {
         if let Request::Broadcast { msg } = req {
             self.clock += 1;
             let ts = self.clock;
@@ -70,10 +101,10 @@ impl Microprotocol for LamportAbcast {
             self.heard(ctx.me, ts);
             out.send(
                 ctx.others(),
-                Wire::LamportMsg {
+                LamportMsg::Msg {
                     ts,
                     id,
-                    inner: Box::new(msg.clone()),
+                    payload: msg.clone(),
                 },
             );
             self.pending.insert((ts, id), msg);
@@ -81,25 +112,28 @@ impl Microprotocol for LamportAbcast {
         }
     }
 
-    fn on_indication(&mut self, ctx: &Ctx, _from: LayerIx, ind: Indication, out: &mut Out) {
-        let Indication::Deliver { from, msg } = ind else {
-            return;
-        };
-        match msg {
-            Wire::LamportMsg { ts, id, inner } => {
+    fn on_message(&mut self, ctx: &Ctx, from: Pid, m: LamportMsg, out: &mut Out<Self>) {
+        match m {
+            LamportMsg::Msg { ts, id, payload } => {
                 self.clock = self.clock.max(ts) + 1;
                 self.heard(from, ts);
-                self.pending.insert((ts, id), *inner);
+                self.pending.insert((ts, id), payload);
                 let ack = self.clock;
                 self.heard(ctx.me, ack);
-                out.send(ctx.others(), Wire::LamportAck { ts: ack });
+                out.send(ctx.others(), LamportMsg::Ack { ts: ack });
             }
-            Wire::LamportAck { ts } => {
+            LamportMsg::Ack { ts } => {
                 self.clock = self.clock.max(ts);
                 self.heard(from, ts);
             }
-            _ => return,
         }
         self.try_deliver(ctx, out);
+    }
+
+    fn render(m: &LamportMsg, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match m {
+            LamportMsg::Msg { ts, id, payload } => write!(f, "LAMPORT(ts {ts}, {id}, {payload})"),
+            LamportMsg::Ack { ts } => write!(f, "LAMPORT_ACK(ts {ts})"),
+        }
     }
 }

@@ -2,30 +2,37 @@
 //! machines whose effects are data. The simulator's actors host them (every hop an event of
 //! the virtual-time scheduler) and the stateright models explore the very same code.
 //!
-//! - [`wire`]: process ids, contents, the layered wire format; [`service`]: requests,
-//!   indications, inputs and effects; [`protocol`]: the [`Microprotocol`] trait.
+//! - [`protocol`]: the [`Microprotocol`] trait: a protocol's own message, timer and
+//!   configuration types, typed handlers and [`Out`]; [`Layer`] holds any protocol.
+//! - [`payload`]: the one wire encoding below the typed edge ([`Payload`]).
+//! - [`service`]: services, requests, indications, inputs and effects; [`wire`]: process ids,
+//!   message ids, the application's messages.
+//! - [`registry`]: protocols by name ([`Protocols::with_builtins`]); [`builtins`] lists the
+//!   built-in protocols, registered exactly as a user's are.
 //! - Protocols: [`fifo`], [`retransmit`], [`rbroadcast`], [`lamport`], [`sequencer`],
 //!   [`heartbeat`], [`omega`], [`consensus`] (Chandra-Toueg), [`consensus_abcast`].
-//! - [`stack`]: composition by name, wiring checks and effect routing; [`custom`]: user
-//!   protocols registered by name.
+//! - [`stack`]: composition by name, wiring checks and effect routing.
 
+pub mod builtins;
 pub mod consensus;
 pub mod consensus_abcast;
-pub mod custom;
 pub mod fifo;
 pub mod heartbeat;
 pub mod lamport;
 pub mod omega;
+pub mod payload;
 pub mod protocol;
 pub mod rbroadcast;
+pub mod registry;
 pub mod retransmit;
 pub mod sequencer;
 pub mod service;
 pub mod stack;
 pub mod wire;
 
-pub use custom::{CustomLayer, Protocols, Shape};
-pub use protocol::Microprotocol;
-pub use service::{Ctx, Effect, Indication, Input, LayerIx, Out, Request, APP, NET};
-pub use stack::{Layer, LayerSpec, ProtocolSpec, Routed, Stack, StackError, Wiring};
-pub use wire::{Content, MsgId, Pid, Real, Wire};
+pub use payload::{Payload, WireError};
+pub use protocol::{ConfigError, Layer, Message, Microprotocol, NoConfig, NoMsg, Out};
+pub use registry::{ProtocolSpec, Protocols, SpecError};
+pub use service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, Shape, APP, NET};
+pub use stack::{LayerSpec, Routed, Stack, StackError, Wiring};
+pub use wire::{AppMsg, Content, MsgId, Pid, Real};

@@ -7,8 +7,8 @@
 
 use std::collections::BTreeSet;
 
-use crate::protocol::Microprotocol;
-use crate::service::{Ctx, Indication, LayerIx, Out, Request};
+use crate::protocol::{ConfigError, Microprotocol, NoConfig, NoMsg, Out};
+use crate::service::{Ctx, Indication, LayerIx, Service, Shape};
 use crate::wire::Pid;
 
 /// The Omega layer.
@@ -19,7 +19,7 @@ pub struct Omega {
 }
 
 impl Omega {
-    fn elect(&mut self, ctx: &Ctx, out: &mut Out) {
+    fn elect(&mut self, ctx: &Ctx, out: &mut Out<Self>) {
         let leader = (0..ctx.n).find(|p| *p == ctx.me || !self.suspected.contains(p));
         if leader != self.leader {
             self.leader = leader;
@@ -31,17 +31,28 @@ impl Omega {
 }
 
 impl Microprotocol for Omega {
-    fn name(&self) -> &'static str {
-        "OmegaFailureDetector"
+    type Msg = NoMsg;
+    type Timer = ();
+    type Config = NoConfig;
+    const NAME: &'static str = "OmegaFailureDetector";
+
+    fn shape(_: &NoConfig) -> Shape {
+        Shape {
+            provides: Service::LEADER,
+            needs_below: Service::P2P,
+            needs_uses: vec![Service::FAILURE_DETECTOR],
+        }
     }
 
-    fn on_start(&mut self, ctx: &Ctx, out: &mut Out) {
+    fn new(_: NoConfig) -> Result<Self, ConfigError> {
+        Ok(Self::default())
+    }
+
+    fn on_start(&mut self, ctx: &Ctx, out: &mut Out<Self>) {
         self.elect(ctx, out);
     }
 
-    fn on_request(&mut self, _ctx: &Ctx, _from: LayerIx, _req: Request, _out: &mut Out) {}
-
-    fn on_indication(&mut self, ctx: &Ctx, _from: LayerIx, ind: Indication, out: &mut Out) {
+    fn on_indication(&mut self, ctx: &Ctx, _from: LayerIx, ind: Indication, out: &mut Out<Self>) {
         match ind {
             Indication::Suspect(p) => {
                 self.suspected.insert(p);

@@ -1,38 +1,334 @@
-//! The microprotocol trait (seed 3.5): a deterministic, sans-IO state machine. Handlers take
-//! `&mut self` plus the input and write effects into an [`Out`]; they never perform IO, read a
-//! clock or draw random numbers, so the simulator's actors and the stateright models run the
-//! very same code.
+//! The microprotocol trait (seed 3.5): a deterministic, sans-IO state machine with its own
+//! message, timer and configuration types. Handlers take `&mut self` plus the input and write
+//! effects into an [`Out`]; they never perform IO, read a clock or draw random numbers, so the
+//! simulator's actors, the stateright models and a real network host the very same code.
+//!
+//! The typed edge: a protocol sends and receives its own `Msg` values; the stack encodes them
+//! into [`Payload`]s (the one wire encoding) and nests them in the headers of the layers below.
+//! Messages of other layers (what the layer above asks it to carry) reach it as opaque
+//! payloads, which it keeps, forwards and delivers as they are.
 
-use std::fmt::Debug;
-use std::hash::Hash;
+use std::any::Any;
+use std::fmt::{self, Debug};
+use std::hash::{Hash, Hasher};
+use std::marker::PhantomData;
 
-use crate::service::{Ctx, Indication, Input, LayerIx, Out, Request, TimerId};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+use crate::payload::{Payload, WireError};
+use crate::service::{Ctx, Effect, Indication, Input, LayerIx, Request, Shape};
+use crate::wire::{Pid, Real};
+
+/// What a protocol's messages and timers are: plain serde types with value semantics.
+pub trait Message:
+    Serialize + DeserializeOwned + Clone + Debug + Eq + Hash + Send + Sync + 'static
+{
+}
+
+impl<T> Message for T where
+    T: Serialize + DeserializeOwned + Clone + Debug + Eq + Hash + Send + Sync + 'static
+{
+}
+
+/// The message type of a protocol that sends none of its own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum NoMsg {}
+
+/// The configuration of a protocol that takes none: `protocol: Fifo` or `Fifo()` in a
+/// scenario; any field is an error.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoConfig {}
+
+/// Why a configuration was refused: the offending field (when there is one, so the error can
+/// point at it in the scenario file) and what is wrong.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{message}")]
+pub struct ConfigError {
+    pub field: Option<String>,
+    pub message: String,
+}
+
+impl ConfigError {
+    /// `field` is wrong: `message` says how.
+    pub fn field(field: &str, message: impl Into<String>) -> Self {
+        Self {
+            field: Some(field.to_string()),
+            message: message.into(),
+        }
+    }
+
+    /// The configuration as a whole is wrong.
+    pub fn new(message: impl Into<String>) -> Self {
+        Self {
+            field: None,
+            message: message.into(),
+        }
+    }
+
+    /// Checks that `field`'s value `v` is a finite number > 0 (seconds).
+    pub fn positive_seconds(field: &str, v: f64) -> Result<(), Self> {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(Self::field(
+                field,
+                format!("{field} is {v}; expected a finite number > 0 (seconds)"),
+            ))
+        }
+    }
+}
 
 /// A microprotocol: one layer of a process's stack.
+///
+/// Adding one is one file with a type implementing this trait plus one registry line,
+/// `registry.protocol::<MyProtocol>("MyProtocol")` (docs/extending.md walks through it).
 pub trait Microprotocol: Clone + Debug + Eq + Hash + Send + Sync + 'static {
-    /// Neko's name of the protocol.
-    fn name(&self) -> &'static str;
+    /// The messages this layer exchanges with the same layer of other processes.
+    type Msg: Message;
+    /// The timers this layer sets (`()` for a single timer).
+    type Timer: Message;
+    /// The configuration a scenario gives: `protocol: Name(field: value, ...)` is
+    /// deserialized into it by serde (derive with `#[serde(deny_unknown_fields)]`).
+    type Config: DeserializeOwned;
+
+    /// Neko's name of the protocol (logs).
+    const NAME: &'static str;
+
+    /// What the protocol provides and needs, for the stack's wiring checks.
+    fn shape(config: &Self::Config) -> Shape;
+
+    /// A fresh instance, or why the configuration is refused.
+    fn new(config: Self::Config) -> Result<Self, ConfigError>;
 
     /// The process starts.
-    fn on_start(&mut self, _ctx: &Ctx, _out: &mut Out) {}
+    fn on_start(&mut self, _ctx: &Ctx, _out: &mut Out<Self>) {}
 
-    /// A request from the layer (or application) `from` above.
-    fn on_request(&mut self, ctx: &Ctx, from: LayerIx, req: Request, out: &mut Out);
+    /// A request from the layer (or application) `from` above, or from a layer using this
+    /// one.
+    fn on_request(&mut self, _ctx: &Ctx, _from: LayerIx, _req: Request, _out: &mut Out<Self>) {}
 
-    /// An indication from the layer below (`from` is [`crate::service::NET`] for the network)
+    /// One of this layer's own messages, sent by process `from`, arrived through the layer
+    /// below.
+    fn on_message(&mut self, _ctx: &Ctx, _from: Pid, _msg: Self::Msg, _out: &mut Out<Self>) {}
+
+    /// Any other indication from the layer below (`from` is [`crate::NET`] for the network)
     /// or from a layer this one uses.
-    fn on_indication(&mut self, ctx: &Ctx, from: LayerIx, ind: Indication, out: &mut Out);
+    fn on_indication(
+        &mut self,
+        _ctx: &Ctx,
+        _from: LayerIx,
+        _ind: Indication,
+        _out: &mut Out<Self>,
+    ) {
+    }
 
-    /// A timer of this layer fired.
-    fn on_timer(&mut self, _ctx: &Ctx, _timer: TimerId, _out: &mut Out) {}
+    /// One of this layer's timers fired.
+    fn on_timer(&mut self, _ctx: &Ctx, _timer: Self::Timer, _out: &mut Out<Self>) {}
 
-    /// Dispatches an input to the handlers.
-    fn handle(&mut self, ctx: &Ctx, input: Input, out: &mut Out) {
-        match input {
-            Input::Start => self.on_start(ctx, out),
-            Input::Request { from, req } => self.on_request(ctx, from, req, out),
-            Input::Indication { from, ind } => self.on_indication(ctx, from, ind, out),
-            Input::Timer(t) => self.on_timer(ctx, t, out),
+    /// The readable form of a message in logs, traces, recordings and counterexamples; its
+    /// first word is the message's type. Payloads inside print as the messages they encode.
+    fn render(msg: &Self::Msg, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        Debug::fmt(msg, f)
+    }
+}
+
+/// Collects a handler's effects, encoding the protocol's own messages and timers.
+#[derive(Debug)]
+pub struct Out<P: ?Sized> {
+    ix: LayerIx,
+    effects: Vec<Effect>,
+    _p: PhantomData<fn() -> Box<P>>,
+}
+
+impl<P: Microprotocol> Out<P> {
+    /// An empty collection for the layer at index `ix`.
+    pub fn new(ix: LayerIx) -> Self {
+        Self {
+            ix,
+            effects: Vec::new(),
+            _p: PhantomData,
         }
+    }
+
+    /// The effects collected so far.
+    pub fn effects(&self) -> &[Effect] {
+        &self.effects
+    }
+
+    /// The effects, consumed.
+    pub fn into_effects(self) -> Vec<Effect> {
+        self.effects
+    }
+
+    /// This layer's index in its stack.
+    pub fn layer(&self) -> LayerIx {
+        self.ix
+    }
+
+    /// Encodes one of this layer's messages (to broadcast or propose it, or to keep it).
+    pub fn encode(&self, msg: &P::Msg) -> Payload {
+        Payload::encode(self.ix, msg)
+    }
+
+    /// Decodes one of this layer's messages from a payload (a decided value it proposed, a
+    /// broadcast it made); `None` if the payload is another layer's.
+    pub fn decode(&self, p: &Payload) -> Option<P::Msg> {
+        (p.layer() == self.ix).then(|| p.decode().ok()).flatten()
+    }
+
+    /// Sends `msg` to the same layer of the processes `to`, through the layer below (nothing
+    /// when `to` is empty).
+    pub fn send(&mut self, to: Vec<Pid>, msg: P::Msg) {
+        if !to.is_empty() {
+            let msg = self.encode(&msg);
+            self.effects.push(Effect::Down(Request::Send { to, msg }));
+        }
+    }
+
+    /// A request to the layer below.
+    pub fn down(&mut self, req: Request) {
+        self.effects.push(Effect::Down(req));
+    }
+
+    /// A request to the `slot`-th layer this layer uses.
+    pub fn use_layer(&mut self, slot: u8, req: Request) {
+        self.effects.push(Effect::Use { slot, req });
+    }
+
+    /// An indication to one layer above (or the application, [`crate::APP`]).
+    pub fn up_to(&mut self, to: LayerIx, ind: Indication) {
+        self.effects.push(Effect::Up { to: Some(to), ind });
+    }
+
+    /// An indication to every layer above and using this one.
+    pub fn up(&mut self, ind: Indication) {
+        self.effects.push(Effect::Up { to: None, ind });
+    }
+
+    /// Sets (or moves) `timer` to fire after `after` seconds.
+    pub fn set_timer(&mut self, timer: P::Timer, after: f64) {
+        self.effects.push(Effect::SetTimer {
+            timer: Payload::encode(self.ix, &timer),
+            after: Real::new(after),
+        });
+    }
+
+    /// Cancels `timer`.
+    pub fn cancel_timer(&mut self, timer: P::Timer) {
+        self.effects
+            .push(Effect::CancelTimer(Payload::encode(self.ix, &timer)));
+    }
+}
+
+/// Dispatches an untyped input to a protocol's typed handlers; returns its effects. A
+/// payload that does not decode as the layer's own type (never produced by the stack itself;
+/// possible from a real network) is dropped.
+pub fn dispatch<P: Microprotocol>(
+    p: &mut P,
+    ctx: &Ctx,
+    ix: LayerIx,
+    input: Input,
+) -> Result<Vec<Effect>, WireError> {
+    let mut out = Out::<P>::new(ix);
+    match input {
+        Input::Start => p.on_start(ctx, &mut out),
+        Input::Request { from, req } => p.on_request(ctx, from, req, &mut out),
+        Input::Indication {
+            ind: Indication::Deliver { from, msg },
+            ..
+        } if msg.layer() == ix => p.on_message(ctx, from, msg.decode()?, &mut out),
+        Input::Indication { from, ind } => p.on_indication(ctx, from, ind, &mut out),
+        Input::Timer(t) => p.on_timer(ctx, t.decode()?, &mut out),
+    }
+    Ok(out.effects)
+}
+
+/// Object-safe view of a [`Microprotocol`], with clone, equality and hashing through `Any`.
+trait DynProtocol: Debug + Send + Sync {
+    fn name(&self) -> &'static str;
+    fn handle(&mut self, ctx: &Ctx, ix: LayerIx, input: Input) -> Result<Vec<Effect>, WireError>;
+    fn clone_box(&self) -> Box<dyn DynProtocol>;
+    fn eq_dyn(&self, other: &dyn DynProtocol) -> bool;
+    fn hash_dyn(&self, state: &mut dyn Hasher);
+    fn as_any(&self) -> &dyn Any;
+}
+
+impl<P: Microprotocol> DynProtocol for P {
+    fn name(&self) -> &'static str {
+        P::NAME
+    }
+
+    fn handle(&mut self, ctx: &Ctx, ix: LayerIx, input: Input) -> Result<Vec<Effect>, WireError> {
+        dispatch(self, ctx, ix, input)
+    }
+
+    fn clone_box(&self) -> Box<dyn DynProtocol> {
+        Box::new(self.clone())
+    }
+
+    fn eq_dyn(&self, other: &dyn DynProtocol) -> bool {
+        other.as_any().downcast_ref::<P>() == Some(self)
+    }
+
+    fn hash_dyn(&self, mut state: &mut dyn Hasher) {
+        self.hash(&mut state);
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+}
+
+/// An instance of any protocol, as a stack holds it (value semantics: `Clone + Eq + Hash`,
+/// so stacks can be model-checked).
+#[derive(Debug)]
+pub struct Layer(Box<dyn DynProtocol>);
+
+impl Layer {
+    /// Wraps a protocol instance.
+    pub fn new<P: Microprotocol>(protocol: P) -> Self {
+        Self(Box::new(protocol))
+    }
+
+    /// Runs the handler for `input`, this layer being at index `ix`.
+    pub fn handle(
+        &mut self,
+        ctx: &Ctx,
+        ix: LayerIx,
+        input: Input,
+    ) -> Result<Vec<Effect>, WireError> {
+        self.0.handle(ctx, ix, input)
+    }
+
+    /// The protocol instance if it is a `P`.
+    pub fn downcast_ref<P: Microprotocol>(&self) -> Option<&P> {
+        self.0.as_any().downcast_ref()
+    }
+
+    /// Neko's name of the protocol.
+    pub fn name(&self) -> &'static str {
+        self.0.name()
+    }
+}
+
+impl Clone for Layer {
+    fn clone(&self) -> Self {
+        Self(self.0.clone_box())
+    }
+}
+
+impl PartialEq for Layer {
+    fn eq(&self, other: &Self) -> bool {
+        self.0.eq_dyn(other.0.as_ref())
+    }
+}
+
+impl Eq for Layer {}
+
+impl Hash for Layer {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        self.0.hash_dyn(state)
     }
 }

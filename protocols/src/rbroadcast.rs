@@ -7,10 +7,21 @@
 //! receives it, before delivering it.
 
 use std::collections::BTreeSet;
+use std::fmt;
 
-use crate::protocol::Microprotocol;
-use crate::service::{Ctx, Indication, LayerIx, Out, Request};
-use crate::wire::{MsgId, Wire};
+use serde::{Deserialize, Serialize};
+
+use crate::payload::Payload;
+use crate::protocol::{ConfigError, Microprotocol, NoConfig, Out};
+use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
+use crate::wire::{MsgId, Pid};
+
+/// A broadcast message and its id, relayed by every receiver.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct RbMsg {
+    pub id: MsgId,
+    pub payload: Payload,
+}
 
 /// The reliable broadcast layer.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
@@ -33,11 +44,20 @@ impl ReliableBroadcast {
 }
 
 impl Microprotocol for ReliableBroadcast {
-    fn name(&self) -> &'static str {
-        "RBroadcast"
+    type Msg = RbMsg;
+    type Timer = ();
+    type Config = NoConfig;
+    const NAME: &'static str = "RBroadcast";
+
+    fn shape(_: &NoConfig) -> Shape {
+        Shape::on_links(Service::BROADCAST)
     }
 
-    fn on_request(&mut self, ctx: &Ctx, _from: LayerIx, req: Request, out: &mut Out) {
+    fn new(_: NoConfig) -> Result<Self, ConfigError> {
+        Ok(Self::default())
+    }
+
+    fn on_request(&mut self, ctx: &Ctx, _from: LayerIx, req: Request, out: &mut Out<Self>) {
         if let Request::Broadcast { msg } = req {
             let id = MsgId {
                 origin: ctx.me,
@@ -47,23 +67,17 @@ impl Microprotocol for ReliableBroadcast {
             self.delivered.insert(id);
             out.send(
                 ctx.others(),
-                Wire::Rb {
+                RbMsg {
                     id,
-                    inner: Box::new(msg.clone()),
+                    payload: msg.clone(),
                 },
             );
             out.up(Indication::BDeliver { id, msg });
         }
     }
 
-    fn on_indication(&mut self, ctx: &Ctx, _from: LayerIx, ind: Indication, out: &mut Out) {
-        let Indication::Deliver {
-            from,
-            msg: Wire::Rb { id, inner },
-        } = ind
-        else {
-            return;
-        };
+    fn on_message(&mut self, ctx: &Ctx, from: Pid, m: RbMsg, out: &mut Out<Self>) {
+        let id = m.id;
         if !self.delivered.insert(id) {
             return;
         }
@@ -73,14 +87,12 @@ impl Microprotocol for ReliableBroadcast {
                 .into_iter()
                 .filter(|&p| p != id.origin && p != from)
                 .collect();
-            out.send(
-                relay,
-                Wire::Rb {
-                    id,
-                    inner: inner.clone(),
-                },
-            );
+            out.send(relay, m.clone());
         }
-        out.up(Indication::BDeliver { id, msg: *inner });
+        out.up(Indication::BDeliver { id, msg: m.payload });
+    }
+
+    fn render(m: &RbMsg, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "RB({}, {})", m.id, m.payload)
     }
 }

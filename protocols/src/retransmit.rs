@@ -5,12 +5,35 @@
 //! (reliable links, in no particular order; put [`crate::fifo::Fifo`] on top for order).
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::fmt;
 
-use crate::protocol::Microprotocol;
-use crate::service::{Ctx, Indication, LayerIx, Out, Request, TimerId};
-use crate::wire::{Pid, Real, Wire};
+use serde::{Deserialize, Serialize};
 
-const RESEND: TimerId = 1;
+use crate::payload::Payload;
+use crate::protocol::{ConfigError, Microprotocol, Out};
+use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
+use crate::wire::{Pid, Real};
+
+/// The retransmission layer's messages.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RtMsg {
+    /// The payload of layer `up` with its per-link number.
+    Data {
+        seq: u64,
+        up: LayerIx,
+        payload: Payload,
+    },
+    /// The receiver has the message `seq`.
+    Ack { seq: u64 },
+}
+
+/// `Retransmit(period: 0.5)`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RetransmitConfig {
+    /// Resend period [s].
+    pub period: f64,
+}
 
 /// The retransmission layer.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -18,14 +41,14 @@ pub struct Retransmit {
     /// Resend period [s].
     period: Real,
     next: BTreeMap<Pid, u64>,
-    unacked: BTreeMap<(Pid, u64), (LayerIx, Wire)>,
+    unacked: BTreeMap<(Pid, u64), (LayerIx, Payload)>,
     delivered: BTreeSet<(Pid, u64)>,
     timer_on: bool,
 }
 
 impl Retransmit {
     /// Resends unacknowledged messages every `period` seconds.
-    pub fn new(period: f64) -> Self {
+    pub fn with_period(period: f64) -> Self {
         Self {
             period: Real::new(period),
             next: BTreeMap::new(),
@@ -35,27 +58,37 @@ impl Retransmit {
         }
     }
 
-    fn arm(&mut self, out: &mut Out) {
+    fn arm(&mut self, out: &mut Out<Self>) {
         if !self.timer_on && !self.unacked.is_empty() {
             self.timer_on = true;
-            out.set_timer(RESEND, self.period.get());
+            out.set_timer((), self.period.get());
         }
     }
 }
 
 impl Microprotocol for Retransmit {
-    fn name(&self) -> &'static str {
-        "Retransmit"
+    type Msg = RtMsg;
+    type Timer = ();
+    type Config = RetransmitConfig;
+    const NAME: &'static str = "Retransmit";
+
+    fn shape(_: &RetransmitConfig) -> Shape {
+        Shape::on_links(Service::P2P)
     }
 
-    fn on_request(&mut self, _ctx: &Ctx, from: LayerIx, req: Request, out: &mut Out) {
+    fn new(c: RetransmitConfig) -> Result<Self, ConfigError> {
+        ConfigError::positive_seconds("period", c.period)?;
+        Ok(Self::with_period(c.period))
+    }
+
+    fn on_request(&mut self, _ctx: &Ctx, from: LayerIx, req: Request, out: &mut Out<Self>) {
         if let Request::Send { to, msg } = req {
             for d in to {
                 let seq = self.next.entry(d).or_insert(0);
-                let data = Wire::RtData {
+                let data = RtMsg::Data {
                     seq: *seq,
                     up: from,
-                    inner: Box::new(msg.clone()),
+                    payload: msg.clone(),
                 };
                 self.unacked.insert((d, *seq), (from, msg.clone()));
                 *seq += 1;
@@ -65,39 +98,39 @@ impl Microprotocol for Retransmit {
         }
     }
 
-    fn on_indication(&mut self, _ctx: &Ctx, _from: LayerIx, ind: Indication, out: &mut Out) {
-        match ind {
-            Indication::Deliver {
-                from,
-                msg: Wire::RtData { seq, up, inner },
-            } => {
-                out.send(vec![from], Wire::RtAck { seq });
+    fn on_message(&mut self, _ctx: &Ctx, from: Pid, m: RtMsg, out: &mut Out<Self>) {
+        match m {
+            RtMsg::Data { seq, up, payload } => {
+                out.send(vec![from], RtMsg::Ack { seq });
                 if self.delivered.insert((from, seq)) {
-                    out.up_to(up, Indication::Deliver { from, msg: *inner });
+                    out.up_to(up, Indication::Deliver { from, msg: payload });
                 }
             }
-            Indication::Deliver {
-                from,
-                msg: Wire::RtAck { seq },
-            } => {
+            RtMsg::Ack { seq } => {
                 self.unacked.remove(&(from, seq));
             }
-            _ => {}
         }
     }
 
-    fn on_timer(&mut self, _ctx: &Ctx, _timer: TimerId, out: &mut Out) {
+    fn on_timer(&mut self, _ctx: &Ctx, _timer: (), out: &mut Out<Self>) {
         self.timer_on = false;
         for (&(d, seq), (up, msg)) in &self.unacked {
             out.send(
                 vec![d],
-                Wire::RtData {
+                RtMsg::Data {
                     seq,
                     up: *up,
-                    inner: Box::new(msg.clone()),
+                    payload: msg.clone(),
                 },
             );
         }
         self.arm(out);
+    }
+
+    fn render(m: &RtMsg, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match m {
+            RtMsg::Data { seq, payload, .. } => write!(f, "RT_DATA#{seq}({payload})"),
+            RtMsg::Ack { seq } => write!(f, "RT_ACK#{seq}"),
+        }
     }
 }

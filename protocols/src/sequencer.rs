@@ -6,10 +6,37 @@
 //! number order.
 
 use std::collections::BTreeMap;
+use std::fmt;
 
-use crate::protocol::Microprotocol;
-use crate::service::{Ctx, Indication, LayerIx, Out, Request};
-use crate::wire::{MsgId, Pid, Wire};
+use serde::{Deserialize, Serialize};
+
+use crate::payload::Payload;
+use crate::protocol::{ConfigError, Microprotocol, Out};
+use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
+use crate::wire::{MsgId, Pid};
+
+/// The fixed sequencer's messages: a message sent to the sequencer, and its ordering.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum SeqMsg {
+    Request {
+        id: MsgId,
+        payload: Payload,
+    },
+    Order {
+        gseq: u64,
+        id: MsgId,
+        payload: Payload,
+    },
+}
+
+/// `FixedSequencer` or `FixedSequencer(sequencer: 2)`.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SequencerConfig {
+    /// The process that orders every message (default 0).
+    #[serde(default)]
+    pub sequencer: Pid,
+}
 
 /// The fixed-sequencer layer.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
@@ -20,7 +47,7 @@ pub struct FixedSequencer {
     next_gseq: u64,
     /// Next number to deliver.
     expected: u64,
-    held: BTreeMap<u64, (MsgId, Wire)>,
+    held: BTreeMap<u64, (MsgId, Payload)>,
     /// Every process numbers its own messages (the deliberately broken variant: two
     /// sequencers act at once).
     rogue: bool,
@@ -28,7 +55,7 @@ pub struct FixedSequencer {
 
 impl FixedSequencer {
     /// Process `sequencer` orders all messages.
-    pub fn new(sequencer: Pid) -> Self {
+    pub fn with_sequencer(sequencer: Pid) -> Self {
         Self {
             sequencer,
             ..Self::default()
@@ -44,21 +71,21 @@ impl FixedSequencer {
         }
     }
 
-    fn order(&mut self, ctx: &Ctx, id: MsgId, msg: Wire, out: &mut Out) {
+    fn order(&mut self, ctx: &Ctx, id: MsgId, msg: Payload, out: &mut Out<Self>) {
         let gseq = self.next_gseq;
         self.next_gseq += 1;
         out.send(
             ctx.others(),
-            Wire::SeqOrder {
+            SeqMsg::Order {
                 gseq,
                 id,
-                inner: Box::new(msg.clone()),
+                payload: msg.clone(),
             },
         );
         self.receive_order(gseq, id, msg, out);
     }
 
-    fn receive_order(&mut self, gseq: u64, id: MsgId, msg: Wire, out: &mut Out) {
+    fn receive_order(&mut self, gseq: u64, id: MsgId, msg: Payload, out: &mut Out<Self>) {
         self.held.insert(gseq, (id, msg));
         while let Some((id, msg)) = self.held.remove(&self.expected) {
             self.expected += 1;
@@ -68,11 +95,20 @@ impl FixedSequencer {
 }
 
 impl Microprotocol for FixedSequencer {
-    fn name(&self) -> &'static str {
-        "FixedSequencer"
+    type Msg = SeqMsg;
+    type Timer = ();
+    type Config = SequencerConfig;
+    const NAME: &'static str = "FixedSequencer";
+
+    fn shape(_: &SequencerConfig) -> Shape {
+        Shape::on_links(Service::TOTAL_ORDER)
     }
 
-    fn on_request(&mut self, ctx: &Ctx, _from: LayerIx, req: Request, out: &mut Out) {
+    fn new(c: SequencerConfig) -> Result<Self, ConfigError> {
+        Ok(Self::with_sequencer(c.sequencer))
+    }
+
+    fn on_request(&mut self, ctx: &Ctx, _from: LayerIx, req: Request, out: &mut Out<Self>) {
         if let Request::Broadcast { msg } = req {
             let id = MsgId {
                 origin: ctx.me,
@@ -82,27 +118,27 @@ impl Microprotocol for FixedSequencer {
             if ctx.me == self.sequencer || self.rogue {
                 self.order(ctx, id, msg, out);
             } else {
-                out.send(
-                    vec![self.sequencer],
-                    Wire::SeqRequest {
-                        id,
-                        inner: Box::new(msg),
-                    },
-                );
+                out.send(vec![self.sequencer], SeqMsg::Request { id, payload: msg });
             }
         }
     }
 
-    fn on_indication(&mut self, ctx: &Ctx, _from: LayerIx, ind: Indication, out: &mut Out) {
-        let Indication::Deliver { msg, .. } = ind else {
-            return;
-        };
-        match msg {
-            Wire::SeqRequest { id, inner } if ctx.me == self.sequencer => {
-                self.order(ctx, id, *inner, out)
+    fn on_message(&mut self, ctx: &Ctx, _from: Pid, m: SeqMsg, out: &mut Out<Self>) {
+        match m {
+            SeqMsg::Request { id, payload } if ctx.me == self.sequencer => {
+                self.order(ctx, id, payload, out)
             }
-            Wire::SeqOrder { gseq, id, inner } => self.receive_order(gseq, id, *inner, out),
-            _ => {}
+            SeqMsg::Order { gseq, id, payload } => self.receive_order(gseq, id, payload, out),
+            SeqMsg::Request { .. } => {}
+        }
+    }
+
+    fn render(m: &SeqMsg, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match m {
+            SeqMsg::Request { id, payload } => write!(f, "SEQ_REQUEST({id}, {payload})"),
+            SeqMsg::Order { gseq, id, payload } => {
+                write!(f, "SEQ_ORDER(#{gseq}, {id}, {payload})")
+            }
         }
     }
 }

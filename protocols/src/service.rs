@@ -1,10 +1,14 @@
-//! The interfaces between microprotocols (seed 3.5): what a layer can ask of the layer below
-//! or of a layer it uses ([`Request`]), what it tells the layers above ([`Indication`]), and the
-//! effects a handler produces, as data ([`Out`]), in the spirit of stateright's `Out`.
+//! The interfaces between microprotocols (seed 3.5): the services a layer provides and needs
+//! ([`Service`]), what a layer can ask of the layer below or of a layer it uses
+//! ([`Request`]), what it tells the layers above ([`Indication`]), and the effects a handler
+//! produces, as data ([`Effect`]), in the spirit of stateright's `Out`. Messages cross these
+//! interfaces as [`Payload`]s; a protocol's handlers see its own types
+//! ([`crate::Microprotocol`]).
 
 use serde::{Deserialize, Serialize};
 
-use crate::wire::{MsgId, Pid, Real, Wire};
+use crate::payload::Payload;
+use crate::wire::{MsgId, Pid, Real};
 
 /// A layer's index in its process's stack (the same in every process).
 pub type LayerIx = u16;
@@ -12,9 +16,6 @@ pub type LayerIx = u16;
 pub const NET: LayerIx = LayerIx::MAX;
 /// The robot's algorithm, on top of every stack.
 pub const APP: LayerIx = LayerIx::MAX - 1;
-
-/// A protocol-defined timer.
-pub type TimerId = u32;
 
 /// What a handler knows of its setting. Protocols are time-free: they react to messages,
 /// requests and timers only, so a model checker can explore them without clocks.
@@ -47,28 +48,33 @@ impl Ctx {
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum Request {
     /// Send to a set of processes (multicast is native).
-    Send { to: Vec<Pid>, msg: Wire },
+    Send { to: Vec<Pid>, msg: Payload },
     /// Broadcast to every process, this one included.
-    Broadcast { msg: Wire },
+    Broadcast { msg: Payload },
     /// Propose a value to consensus instance `k`.
-    Propose { k: u64, value: Wire },
+    Propose { k: u64, value: Payload },
+    /// A request of a service a user defines: its own message, encoded (see
+    /// [`Payload::decode`]).
+    Custom(Payload),
 }
 
 /// A service indication to the layers above.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum Indication {
     /// A message from `from` arrived (point-to-point service).
-    Deliver { from: Pid, msg: Wire },
+    Deliver { from: Pid, msg: Payload },
     /// A broadcast message is delivered (broadcast services).
-    BDeliver { id: MsgId, msg: Wire },
+    BDeliver { id: MsgId, msg: Payload },
     /// Consensus instance `k` decided.
-    Decide { k: u64, value: Wire },
+    Decide { k: u64, value: Payload },
     /// A failure detector suspects a process.
     Suspect(Pid),
     /// A failure detector trusts a process again.
     Trust(Pid),
     /// Omega's leader changed.
     Leader(Pid),
+    /// An indication of a service a user defines: its own message, encoded.
+    Custom(Payload),
 }
 
 /// What reaches a layer.
@@ -80,8 +86,8 @@ pub enum Input {
     Request { from: LayerIx, req: Request },
     /// An indication from the layer `from` below, or from a layer this one uses.
     Indication { from: LayerIx, ind: Indication },
-    /// A timer of this layer fired.
-    Timer(TimerId),
+    /// A timer of this layer fired (the layer's own timer value, encoded).
+    Timer(Payload),
 }
 
 /// An effect of a handler.
@@ -99,59 +105,102 @@ pub enum Effect {
         to: Option<LayerIx>,
         ind: Indication,
     },
-    /// Fire `timer` after `after` seconds (the simulator's time; a model checker fires timers
-    /// whenever it likes).
+    /// Fire `timer` (the layer's own timer value, encoded) after `after` seconds (the
+    /// simulator's time; a model checker fires timers whenever it likes). Setting a timer
+    /// that is already set moves it.
     SetTimer {
-        timer: TimerId,
+        timer: Payload,
         after: Real,
     },
-    CancelTimer(TimerId),
+    CancelTimer(Payload),
 }
 
-/// Collects a handler's effects.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Out {
-    pub effects: Vec<Effect>,
+/// A service a layer provides to the layers above or needs from the layer below and the
+/// layers it uses (seed 3.5: Neko's layers are typed by their interfaces). Services are
+/// values, so a user defines one as a constant:
+///
+/// ```
+/// use nekosim_protocols::Service;
+/// const GOSSIP: Service = Service::new("Gossip", "gossip dissemination", &[Service::BROADCAST]);
+/// assert!(GOSSIP.serves(Service::BROADCAST));
+/// assert!(!Service::BROADCAST.serves(GOSSIP));
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct Service {
+    /// Its name (services are equal when their names are).
+    pub name: &'static str,
+    /// What it is, in words (for wiring errors).
+    pub what: &'static str,
+    /// Services a layer providing this one also provides (FIFO links are links).
+    pub implies: &'static [Service],
 }
 
-impl Out {
-    /// An empty collection.
-    pub fn new() -> Self {
-        Self::default()
-    }
+impl Service {
+    /// Point-to-point send/deliver.
+    pub const P2P: Service = Service::new("P2p", "point-to-point messages", &[]);
+    /// Point-to-point with per-link FIFO order.
+    pub const FIFO_P2P: Service =
+        Service::new("FifoP2p", "FIFO point-to-point messages", &[Service::P2P]);
+    /// Broadcast/deliver.
+    pub const BROADCAST: Service = Service::new("Broadcast", "broadcast", &[]);
+    /// Broadcast with total order.
+    pub const TOTAL_ORDER: Service =
+        Service::new("TotalOrder", "total-order broadcast", &[Service::BROADCAST]);
+    /// Consensus on a sequence of instances.
+    pub const CONSENSUS: Service = Service::new("Consensus", "consensus", &[]);
+    /// Suspicions and trust of processes.
+    pub const FAILURE_DETECTOR: Service =
+        Service::new("FailureDetector", "a failure detector", &[]);
+    /// Leader election (Omega).
+    pub const LEADER: Service = Service::new("Leader", "leader election", &[]);
 
-    /// Sends `msg` to `to` through the layer below.
-    pub fn send(&mut self, to: Vec<Pid>, msg: Wire) {
-        if !to.is_empty() {
-            self.effects.push(Effect::Down(Request::Send { to, msg }));
+    /// A service `name`, described as `what`, that also provides `implies`.
+    pub const fn new(name: &'static str, what: &'static str, implies: &'static [Service]) -> Self {
+        Self {
+            name,
+            what,
+            implies,
         }
     }
 
-    /// A request to the layer below.
-    pub fn down(&mut self, req: Request) {
-        self.effects.push(Effect::Down(req));
+    /// Whether a layer providing `self` can serve a need for `need`.
+    pub fn serves(self, need: Service) -> bool {
+        self == need || self.implies.iter().any(|s| s.serves(need))
     }
+}
 
-    /// A request to a used layer.
-    pub fn use_layer(&mut self, slot: u8, req: Request) {
-        self.effects.push(Effect::Use { slot, req });
+impl PartialEq for Service {
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name
     }
+}
 
-    /// An indication to one layer above.
-    pub fn up_to(&mut self, to: LayerIx, ind: Indication) {
-        self.effects.push(Effect::Up { to: Some(to), ind });
+impl Eq for Service {}
+
+impl std::hash::Hash for Service {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.name.hash(state)
     }
+}
 
-    /// An indication to every layer above and using this one.
-    pub fn up(&mut self, ind: Indication) {
-        self.effects.push(Effect::Up { to: None, ind });
-    }
+/// What a protocol provides and needs, as checked by [`crate::Wiring`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Shape {
+    /// Service to the layers above.
+    pub provides: Service,
+    /// Service needed from the layer below.
+    pub needs_below: Service,
+    /// Services needed from used layers, in `uses` order.
+    pub needs_uses: Vec<Service>,
+}
 
-    /// Sets a timer.
-    pub fn set_timer(&mut self, timer: TimerId, after: f64) {
-        self.effects.push(Effect::SetTimer {
-            timer,
-            after: Real::new(after),
-        });
+impl Shape {
+    /// Provides `provides` on top of point-to-point links, using no other layer.
+    pub fn on_links(provides: Service) -> Self {
+        Self {
+            provides,
+            needs_below: Service::P2P,
+            needs_uses: Vec::new(),
+        }
     }
 }

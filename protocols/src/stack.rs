@@ -9,166 +9,15 @@
 
 use std::collections::BTreeMap;
 use std::fmt;
+use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::consensus::ChandraToueg;
-use crate::consensus_abcast::ConsensusAbcast;
-use crate::custom::{CustomLayer, Params, Protocols, Shape};
-use crate::fifo::Fifo;
-use crate::heartbeat::Heartbeat;
-use crate::lamport::LamportAbcast;
-use crate::omega::Omega;
-use crate::protocol::Microprotocol;
-use crate::rbroadcast::ReliableBroadcast;
-use crate::retransmit::Retransmit;
-use crate::sequencer::FixedSequencer;
-use crate::service::{Ctx, Effect, Indication, Input, LayerIx, Out, Request, TimerId, APP, NET};
-use crate::wire::{Pid, Real};
-
-/// A protocol and its parameters, as a scenario names it.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub enum ProtocolSpec {
-    Fifo,
-    Retransmit {
-        period: f64,
-    },
-    ReliableBroadcast,
-    LamportAbcast,
-    /// Process 0 is the sequencer.
-    FixedSequencer,
-    Heartbeat {
-        period: f64,
-        timeout: f64,
-    },
-    Omega,
-    ChandraToueg,
-    ConsensusAbcast,
-    /// A protocol registered in Rust under `name` (see [`Protocols`]), with its parameters.
-    Custom {
-        name: String,
-        #[serde(default)]
-        params: Params,
-    },
-}
-
-/// A service a layer provides or needs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Service {
-    /// Point-to-point send/deliver.
-    P2p,
-    /// Point-to-point with per-link FIFO order.
-    FifoP2p,
-    /// Broadcast/deliver.
-    Broadcast,
-    /// Broadcast with total order.
-    TotalOrder,
-    Consensus,
-    FailureDetector,
-    Leader,
-}
-
-impl Service {
-    /// Whether a layer providing `self` can serve a need for `need`.
-    pub fn serves(self, need: Service) -> bool {
-        self == need
-            || (self == Service::FifoP2p && need == Service::P2p)
-            || (self == Service::TotalOrder && need == Service::Broadcast)
-    }
-
-    /// What the service is, in words.
-    pub fn name(self) -> &'static str {
-        match self {
-            Service::P2p => "point-to-point messages",
-            Service::FifoP2p => "FIFO point-to-point messages",
-            Service::Broadcast => "broadcast",
-            Service::TotalOrder => "total-order broadcast",
-            Service::Consensus => "consensus",
-            Service::FailureDetector => "a failure detector",
-            Service::Leader => "leader election",
-        }
-    }
-}
-
-impl ProtocolSpec {
-    /// What the protocol provides and needs; custom protocols are looked up in `protocols`.
-    pub fn shape(&self, protocols: &Protocols) -> Result<Shape, String> {
-        let provides = match self {
-            ProtocolSpec::Custom { name, .. } => return protocols.shape(name).cloned(),
-            ProtocolSpec::Fifo => Service::FifoP2p,
-            ProtocolSpec::Retransmit { .. } => Service::P2p,
-            ProtocolSpec::ReliableBroadcast => Service::Broadcast,
-            ProtocolSpec::LamportAbcast
-            | ProtocolSpec::FixedSequencer
-            | ProtocolSpec::ConsensusAbcast => Service::TotalOrder,
-            ProtocolSpec::Heartbeat { .. } => Service::FailureDetector,
-            ProtocolSpec::Omega => Service::Leader,
-            ProtocolSpec::ChandraToueg => Service::Consensus,
-        };
-        let needs_below = match self {
-            ProtocolSpec::LamportAbcast => Service::FifoP2p,
-            ProtocolSpec::ConsensusAbcast => Service::Broadcast,
-            _ => Service::P2p,
-        };
-        let needs_uses = match self {
-            ProtocolSpec::Omega | ProtocolSpec::ChandraToueg => vec![Service::FailureDetector],
-            ProtocolSpec::ConsensusAbcast => vec![Service::Consensus],
-            _ => vec![],
-        };
-        Ok(Shape {
-            provides,
-            needs_below,
-            needs_uses,
-        })
-    }
-
-    /// Checks parameters: `Err` names the field and what is expected.
-    pub fn check(&self) -> Result<(), (&'static str, String)> {
-        let positive = |what: &'static str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err((
-                    what,
-                    format!("{what} is {v}; expected a finite number > 0 (seconds)"),
-                ))
-            }
-        };
-        match *self {
-            ProtocolSpec::Retransmit { period } => positive("period", period),
-            ProtocolSpec::Heartbeat { period, timeout } => {
-                positive("period", period)?;
-                positive("timeout", timeout)?;
-                if timeout < period {
-                    return Err(("timeout", format!("timeout {timeout} is shorter than the period {period}; expected timeout >= period")));
-                }
-                Ok(())
-            }
-            _ => Ok(()),
-        }
-    }
-
-    /// A fresh instance; custom protocols are built by their factory in `protocols`.
-    pub fn instantiate(&self, protocols: &Protocols) -> Result<Layer, String> {
-        Ok(match self {
-            ProtocolSpec::Custom { name, params } => Layer::Custom(protocols.build(name, params)?),
-            ProtocolSpec::Fifo => Layer::Fifo(Fifo::default()),
-            ProtocolSpec::Retransmit { period } => Layer::Retransmit(Retransmit::new(*period)),
-            ProtocolSpec::ReliableBroadcast => {
-                Layer::ReliableBroadcast(ReliableBroadcast::default())
-            }
-            ProtocolSpec::LamportAbcast => Layer::LamportAbcast(LamportAbcast::default()),
-            ProtocolSpec::FixedSequencer => Layer::FixedSequencer(FixedSequencer::new(0)),
-            ProtocolSpec::Heartbeat { period, timeout } => {
-                Layer::Heartbeat(Heartbeat::new(*period, *timeout))
-            }
-            ProtocolSpec::Omega => Layer::Omega(Omega::default()),
-            ProtocolSpec::ChandraToueg => Layer::ChandraToueg(ChandraToueg::default()),
-            ProtocolSpec::ConsensusAbcast => Layer::ConsensusAbcast(ConsensusAbcast::default()),
-        })
-    }
-}
+use crate::payload::{Codec, Codecs, Payload, WireError};
+use crate::protocol::Layer;
+use crate::registry::{ProtocolSpec, Protocols};
+use crate::service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, APP, NET};
+use crate::wire::{app_codec, Pid, Real};
 
 /// One layer of a scenario's stack: `Layer(id: "abcast", protocol: LamportAbcast, below: "fifo")`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -183,91 +32,28 @@ pub struct LayerSpec {
 }
 
 impl LayerSpec {
-    /// A layer `id` running `protocol` on `below`, using `uses`.
-    pub fn new(id: &str, protocol: ProtocolSpec, below: &str, uses: &[&str]) -> Self {
+    /// A layer `id` running `protocol` (its RON text, `"Retransmit(period: 1.0)"`) on `below`,
+    /// using `uses`.
+    pub fn new(id: &str, protocol: &str, below: &str, uses: &[&str]) -> Self {
         Self {
             id: id.to_string(),
-            protocol,
+            protocol: ProtocolSpec::new(protocol),
             below: below.to_string(),
             uses: uses.iter().map(|u| u.to_string()).collect(),
         }
     }
 }
 
-/// A wiring mistake; `layer` is the index in the stack list, `field` the offending field.
+/// A wiring or configuration mistake; `layer` is the index in the stack list, `field` the
+/// offending field (`"below"`, `"protocol"`, `"protocol.period"`, ...) and `at`, for an error
+/// inside the protocol's RON text, the 1-based line and column in that text.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("{message}")]
 pub struct StackError {
     pub layer: usize,
-    pub field: &'static str,
+    pub field: String,
+    pub at: Option<(usize, usize)>,
     pub message: String,
-}
-
-/// A protocol instance of a built-in kind (the closed set keeps states `Eq + Hash` for model
-/// checking).
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
-pub enum Layer {
-    Fifo(Fifo),
-    Retransmit(Retransmit),
-    ReliableBroadcast(ReliableBroadcast),
-    LamportAbcast(LamportAbcast),
-    FixedSequencer(FixedSequencer),
-    Heartbeat(Heartbeat),
-    Omega(Omega),
-    ChandraToueg(ChandraToueg),
-    ConsensusAbcast(ConsensusAbcast),
-    /// A registered user protocol.
-    Custom(CustomLayer),
-}
-
-impl Layer {
-    fn proto(&mut self) -> &mut dyn DynHandle {
-        match self {
-            Layer::Custom(p) => p,
-            Layer::Fifo(p) => p,
-            Layer::Retransmit(p) => p,
-            Layer::ReliableBroadcast(p) => p,
-            Layer::LamportAbcast(p) => p,
-            Layer::FixedSequencer(p) => p,
-            Layer::Heartbeat(p) => p,
-            Layer::Omega(p) => p,
-            Layer::ChandraToueg(p) => p,
-            Layer::ConsensusAbcast(p) => p,
-        }
-    }
-
-    /// Neko's name of the protocol.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Layer::Fifo(p) => p.name(),
-            Layer::Retransmit(p) => p.name(),
-            Layer::ReliableBroadcast(p) => p.name(),
-            Layer::LamportAbcast(p) => p.name(),
-            Layer::FixedSequencer(p) => p.name(),
-            Layer::Heartbeat(p) => p.name(),
-            Layer::Omega(p) => p.name(),
-            Layer::ChandraToueg(p) => p.name(),
-            Layer::ConsensusAbcast(p) => p.name(),
-            Layer::Custom(p) => p.name(),
-        }
-    }
-}
-
-/// Object-safe handle over [`Microprotocol::handle`].
-trait DynHandle {
-    fn dyn_handle(&mut self, ctx: &Ctx, input: Input, out: &mut Out);
-}
-
-impl<P: Microprotocol> DynHandle for P {
-    fn dyn_handle(&mut self, ctx: &Ctx, input: Input, out: &mut Out) {
-        self.handle(ctx, input, out)
-    }
-}
-
-impl DynHandle for CustomLayer {
-    fn dyn_handle(&mut self, ctx: &Ctx, input: Input, out: &mut Out) {
-        self.protocol_mut().handle(ctx, input, out)
-    }
 }
 
 /// The checked wiring of a stack (the same in every process).
@@ -280,21 +66,24 @@ pub struct Wiring {
     pub above: Vec<Vec<LayerIx>>,
     /// Layers whose indications reach the application (those nobody else sits on or uses).
     pub app_hears: Vec<bool>,
+    /// What each layer provides.
+    pub provides: Vec<Service>,
+    /// How to render each layer's messages and the application's.
+    pub codecs: Arc<Codecs>,
 }
 
 impl Wiring {
-    /// Checks a stack of built-in protocols (see [`Wiring::check_with`]).
-    pub fn check(specs: &[LayerSpec]) -> Result<Wiring, StackError> {
-        Self::check_with(specs, &Protocols::new())
-    }
-
-    /// Checks a stack: unique ids, known protocols, `below`/`uses` and ids, no cycles, every
-    /// layer served by what it sits on and uses, parameters in range (a custom protocol's
-    /// factory judges its parameters).
-    pub fn check_with(specs: &[LayerSpec], protocols: &Protocols) -> Result<Wiring, StackError> {
-        let err = |layer, field, message: String| StackError {
+    /// Checks a stack and builds one process's fresh instances: unique ids, known protocols
+    /// whose configurations read and are accepted, `below`/`uses` naming layers, no cycles,
+    /// every layer served by what it sits on and uses.
+    pub fn check(
+        specs: &[LayerSpec],
+        protocols: &Protocols,
+    ) -> Result<(Wiring, Stack), StackError> {
+        let err = |layer, field: &str, message: String| StackError {
             layer,
-            field,
+            field: field.to_string(),
+            at: None,
             message,
         };
         let mut index: BTreeMap<&str, usize> = BTreeMap::new();
@@ -319,24 +108,23 @@ impl Wiring {
                     ),
                 ));
             }
-            s.protocol.check().map_err(|(_, m)| StackError {
-                layer: i,
-                field: "protocol",
-                message: m,
-            })?;
         }
         let mut shapes = Vec::new();
+        let mut layers = Vec::new();
+        let mut codecs = Vec::new();
         for (i, s) in specs.iter().enumerate() {
-            let shape = s
-                .protocol
-                .shape(protocols)
-                .map_err(|m| err(i, "protocol", m))?;
-            if let ProtocolSpec::Custom { name, params } = &s.protocol {
-                protocols
-                    .build(name, params)
-                    .map_err(|m| err(i, "protocol", m))?;
-            }
+            let (shape, layer) = protocols.build(&s.protocol).map_err(|e| StackError {
+                layer: i,
+                field: match &e.field {
+                    Some(f) => format!("protocol.{f}"),
+                    None => "protocol".into(),
+                },
+                at: e.at,
+                message: format!("{}: {}", s.protocol.name(), e.message),
+            })?;
+            codecs.push(protocols.codec(&s.protocol).expect("built"));
             shapes.push(shape);
+            layers.push(layer);
         }
         let resolve = |i: usize, field: &'static str, name: &str| -> Result<LayerIx, StackError> {
             if name == "net" {
@@ -358,7 +146,7 @@ impl Wiring {
         };
         let provides = |ix: LayerIx| {
             if ix == NET {
-                Service::P2p
+                Service::P2P
             } else {
                 shapes[ix as usize].provides
             }
@@ -379,9 +167,9 @@ impl Wiring {
                         "layer {:?} ({:?}) needs {} below it, but {:?} provides {}",
                         s.id,
                         s.protocol,
-                        need.name(),
+                        need.what,
                         s.below,
-                        provides(b).name()
+                        provides(b).what
                     ),
                 ));
             }
@@ -395,11 +183,7 @@ impl Wiring {
                         s.id,
                         s.protocol,
                         needs.len(),
-                        needs
-                            .iter()
-                            .map(|n| n.name())
-                            .collect::<Vec<_>>()
-                            .join(", "),
+                        needs.iter().map(|n| n.what).collect::<Vec<_>>().join(", "),
                         s.uses.len()
                     ),
                 ));
@@ -414,8 +198,8 @@ impl Wiring {
                         format!(
                             "layer {:?} needs {} from {u:?}, which provides {}",
                             s.id,
-                            need.name(),
-                            provides(ix).name()
+                            need.what,
+                            provides(ix).what
                         ),
                     ));
                 }
@@ -463,13 +247,33 @@ impl Wiring {
             }
         }
         let app_hears = above.iter().map(|a| a.is_empty()).collect();
-        Ok(Wiring {
+        let wiring = Wiring {
             ids: specs.iter().map(|s| s.id.clone()).collect(),
             below,
             uses,
             above,
             app_hears,
-        })
+            provides: shapes.iter().map(|s| s.provides).collect(),
+            codecs: Arc::new(Codecs {
+                layers: codecs,
+                app: app_codec(),
+            }),
+        };
+        Ok((wiring, Stack { layers }))
+    }
+
+    /// The readable form of a payload (or of anything holding payloads) of this stack.
+    pub fn render<T: fmt::Display + ?Sized>(&self, value: &T) -> String {
+        crate::payload::render(&self.codecs, value)
+    }
+
+    /// The codec of a layer (or of the application).
+    pub fn codec(&self, layer: LayerIx) -> Option<&Codec> {
+        if layer == APP {
+            Some(&self.codecs.app)
+        } else {
+            self.codecs.layers.get(layer as usize)
+        }
     }
 
     /// The index of a layer by id.
@@ -490,7 +294,7 @@ pub enum Routed {
     Net {
         layer: LayerIx,
         to: Vec<Pid>,
-        msg: crate::wire::Wire,
+        msg: Payload,
     },
     /// To the application, from `layer`.
     App {
@@ -499,12 +303,12 @@ pub enum Routed {
     },
     SetTimer {
         layer: LayerIx,
-        timer: TimerId,
+        timer: Payload,
         after: Real,
     },
     CancelTimer {
         layer: LayerIx,
-        timer: TimerId,
+        timer: Payload,
     },
 }
 
@@ -527,19 +331,20 @@ fn to_layer(target: LayerIx, from: LayerIx, req: Request) -> Routed {
 }
 
 /// Runs one layer instance's handler (the layer at index `ix` of a stack wired by `wiring`)
-/// and says where each of its effects goes.
+/// and says where each of its effects goes. An input whose payload does not decode as the
+/// layer's own type (which the stack never produces; bytes from a real network may) is
+/// refused with the decoding error and changes nothing.
 pub fn step_layer(
     layer: &mut Layer,
     wiring: &Wiring,
     ctx: &Ctx,
     ix: LayerIx,
     input: Input,
-) -> Vec<Routed> {
-    let mut out = Out::new();
-    layer.proto().dyn_handle(ctx, input, &mut out);
+) -> Result<Vec<Routed>, WireError> {
+    let effects = layer.handle(ctx, ix, input)?;
     let i = ix as usize;
     let mut routed = Vec::new();
-    for e in out.effects {
+    for e in effects {
         match e {
             Effect::Down(req) => routed.push(to_layer(wiring.below[i], ix, req)),
             Effect::Use { slot, req } => {
@@ -572,7 +377,7 @@ pub fn step_layer(
             Effect::CancelTimer(timer) => routed.push(Routed::CancelTimer { layer: ix, timer }),
         }
     }
-    routed
+    Ok(routed)
 }
 
 /// One process's stack of protocol instances.
@@ -582,25 +387,6 @@ pub struct Stack {
 }
 
 impl Stack {
-    /// Fresh instances of every layer of a stack of built-in protocols.
-    ///
-    /// # Panics
-    /// If a layer is a custom protocol (use [`Stack::with_protocols`]).
-    pub fn new(specs: &[LayerSpec]) -> Self {
-        Self::with_protocols(specs, &Protocols::new())
-            .expect("Stack::new builds built-in protocols only")
-    }
-
-    /// Fresh instances of every layer; custom protocols are built from `protocols`.
-    pub fn with_protocols(specs: &[LayerSpec], protocols: &Protocols) -> Result<Self, String> {
-        Ok(Self {
-            layers: specs
-                .iter()
-                .map(|s| s.protocol.instantiate(protocols))
-                .collect::<Result<_, _>>()?,
-        })
-    }
-
     /// Runs one layer's handler and routes its effects.
     pub fn step(
         &mut self,
@@ -608,7 +394,7 @@ impl Stack {
         ctx: &Ctx,
         layer: LayerIx,
         input: Input,
-    ) -> Vec<Routed> {
+    ) -> Result<Vec<Routed>, WireError> {
         step_layer(&mut self.layers[layer as usize], wiring, ctx, layer, input)
     }
 
@@ -624,7 +410,8 @@ impl Stack {
         let mut queue = std::collections::VecDeque::from([(layer, input)]);
         let mut out = Vec::new();
         while let Some((l, i)) = queue.pop_front() {
-            for r in self.step(wiring, ctx, l, i) {
+            // The stack's own payloads always decode; a foreign one changes nothing.
+            for r in self.step(wiring, ctx, l, i).unwrap_or_default() {
                 match r {
                     Routed::Layer { to, input } if to != NET => queue.push_back((to, input)),
                     other => out.push(other),
@@ -641,11 +428,5 @@ impl Stack {
             out.extend(self.step_local(wiring, ctx, l, Input::Start));
         }
         out
-    }
-}
-
-impl fmt::Display for ProtocolSpec {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{self:?}")
     }
 }

@@ -1,10 +1,13 @@
-//! What travels between processes and between layers (seed 3.4-3.5): process ids, message
-//! contents and the layered wire format. Everything is `Eq + Hash + Ord` so protocol states
-//! and messages can be explored by a model checker.
+//! What travels between processes (seed 3.4-3.5): process ids, broadcast message ids and the
+//! application's messages. Everything is `Eq + Hash + Ord` so protocol states and messages can
+//! be explored by a model checker; the layered wire format is [`crate::payload`].
 
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
+
+use crate::payload::{decode_bytes, Codec, Payload, WireError};
+use crate::service::APP;
 
 /// A process (robot) id; processes of a run are `0..n`.
 pub type Pid = u32;
@@ -74,137 +77,49 @@ impl fmt::Display for MsgId {
     }
 }
 
-/// A message as a layer hands it to the layer below: the layer's own header around the
-/// payload of the layer above, down to the application's message.
+/// An application message (seed 5.3's `NekoMessage`): Neko's message type name and its
+/// content. Robot algorithms exchange these through the stack's top layers.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub enum Wire {
-    /// An application message: Neko's message type name and content.
-    App {
-        kind: String,
-        content: Content,
-    },
-    /// Fifo: per-link sequence number.
-    Fifo {
-        seq: u64,
-        up: u16,
-        inner: Box<Wire>,
-    },
-    /// Retransmit: data with a per-link sequence number, or its acknowledgement.
-    RtData {
-        seq: u64,
-        up: u16,
-        inner: Box<Wire>,
-    },
-    RtAck {
-        seq: u64,
-    },
-    /// Reliable broadcast: a message and its id, relayed by every receiver.
-    Rb {
-        id: MsgId,
-        inner: Box<Wire>,
-    },
-    /// Lamport total order: a timestamped message, or an acknowledgement carrying a clock.
-    LamportMsg {
-        ts: u64,
-        id: MsgId,
-        inner: Box<Wire>,
-    },
-    LamportAck {
-        ts: u64,
-    },
-    /// Fixed sequencer: a message sent to the sequencer, and its ordering.
-    SeqRequest {
-        id: MsgId,
-        inner: Box<Wire>,
-    },
-    SeqOrder {
-        gseq: u64,
-        id: MsgId,
-        inner: Box<Wire>,
-    },
-    /// Heartbeat failure detector.
-    Heartbeat,
-    /// Chandra-Toueg consensus, instance `k`, round `r`.
-    CtEstimate {
-        k: u64,
-        r: u64,
-        est: Box<Wire>,
-        ts: u64,
-    },
-    CtPropose {
-        k: u64,
-        r: u64,
-        value: Box<Wire>,
-    },
-    CtAck {
-        k: u64,
-        r: u64,
-    },
-    CtNack {
-        k: u64,
-        r: u64,
-    },
-    CtDecide {
-        k: u64,
-        value: Box<Wire>,
-    },
-    /// A batch of broadcast messages (consensus-based atomic broadcast's proposals).
-    Batch(Vec<(MsgId, Wire)>),
-    /// A user-defined protocol's message.
-    Custom {
-        protocol: String,
-        tag: String,
-        data: Content,
-        inner: Option<Box<Wire>>,
-    },
+pub struct AppMsg {
+    pub kind: String,
+    pub content: Content,
 }
 
-impl Wire {
-    /// An application message.
-    pub fn app(kind: &str, content: Content) -> Self {
-        Wire::App {
+impl AppMsg {
+    /// The application message `kind` with `content`.
+    pub fn new(kind: &str, content: Content) -> Self {
+        Self {
             kind: kind.to_string(),
             content,
         }
     }
 
-    /// The application message inside all the headers, if any.
-    pub fn app_part(&self) -> Option<(&str, &Content)> {
-        match self {
-            Wire::App { kind, content } => Some((kind, content)),
-            Wire::Fifo { inner, .. }
-            | Wire::RtData { inner, .. }
-            | Wire::Rb { inner, .. }
-            | Wire::LamportMsg { inner, .. }
-            | Wire::SeqRequest { inner, .. }
-            | Wire::SeqOrder { inner, .. } => inner.app_part(),
-            Wire::Custom {
-                inner: Some(inner), ..
-            } => inner.app_part(),
-            _ => None,
-        }
+    /// Encoded as the application's payload.
+    pub fn payload(&self) -> Payload {
+        Payload::encode(APP, self)
     }
 
-    /// The outermost header's name (Neko's message type in logs).
-    pub fn type_name(&self) -> &str {
-        match self {
-            Wire::App { kind, .. } => kind,
-            Wire::Fifo { .. } => "FIFO",
-            Wire::RtData { .. } => "RT_DATA",
-            Wire::RtAck { .. } => "RT_ACK",
-            Wire::Rb { .. } => "RB",
-            Wire::LamportMsg { .. } => "LAMPORT",
-            Wire::LamportAck { .. } => "LAMPORT_ACK",
-            Wire::SeqRequest { .. } => "SEQ_REQUEST",
-            Wire::SeqOrder { .. } => "SEQ_ORDER",
-            Wire::Heartbeat => "HEARTBEAT",
-            Wire::CtEstimate { .. } => "CT_ESTIMATE",
-            Wire::CtPropose { .. } => "CT_PROPOSE",
-            Wire::CtAck { .. } => "CT_ACK",
-            Wire::CtNack { .. } => "CT_NACK",
-            Wire::CtDecide { .. } => "CT_DECIDE",
-            Wire::Batch(_) => "BATCH",
-            Wire::Custom { tag, .. } => tag,
-        }
+    /// The application message a payload encodes, if it is the application's.
+    pub fn of(p: &Payload) -> Option<Self> {
+        (p.layer() == APP).then(|| p.decode().ok()).flatten()
+    }
+}
+
+impl fmt::Display for AppMsg {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} {}", self.kind, self.content)
+    }
+}
+
+fn render_app(bytes: &[u8], f: &mut fmt::Formatter<'_>) -> Result<fmt::Result, WireError> {
+    let m: AppMsg = decode_bytes(bytes)?;
+    Ok(fmt::Display::fmt(&m, f))
+}
+
+/// How the application's messages render: `KIND content`.
+pub fn app_codec() -> Codec {
+    Codec {
+        protocol: "app",
+        render: render_app,
     }
 }

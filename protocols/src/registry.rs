@@ -1,0 +1,268 @@
+//! Protocols by name (seed 3.5, 6.2): Neko composed protocol stacks in Java initializer code;
+//! here a scenario names each layer's protocol with its configuration,
+//! `protocol: Retransmit(period: 0.5)`, and a [`Protocols`] registry maps the name to the
+//! protocol type. Built-in protocols are registered exactly as a user's are
+//! ([`Protocols::with_builtins`], [`Protocols::protocol`]).
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use crate::payload::{decode_bytes, Codec, WireError};
+use crate::protocol::{ConfigError, Layer, Microprotocol};
+use crate::service::Shape;
+
+/// A protocol and its configuration as a scenario writes it, kept as RON text
+/// (`Fifo`, `Retransmit(period: 0.5)`, `RingGossip(fanout: 2)`); the registry reads it into
+/// the protocol's own configuration type.
+#[derive(Clone, PartialEq, Eq, Hash)]
+pub struct ProtocolSpec {
+    text: String,
+}
+
+impl ProtocolSpec {
+    /// A spec from its RON text.
+    pub fn new(text: &str) -> Self {
+        Self {
+            text: text.trim().to_string(),
+        }
+    }
+
+    /// The RON text.
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// The protocol's name: the text's leading identifier.
+    pub fn name(&self) -> &str {
+        let end = self
+            .text
+            .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+            .unwrap_or(self.text.len());
+        &self.text[..end]
+    }
+
+    /// The configuration part after the name, as RON (`()` when there is none).
+    fn config_text(&self) -> &str {
+        let rest = &self.text[self.name().len()..];
+        if rest.trim().is_empty() {
+            "()"
+        } else {
+            rest
+        }
+    }
+}
+
+impl fmt::Debug for ProtocolSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.text)
+    }
+}
+
+impl fmt::Display for ProtocolSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.text)
+    }
+}
+
+impl Serialize for ProtocolSpec {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match ron::value::RawValue::from_ron(&self.text) {
+            Ok(raw) => raw.serialize(s),
+            Err(e) => Err(serde::ser::Error::custom(e)),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for ProtocolSpec {
+    /// Takes the value's RON text as it is (read from a RON document only).
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let raw = Box::<ron::value::RawValue>::deserialize(d)?;
+        let spec = Self::new(raw.get_ron());
+        if spec.name().is_empty() {
+            return Err(serde::de::Error::custom(format!(
+                "expected a protocol name, like `Fifo` or `Retransmit(period: 1.0)`; got `{}`",
+                spec.text
+            )));
+        }
+        Ok(spec)
+    }
+}
+
+/// Why a spec cannot be built: where in the spec's text (1-based line and column, when known),
+/// which configuration field (when known) and what is wrong.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{message}")]
+pub struct SpecError {
+    pub at: Option<(usize, usize)>,
+    pub field: Option<String>,
+    pub message: String,
+}
+
+/// A protocol type's registered functions.
+#[derive(Clone, Copy)]
+struct Entry {
+    /// Reads the configuration text and builds the shape and a fresh instance.
+    build: fn(&str) -> Result<(Shape, Layer), SpecError>,
+    codec: Codec,
+}
+
+/// Protocols by the name scenarios use for them.
+#[derive(Clone, Default)]
+pub struct Protocols {
+    entries: BTreeMap<String, Entry>,
+}
+
+impl fmt::Debug for Protocols {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Protocols")
+            .field("names", &self.entries.keys().collect::<Vec<_>>())
+            .finish()
+    }
+}
+
+impl PartialEq for Protocols {
+    /// Registries are equal when they register the same names to the same protocols.
+    fn eq(&self, other: &Self) -> bool {
+        self.entries.len() == other.entries.len()
+            && self
+                .entries
+                .iter()
+                .zip(&other.entries)
+                .all(|((a, x), (b, y))| a == b && x.codec.protocol == y.codec.protocol)
+    }
+}
+
+fn build_entry<P: Microprotocol>(text: &str) -> Result<(Shape, Layer), SpecError> {
+    let opts =
+        ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+    let config: P::Config = opts.from_str(text).map_err(|e| SpecError {
+        at: Some((e.position.line, e.position.col)),
+        field: None,
+        message: describe(&e.code),
+    })?;
+    let shape = P::shape(&config);
+    let p = P::new(config).map_err(|ConfigError { field, message }| SpecError {
+        at: None,
+        field,
+        message,
+    })?;
+    Ok((shape, Layer::new(p)))
+}
+
+/// A ron error in the words of a scenario error.
+fn describe(e: &ron::Error) -> String {
+    match e {
+        ron::Error::NoSuchStructField {
+            expected, found, ..
+        } => {
+            if expected.is_empty() {
+                format!("unknown field `{found}`; this protocol takes no configuration")
+            } else {
+                format!(
+                    "unknown field `{found}`; expected one of {}",
+                    expected
+                        .iter()
+                        .map(|f| format!("`{f}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+        }
+        other => other.to_string(),
+    }
+}
+
+fn render_entry<P: Microprotocol>(
+    bytes: &[u8],
+    f: &mut fmt::Formatter<'_>,
+) -> Result<fmt::Result, WireError> {
+    let msg: P::Msg = decode_bytes(bytes)?;
+    Ok(P::render(&msg, f))
+}
+
+/// The codec of a protocol type (how hosts render its messages).
+pub fn codec_of<P: Microprotocol>(name: &'static str) -> Codec {
+    Codec {
+        protocol: name,
+        render: render_entry::<P>,
+    }
+}
+
+impl Protocols {
+    /// An empty registry.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Every built-in protocol of [`crate::builtins`], under its name.
+    pub fn with_builtins() -> Self {
+        let mut r = Self::new();
+        crate::builtins::register(&mut r);
+        r
+    }
+
+    /// Registers the protocol `P` under `name` (replacing an earlier registration).
+    pub fn protocol<P: Microprotocol>(&mut self, name: &str) -> &mut Self {
+        let leaked: &'static str = match self.entries.get(name) {
+            Some(e) => e.codec.protocol,
+            None => Box::leak(name.to_string().into_boxed_str()),
+        };
+        self.entries.insert(
+            name.to_string(),
+            Entry {
+                build: build_entry::<P>,
+                codec: codec_of::<P>(leaked),
+            },
+        );
+        self
+    }
+
+    /// Registered names, sorted.
+    pub fn names(&self) -> impl Iterator<Item = &str> {
+        self.entries.keys().map(String::as_str)
+    }
+
+    fn entry(&self, spec: &ProtocolSpec) -> Result<&Entry, SpecError> {
+        let name = spec.name();
+        self.entries.get(name).ok_or_else(|| {
+            let names: Vec<&str> = self.names().collect();
+            SpecError {
+                at: Some((1, 1)),
+                field: None,
+                message: if names.is_empty() {
+                    format!("unknown protocol {name:?}; no protocol is registered")
+                } else {
+                    format!(
+                        "unknown protocol {name:?}; expected one of {}",
+                        names.join(", ")
+                    )
+                },
+            }
+        })
+    }
+
+    /// Reads `spec`'s configuration and builds what the protocol provides and needs and a
+    /// fresh instance. Positions in the error are in `spec`'s text.
+    pub fn build(&self, spec: &ProtocolSpec) -> Result<(Shape, Layer), SpecError> {
+        let entry = self.entry(spec)?;
+        let offset = spec.name().len();
+        (entry.build)(spec.config_text()).map_err(|mut e| {
+            // The configuration text starts right after the name on the spec's first line.
+            if let Some((line, col)) = e.at {
+                e.at = Some(if line == 1 {
+                    (1, col + offset)
+                } else {
+                    (line, col)
+                });
+            }
+            e
+        })
+    }
+
+    /// The codec of `spec`'s protocol.
+    pub fn codec(&self, spec: &ProtocolSpec) -> Result<Codec, SpecError> {
+        self.entry(spec).map(|e| e.codec)
+    }
+}
