@@ -19,6 +19,7 @@ use stateright::Expectation;
 use crate::log::wire_text;
 use crate::output::AtomicFile;
 use crate::recording::RecordingError;
+use nekosim_protocols::payload::{install, type_word};
 
 /// What the command was asked to check.
 #[derive(Clone, Debug, PartialEq)]
@@ -217,6 +218,7 @@ fn write_recording(
         return Ok(());
     };
     let steps = explain(model, v.path.as_ref().expect("traced paths exist"));
+    let _codecs = install(&model.actors[0].shared.wiring.codecs);
     let n = model.actors.len();
     let lane = |p: u32| Point::new(LANE * p as f64, 0.0);
     let size = WorldSize::Bounded {
@@ -335,6 +337,7 @@ fn write_trace(model: &CheckModel, outcome: &Outcome, path: &Path) -> io::Result
 
 /// One JSON object per event; `t` and `seq` are the step number.
 pub fn trace_lines(model: &CheckModel, steps: &[Step]) -> Vec<String> {
+    let _codecs = install(&model.actors[0].shared.wiring.codecs);
     path_items(model, steps)
         .into_iter()
         .map(|item| match item {
@@ -381,7 +384,7 @@ fn path_items(model: &CheckModel, steps: &[Step]) -> Vec<Item> {
                         ("to", json!([to])),
                         ("layer", json!(name(msg.layer))),
                         ("msg", json!(wire_text(&msg.msg))),
-                        ("type", json!(msg.msg.type_name())),
+                        ("type", json!(type_word(&wire_text(&msg.msg)))),
                     ],
                 )),
                 Event::At { process: p, what } => match what {
@@ -390,6 +393,7 @@ fn path_items(model: &CheckModel, steps: &[Step]) -> Vec<Item> {
                             Request::Broadcast { msg } => ("broadcast", msg.clone()),
                             Request::Propose { value, .. } => ("propose", value.clone()),
                             Request::Send { msg, .. } => ("send", msg.clone()),
+                            Request::Custom(msg) => ("request", msg.clone()),
                         };
                         Some(record(Observation::Request {
                             robot: *p,
@@ -460,7 +464,7 @@ fn path_items(model: &CheckModel, steps: &[Step]) -> Vec<Item> {
                                 layer,
                                 process: *q,
                             })),
-                            Indication::Deliver { .. } => None,
+                            Indication::Deliver { .. } | Indication::Custom(_) => None,
                         }
                     }
                 },

@@ -5,6 +5,7 @@
 pub use nekosim_actors::*;
 
 pub mod check;
+pub mod cli;
 pub mod log;
 pub mod output;
 pub mod recording;

@@ -9,7 +9,8 @@ use nekosim_actors::world::motion::StepKind;
 use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_actors::world::sensor::{SensorQuery, SensorValue};
 use nekosim_actors::world::{MotionOutcome, Obstacle, RobotId};
-use nekosim_protocols::Wire;
+use nekosim_protocols::payload::type_word;
+use nekosim_protocols::Payload;
 
 /// Three decimals, as `format!("{v:.3}")` writes them, with no negative zero.
 ///
@@ -134,27 +135,21 @@ fn value_text(v: &SensorValue) -> String {
     }
 }
 
-/// A message as the log shows it: the application message inside (`KIND content`) or the
-/// protocol header's name.
-pub fn wire_text(w: &Wire) -> String {
-    match w {
-        Wire::Batch(items) => {
-            let ids: Vec<String> = items.iter().map(|(id, _)| id.to_string()).collect();
-            format!("batch[{}]", ids.join(","))
-        }
-        _ => match w.app_part() {
-            Some((kind, content)) => format!("{kind} {content}"),
-            None => w.type_name().to_string(),
-        },
-    }
+/// A message as the log and trace show it: its protocol's readable form, payloads inside
+/// rendered as the messages they encode (run under [`nekosim_protocols::payload::with_codecs`]
+/// of the run's stack).
+pub fn wire_text(p: &Payload) -> String {
+    p.to_string()
 }
 
-/// The application content inside a message, or `-`.
-fn content_text(w: &Wire) -> String {
-    match w.app_part() {
-        Some((_, c)) => c.to_string(),
-        None => "-".into(),
-    }
+/// A message split for Neko's `messages` lines: its type (the rendering's first word) and the
+/// rest of the rendering (`-` when there is none).
+pub fn type_and_rest(p: &Payload) -> (String, String) {
+    let text = p.to_string();
+    let ty = type_word(&text).to_string();
+    let rest = text[ty.len()..].trim();
+    let rest = if rest.is_empty() { "-" } else { rest };
+    (ty, rest.to_string())
 }
 
 /// Turns observations into log lines; remembers each robot's current motion pattern.
@@ -257,10 +252,12 @@ impl NekoLog {
             }
             Observation::Send { robot, to, layer, msg } => {
                 let dests: Vec<String> = to.iter().map(|d| format!("p{d}")).collect();
-                format!("{t} p{robot} messages e s p{robot} {} {} {} [{layer}]", dests.join(","), msg.type_name(), content_text(msg))
+                let (ty, rest) = type_and_rest(msg);
+                format!("{t} p{robot} messages e s p{robot} {} {ty} {rest} [{layer}]", dests.join(","))
             }
             Observation::Receive { robot, from, layer, msg } => {
-                format!("{t} p{robot} messages e r p{from} p{robot} {} {} [{layer}]", msg.type_name(), content_text(msg))
+                let (ty, rest) = type_and_rest(msg);
+                format!("{t} p{robot} messages e r p{from} p{robot} {ty} {rest} [{layer}]")
             }
             Observation::Deliver { robot, layer, id, msg } => {
                 format!("{t} p{robot} Deliver: layer {layer} | {id} | {}", wire_text(msg))

@@ -38,7 +38,7 @@ use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_actors::world::sensor::{SensorKind, SensorQuery};
 use nekosim_actors::world::virtual_world::WorldSize;
 use nekosim_actors::world::{Obstacle, RobotId};
-use nekosim_protocols::Wire;
+use nekosim_protocols::payload::type_word;
 
 use crate::log::NekoLog;
 
@@ -288,7 +288,7 @@ fn hsv(hue: f64, s: f64, v: f64) -> Rgb {
 }
 
 /// Key of an in-flight copy: (sender, receiver, layer, message).
-type FlightKey = (RobotId, RobotId, String, Wire);
+type FlightKey = (RobotId, RobotId, String, nekosim_protocols::Payload);
 
 /// Turns a run's records into drawings on a [`Canvas`].
 #[derive(Debug)]
@@ -601,7 +601,7 @@ impl<C: Canvas> Recorder<C> {
                         to: *dest,
                         origin,
                         target: self.pos_now(*dest, rec.t),
-                        label: msg.type_name().to_string(),
+                        label: type_word(&msg.to_string()).to_string(),
                     };
                     added.push(((*robot, *dest, layer.clone(), msg.clone()), flight));
                 }
@@ -840,7 +840,8 @@ mod tests {
                 other_pos: Point::new(3.0, 0.0),
             },
         ));
-        let msg = Wire::Heartbeat;
+        let msg =
+            nekosim_protocols::AppMsg::new("HELLO", nekosim_protocols::Content::None).payload();
         r.record(&rec(
             0.6,
             3,

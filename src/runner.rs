@@ -6,11 +6,13 @@
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
+use std::sync::Arc;
 use std::time::Instant;
 
 use nekosim_actors::scheduler::Observers;
 use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_actors::{SimConfig, SimError};
+use nekosim_protocols::payload::{install, Codecs};
 
 use crate::log::NekoLog;
 use crate::output::AtomicFile;
@@ -177,12 +179,17 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         NekoLog::new(),
         LatencyMeter::default(),
     )));
-    let recorder = recorder.map(Background::start).transpose()?;
+    let codecs = built.codecs.clone();
+    let recorder = recorder
+        .map(|r| Background::start(r, codecs.clone()))
+        .transpose()?;
     let recorder = Rc::new(RefCell::new(recorder));
     let sink = {
         let outputs = outputs.clone();
         let recorder = recorder.clone();
         Box::new(move |r: &Record| {
+            // Messages render through the stack's codecs.
+            let _codecs = install(&codecs);
             let mut o = outputs.borrow_mut();
             let (log, trace, neko, meter) = &mut *o;
             meter.observe(r);
@@ -313,11 +320,12 @@ struct Background {
 }
 
 impl Background {
-    fn start(mut recorder: Recorder) -> Result<Self, RunError> {
+    fn start(mut recorder: Recorder, codecs: Arc<Codecs>) -> Result<Self, RunError> {
         let (tx, rx) = std::sync::mpsc::sync_channel::<ToRecorder>(BATCHES_IN_FLIGHT);
         let thread = std::thread::Builder::new()
             .name("nekosim-recording".into())
             .spawn(move || {
+                let _codecs = install(&codecs);
                 for msg in rx {
                     match msg {
                         ToRecorder::Records(batch) => {

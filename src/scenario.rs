@@ -9,6 +9,7 @@ mod locate;
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 use std::path::Path;
+use std::sync::Arc;
 
 use nekosim_actors::algorithm::{Gathering, Idle, RandomMovement, Script, ScriptStep, SpeedRange};
 use nekosim_actors::world::born::random_born_points;
@@ -17,7 +18,8 @@ use nekosim_actors::world::motion::Pose;
 use nekosim_actors::world::network::{NetworkSpec, Partition};
 use nekosim_actors::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldSize};
 use nekosim_actors::{Algorithm, Comms, Fault};
-use nekosim_protocols::{LayerSpec, Protocols, Wiring};
+use nekosim_protocols::payload::Codecs;
+use nekosim_protocols::{LayerSpec, Protocols, StackError, Wiring};
 use rand::{Rng, SeedableRng};
 use serde::Deserialize;
 
@@ -239,12 +241,20 @@ impl fmt::Display for ScenarioError {
 pub type Factory =
     Box<dyn Fn(&BTreeMap<String, f64>) -> Result<Box<dyn Algorithm>, String> + Send + Sync>;
 
-/// Custom algorithms and protocols by name, for `Custom(name: ..)` in scenario files.
-#[derive(Default)]
+/// Algorithms and protocols by name: custom algorithms for `Custom(name: ..)`, and the
+/// protocols a scenario's `stack` names (`protocol: Name(config)`), built-in and the user's
+/// alike.
 pub struct Registry {
     factories: BTreeMap<String, Factory>,
-    /// User protocols for the `stack`.
+    /// The protocols for the `stack`.
     pub protocols: Protocols,
+}
+
+impl Default for Registry {
+    /// [`Registry::with_builtins`].
+    fn default() -> Self {
+        Self::with_builtins()
+    }
 }
 
 impl fmt::Debug for Registry {
@@ -257,9 +267,17 @@ impl fmt::Debug for Registry {
 }
 
 impl Registry {
-    /// An empty registry.
+    /// The built-in protocols and no custom algorithm (the same as [`Registry::with_builtins`]).
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// The built-in protocols ([`Protocols::with_builtins`]) and no custom algorithm.
+    pub fn with_builtins() -> Self {
+        Self {
+            factories: BTreeMap::new(),
+            protocols: Protocols::with_builtins(),
+        }
     }
 
     /// Registers `factory` under `name`.
@@ -275,15 +293,10 @@ impl Registry {
         self
     }
 
-    /// Registers the microprotocol `name` for `Custom(name: ..)` in a scenario's `stack`:
-    /// what it provides and needs, and how to build it from the layer's `params`.
-    pub fn register_protocol<P: nekosim_protocols::Microprotocol>(
-        &mut self,
-        name: &str,
-        shape: nekosim_protocols::Shape,
-        factory: impl Fn(&BTreeMap<String, f64>) -> Result<P, String> + Send + Sync + 'static,
-    ) -> &mut Self {
-        self.protocols.register(name, shape, factory);
+    /// Registers the microprotocol `P` under `name`, for `protocol: Name(config)` in a
+    /// scenario's `stack` (see docs/extending.md).
+    pub fn protocol<P: nekosim_protocols::Microprotocol>(&mut self, name: &str) -> &mut Self {
+        self.protocols.protocol::<P>(name);
         self
     }
 }
@@ -305,6 +318,8 @@ pub struct Built {
     pub world: WorldConfig,
     pub robots: Vec<(RobotSpec, Box<dyn Algorithm>)>,
     pub comms: Comms,
+    /// How the stack's messages render in the log, trace and recording.
+    pub codecs: Arc<Codecs>,
     /// Animation frames per simulated second of recordings; 0: event instants only.
     pub framerate: f64,
 }
@@ -425,8 +440,8 @@ impl Source {
                 self.positive(&format!("{path}.turn_speed"), "turn speed", *turn_speed)?;
                 let total_order = self.scenario.stack.iter().any(|l| {
                     &l.id == layer
-                        && l.protocol.shape(&registry.protocols).is_ok_and(|sh| {
-                            sh.provides == nekosim_protocols::stack::Service::TotalOrder
+                        && registry.protocols.build(&l.protocol).is_ok_and(|(sh, _)| {
+                            sh.provides.serves(nekosim_protocols::Service::TOTAL_ORDER)
                         })
                 });
                 if !total_order {
@@ -825,7 +840,7 @@ impl Source {
         // The kernel's own checks, as a second net.
         let specs: Vec<RobotSpec> = robots.iter().map(|r| r.0).collect();
         VirtualWorld::new(world, &specs).map_err(|e| self.err("robots", e.to_string()))?;
-        let comms = self.comms(total, registry)?;
+        let (comms, codecs) = self.comms(total, registry)?;
         let framerate = match &s.animation {
             None => crate::recording::DEFAULT_FRAMERATE,
             Some(a) => {
@@ -849,6 +864,7 @@ impl Source {
         });
         Ok(Built {
             comms,
+            codecs,
             framerate,
             name,
             seed,
@@ -862,14 +878,14 @@ impl Source {
 
 impl Source {
     /// Network, stack and faults, checked against `n` robots.
-    fn comms(&self, n: usize, registry: &Registry) -> Result<Comms, ScenarioError> {
+    fn comms(&self, n: usize, registry: &Registry) -> Result<(Comms, Arc<Codecs>), ScenarioError> {
         let s = &self.scenario;
         let network = s.network.clone().unwrap_or_default();
         network
             .check()
             .map_err(|(f, m)| self.err(&format!("network.{f}"), m))?;
-        Wiring::check_with(&s.stack, &registry.protocols)
-            .map_err(|e| self.err(&format!("stack[{}].{}", e.layer, e.field), e.message))?;
+        let (wiring, _) =
+            Wiring::check(&s.stack, &registry.protocols).map_err(|e| self.stack_err(&e))?;
         let mut faults = Vec::new();
         let robot_ok = |path: String, r: u32| -> Result<u32, ScenarioError> {
             if (r as usize) < n {
@@ -917,12 +933,42 @@ impl Source {
                 }
             }
         }
-        Ok(Comms {
-            network,
-            stack: s.stack.clone(),
-            faults,
-            protocols: registry.protocols.clone(),
-        })
+        Ok((
+            Comms {
+                network,
+                stack: s.stack.clone(),
+                faults,
+                protocols: registry.protocols.clone(),
+            },
+            wiring.codecs,
+        ))
+    }
+
+    /// A stack error at its place: inside a layer's protocol text when it says where, else at
+    /// the offending field.
+    fn stack_err(&self, e: &StackError) -> ScenarioError {
+        let base = self.spans.get(&format!("stack[{}].protocol", e.layer));
+        match (e.at, base) {
+            (Some((line, col)), Some(base)) => ScenarioError {
+                file: self.file.clone(),
+                pos: Some(if line == 1 {
+                    Pos {
+                        line: base.line,
+                        col: base.col + col - 1,
+                    }
+                } else {
+                    Pos {
+                        line: base.line + line - 1,
+                        col,
+                    }
+                }),
+                message: e.message.clone(),
+            },
+            _ => self.err(
+                &format!("stack[{}].{}", e.layer, e.field),
+                e.message.clone(),
+            ),
+        }
     }
 }
 

@@ -8,6 +8,7 @@ use nekosim_actors::world::{MotionOutcome, Obstacle};
 use serde_json::{json, Map, Value};
 
 use crate::log::wire_text;
+use nekosim_protocols::payload::type_word;
 
 fn pt(p: Point) -> Value {
     json!([p.x, p.y])
@@ -166,8 +167,10 @@ pub fn to_json(r: &Record) -> Value {
             put("robot", json!(robot));
             put("to", json!(to));
             put("layer", json!(layer));
-            put("msg", json!(wire_text(msg)));
-            put("type", json!(msg.type_name()));
+            let text = wire_text(msg);
+            let ty = type_word(&text).to_string();
+            put("msg", json!(text));
+            put("type", json!(ty));
         }
         Observation::Receive {
             robot,
@@ -179,8 +182,10 @@ pub fn to_json(r: &Record) -> Value {
             put("robot", json!(robot));
             put("from", json!(from));
             put("layer", json!(layer));
-            put("msg", json!(wire_text(msg)));
-            put("type", json!(msg.type_name()));
+            let text = wire_text(msg);
+            let ty = type_word(&text).to_string();
+            put("msg", json!(text));
+            put("type", json!(ty));
         }
         Observation::Deliver {
             robot,

@@ -7,8 +7,9 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use actix::prelude::*;
-use nekosim_protocols::stack::{step_layer, Layer, Routed, Wiring};
-use nekosim_protocols::{Ctx, Indication, Input, LayerIx, APP, NET};
+use nekosim_protocols::stack::{step_layer, Routed, Wiring};
+use nekosim_protocols::Layer;
+use nekosim_protocols::{Ctx, Indication, Input, LayerIx, Payload as MsgPayload, APP, NET};
 
 use crate::scheduler::Deliver;
 use crate::world::event::{EventClass, Notice, Outbox, Payload, Target};
@@ -24,7 +25,7 @@ pub struct LayerActor {
     wiring: Arc<Wiring>,
     ctx: Ctx,
     /// Current generation of each timer; a firing of an older generation was cancelled.
-    timers: BTreeMap<u32, u64>,
+    timers: BTreeMap<MsgPayload, u64>,
 }
 
 impl LayerActor {
@@ -60,7 +61,7 @@ pub fn route_effects(
     robot: RobotId,
     wiring: &Wiring,
     routed: Vec<Routed>,
-    timers: &mut BTreeMap<u32, u64>,
+    timers: &mut BTreeMap<MsgPayload, u64>,
     out: &mut Outbox,
 ) {
     let now = out.now();
@@ -124,7 +125,7 @@ pub fn route_effects(
                         layer: name,
                         process: *p,
                     }),
-                    Indication::Deliver { .. } => {}
+                    Indication::Deliver { .. } | Indication::Custom(_) => {}
                 }
                 out.notify(robot, Notice::Incoming { layer, ind });
             }
@@ -133,7 +134,7 @@ pub fn route_effects(
                 timer,
                 after,
             } => {
-                let generation = timers.entry(timer).or_insert(0);
+                let generation = timers.entry(timer.clone()).or_insert(0);
                 *generation += 1;
                 out.schedule(
                     now + after.get().max(0.0),
@@ -186,8 +187,13 @@ impl Handler<Deliver> for LayerActor {
             _ => None,
         };
         if let Some(input) = input {
-            let routed = step_layer(&mut self.layer, &self.wiring, &self.ctx, self.ix, input);
-            route_effects(self.robot, &self.wiring, routed, &mut self.timers, &mut out);
+            match step_layer(&mut self.layer, &self.wiring, &self.ctx, self.ix, input) {
+                Ok(routed) => {
+                    route_effects(self.robot, &self.wiring, routed, &mut self.timers, &mut out)
+                }
+                // The simulator only carries payloads the stack encoded itself.
+                Err(e) => tracing::error!(robot = self.robot, layer = self.ix, "{e}"),
+            }
         }
         MessageResult(out.into_effects())
     }

@@ -35,7 +35,8 @@ use crate::world::sensor::{SensorQuery, SensorValue};
 use crate::world::virtual_world::WorldSize;
 use crate::world::{MotionOutcome, RobotId};
 use nekosim_protocols::{
-    Content, Indication, Input, LayerIx, Request as ProtoRequest, Wire, APP, NET,
+    AppMsg, Content, Indication, Input, LayerIx, Payload as MsgPayload, Request as ProtoRequest,
+    APP, NET,
 };
 
 /// A running algorithm.
@@ -69,7 +70,7 @@ enum Request {
     Sensor { ticket: u64, query: SensorQuery },
     Timer { ticket: u64, at: f64 },
     ListEvents { ticket: u64 },
-    Net { to: Vec<RobotId>, msg: Wire },
+    Net { to: Vec<RobotId>, msg: MsgPayload },
     Layer { ix: LayerIx, req: ProtoRequest },
 }
 
@@ -99,16 +100,24 @@ pub struct Received {
     /// `"net"` for a direct message, else the id of the layer that indicated it.
     pub layer: String,
     pub ind: Indication,
+    /// The application message carried, decoded.
+    msg: Option<AppMsg>,
 }
 
 impl Received {
+    /// `ind` from `layer`, with the application message it carries decoded.
+    pub fn new(layer: String, ind: Indication) -> Self {
+        let msg = match &ind {
+            Indication::Deliver { msg, .. } | Indication::BDeliver { msg, .. } => AppMsg::of(msg),
+            Indication::Decide { value, .. } => AppMsg::of(value),
+            _ => None,
+        };
+        Self { layer, ind, msg }
+    }
+
     /// The application message carried, if any: `(kind, content)`.
     pub fn app(&self) -> Option<(&str, &Content)> {
-        match &self.ind {
-            Indication::Deliver { msg, .. } | Indication::BDeliver { msg, .. } => msg.app_part(),
-            Indication::Decide { value, .. } => value.app_part(),
-            _ => None,
-        }
+        self.msg.as_ref().map(|m| (m.kind.as_str(), &m.content))
     }
 
     /// Who sent it (direct messages) or broadcast it (broadcast deliveries).
@@ -294,7 +303,7 @@ impl Robot {
     pub fn send(&self, to: Vec<RobotId>, kind: &str, content: Content) {
         self.push(Request::Net {
             to,
-            msg: Wire::app(kind, content),
+            msg: AppMsg::new(kind, content).payload(),
         });
     }
 
@@ -313,10 +322,9 @@ impl Robot {
     pub async fn receive(&self) -> Received {
         let (r, _) = self
             .take(|n| match n {
-                Notice::Incoming { layer, ind } => Some(Received {
-                    layer: self.layer_id(*layer),
-                    ind: ind.clone(),
-                }),
+                Notice::Incoming { layer, ind } => {
+                    Some(Received::new(self.layer_id(*layer), ind.clone()))
+                }
                 _ => None,
             })
             .await;
@@ -388,7 +396,7 @@ impl LayerHandle<'_> {
         self.robot.push(Request::Layer {
             ix: self.ix,
             req: ProtoRequest::Broadcast {
-                msg: Wire::app(kind, content),
+                msg: AppMsg::new(kind, content).payload(),
             },
         });
     }
@@ -399,7 +407,7 @@ impl LayerHandle<'_> {
             ix: self.ix,
             req: ProtoRequest::Propose {
                 k,
-                value: Wire::app(kind, content),
+                value: AppMsg::new(kind, content).payload(),
             },
         });
     }
@@ -410,7 +418,7 @@ impl LayerHandle<'_> {
             ix: self.ix,
             req: ProtoRequest::Send {
                 to,
-                msg: Wire::app(kind, content),
+                msg: AppMsg::new(kind, content).payload(),
             },
         });
     }
@@ -577,6 +585,7 @@ impl Handler<Deliver> for RobotActor {
                         ProtoRequest::Broadcast { msg } => ("broadcast", msg.clone()),
                         ProtoRequest::Propose { value, .. } => ("propose", value.clone()),
                         ProtoRequest::Send { msg, .. } => ("send", msg.clone()),
+                        ProtoRequest::Custom(msg) => ("request", msg.clone()),
                     };
                     out.record(Observation::Request {
                         robot: id,

@@ -48,7 +48,7 @@ pub struct Comms {
     /// Every robot gets this stack; the algorithm sits on top.
     pub stack: Vec<LayerSpec>,
     pub faults: Vec<Fault>,
-    /// User protocols the stack may name (`Custom(name: ..)`).
+    /// The protocols the stack may name (built-in and registered user protocols).
     pub protocols: Protocols,
 }
 
@@ -110,7 +110,8 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     }
     let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
     let world = VirtualWorld::new(cfg.world, &specs)?;
-    let wiring = std::sync::Arc::new(Wiring::check_with(&cfg.comms.stack, &cfg.comms.protocols)?);
+    let (wiring, template) = Wiring::check(&cfg.comms.stack, &cfg.comms.protocols)?;
+    let wiring = std::sync::Arc::new(wiring);
     let mut setup = Outbox::new(0.0, 0);
     // Protocol layers start first, bottom-up, then the algorithms; crashes are scheduled.
     for r in 0..specs.len() as RobotId {
@@ -158,18 +159,8 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     observers.keep = cfg.record;
     let world_cfg = cfg.world;
     let robots = cfg.robots;
-    // Every robot's instances, built before the actors start (a factory may refuse).
-    let mut instances = Vec::with_capacity(specs.len());
-    for _ in 0..specs.len() {
-        let stack =
-            nekosim_protocols::Stack::with_protocols(&cfg.comms.stack, &cfg.comms.protocols)
-                .map_err(|message| nekosim_protocols::StackError {
-                    layer: 0,
-                    field: "protocol",
-                    message,
-                })?;
-        instances.push(stack.layers);
-    }
+    // Every robot's instances: fresh copies of the checked stack's.
+    let mut instances: Vec<_> = (0..specs.len()).map(|_| template.layers.clone()).collect();
     let layer_ids = std::sync::Arc::new(wiring.ids.clone());
     let n_arbiters = cfg.arbiters.max(1);
     system.block_on(async move {

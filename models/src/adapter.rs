@@ -18,9 +18,8 @@ use std::borrow::Cow;
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use nekosim_protocols::service::TimerId;
 use nekosim_protocols::{
-    Ctx, Indication, Input, LayerIx, MsgId, Pid, Request, Routed, Stack, Wire, Wiring, APP, NET,
+    Ctx, Indication, Input, LayerIx, MsgId, Payload, Pid, Request, Routed, Stack, Wiring, APP, NET,
 };
 use stateright::actor::{model_timeout, Actor, Id, Out};
 
@@ -29,7 +28,7 @@ use stateright::actor::{model_timeout, Actor, Id, Out};
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct NetMsg {
     pub layer: LayerIx,
-    pub msg: Wire,
+    pub msg: Payload,
 }
 
 /// A stateright timer of one process.
@@ -40,7 +39,7 @@ pub enum ModelTimer {
     /// Hand the next staged message to the network (only with crashes).
     Flush,
     /// A protocol layer's timer.
-    Layer { layer: LayerIx, timer: TimerId },
+    Layer { layer: LayerIx, timer: Payload },
 }
 
 /// What a process has done so far: its stack plus what reached its application.
@@ -52,10 +51,10 @@ pub struct ProcessState {
     /// Protocol timers fired so far.
     pub fired: u32,
     /// Broadcast deliveries to the application, in order.
-    pub delivered: Vec<(MsgId, Wire)>,
+    pub delivered: Vec<(MsgId, Payload)>,
     /// Consensus decisions reaching the application, in order (a repeat is kept, so
     /// integrity can be checked).
-    pub decided: Vec<(u64, Wire)>,
+    pub decided: Vec<(u64, Payload)>,
     /// Messages waiting to leave (destination, message); only with crashes.
     pub outbox: VecDeque<(Pid, NetMsg)>,
     /// Restarted after a crash. Protocols here are crash-stop, so such a process is inert, and
@@ -107,15 +106,15 @@ pub enum Happening {
     Receive {
         from: Pid,
         layer: LayerIx,
-        msg: Wire,
+        msg: Payload,
     },
     /// A protocol timer fired.
-    Timer { layer: LayerIx, timer: TimerId },
+    Timer { layer: LayerIx, timer: Payload },
     /// `layer` handed `msg` for `to` to the network (or to the outbox, with crashes).
     Send {
         layer: LayerIx,
         to: Vec<Pid>,
-        msg: Wire,
+        msg: Payload,
     },
     /// One staged message left for `to`.
     Flush { to: Pid, msg: NetMsg },
@@ -298,7 +297,8 @@ impl ProcessActor {
                     o.set_timer(ModelTimer::Flush, model_timeout());
                 }
             }
-            &ModelTimer::Layer { layer, timer: t } => {
+            ModelTimer::Layer { layer, timer: t } => {
+                let (layer, t) = (*layer, t.clone());
                 if state.fired >= self.shared.timer_budget {
                     // Spent: keep the timer and change nothing, which stateright treats as
                     // no transition at all.
@@ -307,7 +307,10 @@ impl ProcessActor {
                 }
                 let s = state.to_mut();
                 s.fired += 1;
-                log.push(Happening::Timer { layer, timer: t });
+                log.push(Happening::Timer {
+                    layer,
+                    timer: t.clone(),
+                });
                 let routed =
                     s.stack
                         .step_local(&self.shared.wiring, &self.ctx(id), layer, Input::Timer(t));

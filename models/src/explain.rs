@@ -3,9 +3,9 @@
 //! checker ran, so the story is the protocol code's own.
 
 use std::borrow::Cow;
-use std::fmt::{self, Write as _};
+use std::fmt::Write as _;
 
-use nekosim_protocols::{Indication, Pid, Request, Wire, Wiring};
+use nekosim_protocols::{Indication, Pid, Request, Wiring};
 use stateright::actor::{ActorModelAction, Id, Out};
 use stateright::Path;
 
@@ -90,69 +90,34 @@ fn at(process: Pid, log: Vec<Happening>) -> Vec<Event> {
         .collect()
 }
 
-/// A message in a short, readable form: headers with their key fields around the
-/// application message.
-#[derive(Debug)]
-pub struct Describe<'a>(pub &'a Wire);
-
-impl<'a> fmt::Display for Describe<'a> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let d = |w: &'a Wire| Describe(w);
-        match self.0 {
-            Wire::App { kind, content } => write!(f, "{kind} {content}"),
-            Wire::Fifo { seq, inner, .. } => write!(f, "FIFO#{seq}({})", d(inner)),
-            Wire::RtData { seq, inner, .. } => write!(f, "RT_DATA#{seq}({})", d(inner)),
-            Wire::RtAck { seq } => write!(f, "RT_ACK#{seq}"),
-            Wire::Rb { id, inner } => write!(f, "RB({id}, {})", d(inner)),
-            Wire::LamportMsg { ts, id, inner } => {
-                write!(f, "LAMPORT(ts {ts}, {id}, {})", d(inner))
-            }
-            Wire::LamportAck { ts } => write!(f, "LAMPORT_ACK(ts {ts})"),
-            Wire::SeqRequest { id, inner } => write!(f, "SEQ_REQUEST({id}, {})", d(inner)),
-            Wire::SeqOrder { gseq, id, inner } => {
-                write!(f, "SEQ_ORDER(#{gseq}, {id}, {})", d(inner))
-            }
-            Wire::Heartbeat => write!(f, "HEARTBEAT"),
-            Wire::CtEstimate { k, r, est, ts } => {
-                write!(f, "CT_ESTIMATE(k {k}, r {r}, {}, ts {ts})", d(est))
-            }
-            Wire::CtPropose { k, r, value } => write!(f, "CT_PROPOSE(k {k}, r {r}, {})", d(value)),
-            Wire::CtAck { k, r } => write!(f, "CT_ACK(k {k}, r {r})"),
-            Wire::CtNack { k, r } => write!(f, "CT_NACK(k {k}, r {r})"),
-            Wire::CtDecide { k, value } => write!(f, "CT_DECIDE(k {k}, {})", d(value)),
-            Wire::Batch(items) => {
-                let ids: Vec<String> = items.iter().map(|(id, _)| id.to_string()).collect();
-                write!(f, "batch[{}]", ids.join(","))
-            }
-            other => write!(f, "{}", other.type_name()),
-        }
-    }
-}
-
 /// The name of layer `ix`.
 pub fn layer_name(wiring: &Wiring, ix: u16) -> &str {
     wiring.ids.get(ix as usize).map_or("?", String::as_str)
 }
 
-/// One event as a line of text.
+/// One event as a line of text, messages in their protocols' readable forms.
 pub fn describe(model: &CheckModel, e: &Event) -> String {
     let w = &model.actors[0].shared.wiring;
+    nekosim_protocols::payload::with_codecs(&w.codecs, || describe_in(w, e))
+}
+
+fn describe_in(w: &Wiring, e: &Event) -> String {
     let name = |l| layer_name(w, l);
     match e {
         Event::Crash(p) => format!("p{p} crashes"),
-        Event::Drop { from, to, msg } => format!(
-            "the network loses {} from p{from} to p{to}",
-            Describe(&msg.msg)
-        ),
+        Event::Drop { from, to, msg } => {
+            format!("the network loses {} from p{from} to p{to}", msg.msg)
+        }
         Event::At { process: p, what } => match what {
             Happening::Request { layer, req } | Happening::Skipped { layer, req } => {
                 let skipped = matches!(what, Happening::Skipped { .. });
                 let ask = match req {
-                    Request::Broadcast { msg } => format!("broadcast {}", Describe(msg)),
+                    Request::Broadcast { msg } => format!("broadcast {}", msg),
                     Request::Propose { k, value } => {
-                        format!("propose {} in instance {k}", Describe(value))
+                        format!("propose {} in instance {k}", value)
                     }
-                    Request::Send { to, msg } => format!("send {} to {to:?}", Describe(msg)),
+                    Request::Send { to, msg } => format!("send {} to {to:?}", msg),
+                    Request::Custom(msg) => format!("request {msg}"),
                 };
                 if skipped {
                     format!("p{p} does not {ask} (it has seen the instance decided)")
@@ -160,44 +125,40 @@ pub fn describe(model: &CheckModel, e: &Event) -> String {
                     format!("p{p} asks {} to {ask}", name(*layer))
                 }
             }
-            Happening::Receive { from, layer, msg } => format!(
-                "p{p} receives {} from p{from} at {}",
-                Describe(msg),
-                name(*layer)
-            ),
+            Happening::Receive { from, layer, msg } => {
+                format!("p{p} receives {} from p{from} at {}", msg, name(*layer))
+            }
             Happening::Timer { layer, timer } => {
-                format!("p{p}: timer {timer} of {} fires", name(*layer))
+                format!(
+                    "p{p}: timer {} of {} fires",
+                    w.render_timer(*layer, timer),
+                    name(*layer)
+                )
             }
             Happening::Send { layer, to, msg } => {
                 let mut s = String::new();
                 for (i, d) in to.iter().enumerate() {
                     let _ = write!(s, "{}p{d}", if i > 0 { ", " } else { "" });
                 }
-                format!("p{p}: {} sends {} to {s}", name(*layer), Describe(msg))
+                format!("p{p}: {} sends {} to {s}", name(*layer), msg)
             }
-            Happening::Flush { to, msg } => format!(
-                "p{p}: {} to p{to} leaves for the network",
-                Describe(&msg.msg)
-            ),
+            Happening::Flush { to, msg } => {
+                format!("p{p}: {} to p{to} leaves for the network", msg.msg)
+            }
             Happening::App { layer, ind } => match ind {
-                Indication::BDeliver { id, msg } => format!(
-                    "p{p} DELIVERS {id} ({}) from {}",
-                    Describe(msg),
-                    name(*layer)
-                ),
-                Indication::Decide { k, value } => format!(
-                    "p{p} DECIDES {} in instance {k} ({})",
-                    Describe(value),
-                    name(*layer)
-                ),
-                Indication::Deliver { from, msg } => format!(
-                    "p{p} gets {} from p{from} ({})",
-                    Describe(msg),
-                    name(*layer)
-                ),
+                Indication::BDeliver { id, msg } => {
+                    format!("p{p} DELIVERS {id} ({}) from {}", msg, name(*layer))
+                }
+                Indication::Decide { k, value } => {
+                    format!("p{p} DECIDES {} in instance {k} ({})", value, name(*layer))
+                }
+                Indication::Deliver { from, msg } => {
+                    format!("p{p} gets {} from p{from} ({})", msg, name(*layer))
+                }
                 Indication::Suspect(q) => format!("p{p} suspects p{q} ({})", name(*layer)),
                 Indication::Trust(q) => format!("p{p} trusts p{q} ({})", name(*layer)),
                 Indication::Leader(q) => format!("p{p}'s leader is p{q} ({})", name(*layer)),
+                Indication::Custom(msg) => format!("p{p} gets {msg} ({})", name(*layer)),
             },
         },
     }

@@ -3,7 +3,12 @@
 
 use std::sync::Arc;
 
-use nekosim_protocols::{Content, LayerSpec, Pid, ProtocolSpec, Request, Stack, Wire, Wiring};
+use nekosim_protocols::consensus::{ChandraToueg, CtMsg};
+use nekosim_protocols::fifo::{Fifo, FifoMsg};
+use nekosim_protocols::retransmit::{Retransmit, RtMsg};
+use nekosim_protocols::{
+    AppMsg, Content, LayerSpec, Payload, Pid, Protocols, Request, Stack, Wiring,
+};
 use stateright::actor::{ActorModel, ActorModelAction, LossyNetwork, Network};
 use stateright::{Checker, Expectation, HasDiscoveries, Model, Path};
 
@@ -108,6 +113,17 @@ pub struct ModelCfg {
     pub timer_budget: u32,
     /// Round bound, when a layer runs Chandra-Toueg.
     pub max_round: Option<u64>,
+    /// What each layer's messages are, for looking through headers.
+    pub headers: Vec<Header>,
+}
+
+/// The layers whose messages the round bound looks into.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Header {
+    ChandraToueg,
+    Fifo,
+    Retransmit,
+    Other,
 }
 
 /// What to check: a stack, the layer the application talks to and what it promises.
@@ -127,10 +143,10 @@ fn request(family: Family, n: u32, g: u32) -> Request {
     match family {
         Family::Consensus => Request::Propose {
             k: u64::from(g / n),
-            value: Wire::app("V", Content::Int(i64::from(g))),
+            value: AppMsg::new("V", Content::Int(i64::from(g))).payload(),
         },
         Family::Abcast | Family::Broadcast => Request::Broadcast {
-            msg: Wire::app("M", Content::Int(i64::from(g))),
+            msg: AppMsg::new("M", Content::Int(i64::from(g))).payload(),
         },
     }
 }
@@ -162,14 +178,27 @@ pub fn build(
             processes: n,
         });
     }
-    let wiring = Wiring::check(&target.stack).map_err(|e| ModelError::Stack(e.to_string()))?;
+    let (wiring, stack) = Wiring::check(&target.stack, &Protocols::with_builtins())
+        .map_err(|e| ModelError::Stack(e.to_string()))?;
     let entry = wiring
         .index(&target.entry)
         .ok_or_else(|| ModelError::Stack(format!("no layer {:?}", target.entry)))?;
-    let uses_ct = target
-        .stack
+    let headers: Vec<Header> = stack
+        .layers
         .iter()
-        .any(|l| l.protocol == ProtocolSpec::ChandraToueg);
+        .map(|l| {
+            if l.downcast_ref::<ChandraToueg>().is_some() {
+                Header::ChandraToueg
+            } else if l.downcast_ref::<Fifo>().is_some() {
+                Header::Fifo
+            } else if l.downcast_ref::<Retransmit>().is_some() {
+                Header::Retransmit
+            } else {
+                Header::Other
+            }
+        })
+        .collect();
+    let uses_ct = headers.contains(&Header::ChandraToueg);
     let requests: Vec<(Pid, Request)> = (0..opts.requests)
         .map(|g| (g % n, request(target.family, n, g)))
         .collect();
@@ -191,7 +220,7 @@ pub fn build(
     });
     let actors: Vec<ProcessActor> = (0..n)
         .map(|p| {
-            let mut init = Stack::new(&target.stack);
+            let mut init = stack.clone();
             tweak(p, &mut init);
             ProcessActor {
                 shared: Arc::clone(&shared),
@@ -213,6 +242,7 @@ pub fn build(
         requests,
         timer_budget: opts.timer_budget,
         max_round: uses_ct.then_some(opts.max_round),
+        headers,
     };
     let network = match opts.network {
         NetworkKind::Ordered => Network::new_ordered([]),
@@ -238,14 +268,15 @@ pub fn build(
 }
 
 /// The Chandra-Toueg round a message belongs to, looking through point-to-point headers.
-fn round_of(w: &Wire) -> Option<u64> {
-    match w {
-        Wire::CtEstimate { r, .. }
-        | Wire::CtPropose { r, .. }
-        | Wire::CtAck { r, .. }
-        | Wire::CtNack { r, .. } => Some(*r),
-        Wire::Fifo { inner, .. } | Wire::RtData { inner, .. } => round_of(inner),
-        _ => None,
+fn round_of(headers: &[Header], p: &Payload) -> Option<u64> {
+    match headers.get(p.layer() as usize)? {
+        Header::ChandraToueg => p.decode::<CtMsg>().ok()?.round(),
+        Header::Fifo => round_of(headers, &p.decode::<FifoMsg>().ok()?.payload),
+        Header::Retransmit => match p.decode::<RtMsg>().ok()? {
+            RtMsg::Data { payload, .. } => round_of(headers, &payload),
+            RtMsg::Ack { .. } => None,
+        },
+        Header::Other => None,
     }
 }
 
@@ -258,7 +289,7 @@ fn within_boundary(cfg: &ModelCfg, s: &State) -> bool {
     let Some(max) = cfg.max_round else {
         return true;
     };
-    let early = |w: &Wire| round_of(w).is_none_or(|r| r <= max);
+    let early = |p: &Payload| round_of(&cfg.headers, p).is_none_or(|r| r <= max);
     s.network.iter_all().all(|e| early(&e.msg.msg))
         && s.actor_states
             .iter()

@@ -11,7 +11,7 @@
 use std::borrow::Cow;
 use std::collections::BTreeSet;
 
-use nekosim_protocols::{MsgId, Pid, Request, Wire};
+use nekosim_protocols::{MsgId, Payload, Pid, Request};
 use stateright::actor::{ActorModelState, Network, Out};
 use stateright::Expectation;
 
@@ -211,7 +211,7 @@ fn everything_delivered(m: &CheckModel, s: &State) -> bool {
 
 /// No two processes (crashed ones included) decide differently.
 fn consensus_agreement(_: &CheckModel, s: &State) -> bool {
-    let mut seen: Vec<(u64, &Wire)> = Vec::new();
+    let mut seen: Vec<(u64, &Payload)> = Vec::new();
     for a in &s.actor_states {
         for (k, v) in &a.decided {
             if seen.iter().any(|(k2, v2)| k2 == k && *v2 != v) {
@@ -225,7 +225,7 @@ fn consensus_agreement(_: &CheckModel, s: &State) -> bool {
 
 /// A decided value was proposed (by a process that has issued that proposal).
 fn consensus_validity(m: &CheckModel, s: &State) -> bool {
-    let proposed: Vec<(u64, &Wire)> = m
+    let proposed: Vec<(u64, &Payload)> = m
         .cfg
         .requests
         .iter()

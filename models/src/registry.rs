@@ -1,7 +1,7 @@
 //! The models `nekosim check` knows, by name: each is a scenario-style stack, the layer the
 //! application talks to and the family of properties it promises.
 
-use nekosim_protocols::{LayerSpec, ProtocolSpec};
+use nekosim_protocols::LayerSpec;
 
 use crate::model::Target;
 use crate::property::Family;
@@ -22,30 +22,22 @@ impl ModelDef {
     }
 }
 
-fn layer(id: &str, protocol: ProtocolSpec, below: &str, uses: &[&str]) -> LayerSpec {
+fn layer(id: &str, protocol: &str, below: &str, uses: &[&str]) -> LayerSpec {
     LayerSpec::new(id, protocol, below, uses)
 }
 
 /// The failure detector of the consensus stacks. Its periods do not matter to the checker,
 /// which fires timers whenever it likes.
 fn heartbeat() -> LayerSpec {
-    layer(
-        "fd",
-        ProtocolSpec::Heartbeat {
-            period: 1.0,
-            timeout: 2.0,
-        },
-        "net",
-        &[],
-    )
+    layer("fd", "Heartbeat(period: 1.0, timeout: 2.0)", "net", &[])
 }
 
 /// Lamport total-order broadcast over FIFO links.
 pub fn lamport_abcast() -> Target {
     Target {
         stack: vec![
-            layer("fifo", ProtocolSpec::Fifo, "net", &[]),
-            layer("abcast", ProtocolSpec::LamportAbcast, "fifo", &[]),
+            layer("fifo", "Fifo", "net", &[]),
+            layer("abcast", "LamportAbcast", "fifo", &[]),
         ],
         entry: "abcast".into(),
         family: Family::Abcast,
@@ -56,7 +48,7 @@ pub fn lamport_abcast() -> Target {
 /// Fixed-sequencer total-order broadcast (process 0 orders).
 pub fn sequencer_abcast() -> Target {
     Target {
-        stack: vec![layer("abcast", ProtocolSpec::FixedSequencer, "net", &[])],
+        stack: vec![layer("abcast", "FixedSequencer", "net", &[])],
         entry: "abcast".into(),
         family: Family::Abcast,
         timer_fed: Vec::new(),
@@ -68,14 +60,9 @@ pub fn consensus_abcast() -> Target {
     Target {
         stack: vec![
             heartbeat(),
-            layer("rb", ProtocolSpec::ReliableBroadcast, "net", &[]),
-            layer("consensus", ProtocolSpec::ChandraToueg, "net", &["fd"]),
-            layer(
-                "abcast",
-                ProtocolSpec::ConsensusAbcast,
-                "rb",
-                &["consensus"],
-            ),
+            layer("rb", "ReliableBroadcast", "net", &[]),
+            layer("consensus", "ChandraToueg", "net", &["fd"]),
+            layer("abcast", "ConsensusAbcast", "rb", &["consensus"]),
         ],
         entry: "abcast".into(),
         family: Family::Abcast,
@@ -88,7 +75,7 @@ pub fn ct_consensus() -> Target {
     Target {
         stack: vec![
             heartbeat(),
-            layer("consensus", ProtocolSpec::ChandraToueg, "net", &["fd"]),
+            layer("consensus", "ChandraToueg", "net", &["fd"]),
         ],
         entry: "consensus".into(),
         family: Family::Consensus,
@@ -99,7 +86,7 @@ pub fn ct_consensus() -> Target {
 /// Reliable broadcast by eager relay.
 pub fn reliable_broadcast() -> Target {
     Target {
-        stack: vec![layer("rb", ProtocolSpec::ReliableBroadcast, "net", &[])],
+        stack: vec![layer("rb", "ReliableBroadcast", "net", &[])],
         entry: "rb".into(),
         family: Family::Broadcast,
         timer_fed: Vec::new(),

@@ -11,6 +11,7 @@
 
 use std::cell::RefCell;
 use std::fmt;
+use std::marker::PhantomData;
 use std::sync::Arc;
 
 use serde::de::{DeserializeOwned, Visitor};
@@ -145,6 +146,8 @@ pub struct Codec {
     pub protocol: &'static str,
     /// Writes the readable form of an encoded message, or fails to decode it.
     pub render: fn(&[u8], &mut fmt::Formatter<'_>) -> Result<fmt::Result, WireError>,
+    /// Writes an encoded timer (its `Debug`), or fails to decode it.
+    pub render_timer: fn(&[u8], &mut fmt::Formatter<'_>) -> Result<fmt::Result, WireError>,
 }
 
 impl fmt::Debug for Codec {
@@ -196,10 +199,24 @@ pub fn render<T: fmt::Display + ?Sized>(codecs: &Arc<Codecs>, value: &T) -> Stri
 
 /// Runs `f` with `codecs` in force for the `Display` and `Debug` of payloads.
 pub fn with_codecs<R>(codecs: &Arc<Codecs>, f: impl FnOnce() -> R) -> R {
+    let _in_force = install(codecs);
+    f()
+}
+
+/// Puts `codecs` in force on this thread until the guard is dropped.
+pub fn install(codecs: &Arc<Codecs>) -> CodecsGuard {
     CODECS.with(|c| c.borrow_mut().push(Arc::clone(codecs)));
-    let r = f();
-    CODECS.with(|c| c.borrow_mut().pop());
-    r
+    CodecsGuard(PhantomData)
+}
+
+/// Keeps codecs in force on its thread ([`install`]); not `Send`.
+#[derive(Debug)]
+pub struct CodecsGuard(PhantomData<*const ()>);
+
+impl Drop for CodecsGuard {
+    fn drop(&mut self) {
+        CODECS.with(|c| c.borrow_mut().pop());
+    }
 }
 
 /// The first word of a rendering: Neko's message type (`FIFO`, `LAMPORT_ACK`, `GOTO`).

@@ -240,7 +240,13 @@ pub fn dispatch<P: Microprotocol>(
             ..
         } if msg.layer() == ix => p.on_message(ctx, from, msg.decode()?, &mut out),
         Input::Indication { from, ind } => p.on_indication(ctx, from, ind, &mut out),
-        Input::Timer(t) => p.on_timer(ctx, t.decode()?, &mut out),
+        Input::Timer(t) if t.layer() == ix => p.on_timer(ctx, t.decode()?, &mut out),
+        Input::Timer(t) => {
+            return Err(WireError(format!(
+                "a timer of layer {} reached layer {ix}",
+                t.layer()
+            )))
+        }
     }
     Ok(out.effects)
 }

@@ -43,14 +43,10 @@ impl ProtocolSpec {
         &self.text[..end]
     }
 
-    /// The configuration part after the name, as RON (`()` when there is none).
-    fn config_text(&self) -> &str {
+    /// The configuration part after the name, as RON (none for a bare name).
+    fn config_text(&self) -> Option<&str> {
         let rest = &self.text[self.name().len()..];
-        if rest.trim().is_empty() {
-            "()"
-        } else {
-            rest
-        }
+        (!rest.trim().is_empty()).then_some(rest)
     }
 }
 
@@ -103,8 +99,9 @@ pub struct SpecError {
 /// A protocol type's registered functions.
 #[derive(Clone, Copy)]
 struct Entry {
+    type_id: std::any::TypeId,
     /// Reads the configuration text and builds the shape and a fresh instance.
-    build: fn(&str) -> Result<(Shape, Layer), SpecError>,
+    build: fn(Option<&str>) -> Result<(Shape, Layer), SpecError>,
     codec: Codec,
 }
 
@@ -130,15 +127,16 @@ impl PartialEq for Protocols {
                 .entries
                 .iter()
                 .zip(&other.entries)
-                .all(|((a, x), (b, y))| a == b && x.codec.protocol == y.codec.protocol)
+                .all(|((a, x), (b, y))| a == b && x.type_id == y.type_id)
     }
 }
 
-fn build_entry<P: Microprotocol>(text: &str) -> Result<(Shape, Layer), SpecError> {
+fn build_entry<P: Microprotocol>(text: Option<&str>) -> Result<(Shape, Layer), SpecError> {
     let opts =
         ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-    let config: P::Config = opts.from_str(text).map_err(|e| SpecError {
-        at: Some((e.position.line, e.position.col)),
+    let config: P::Config = opts.from_str(text.unwrap_or("()")).map_err(|e| SpecError {
+        // No text: the error is about the protocol as named.
+        at: text.map(|t| name_start(t, &e)),
         field: None,
         message: describe(&e.code),
     })?;
@@ -151,9 +149,26 @@ fn build_entry<P: Microprotocol>(text: &str) -> Result<(Shape, Layer), SpecError
     Ok((shape, Layer::new(p)))
 }
 
+/// Where an error starts: ron reports an unknown field just after its name; point at the
+/// name itself.
+fn name_start(text: &str, e: &ron::error::SpannedError) -> (usize, usize) {
+    let (line, col) = (e.position.line, e.position.col);
+    if let ron::Error::NoSuchStructField { found, .. } = &e.code {
+        if let Some(l) = text.lines().nth(line.saturating_sub(1)) {
+            let before: String = l.chars().take(col.saturating_sub(1)).collect();
+            let trimmed = before.trim_end_matches(|c: char| c.is_whitespace() || c == ':');
+            if trimmed.ends_with(found.as_str()) {
+                return (line, trimmed.chars().count() - found.chars().count() + 1);
+            }
+        }
+    }
+    (line, col)
+}
+
 /// A ron error in the words of a scenario error.
 fn describe(e: &ron::Error) -> String {
     match e {
+        ron::Error::MissingStructField { field, .. } => format!("missing field `{field}`"),
         ron::Error::NoSuchStructField {
             expected, found, ..
         } => {
@@ -182,12 +197,34 @@ fn render_entry<P: Microprotocol>(
     Ok(P::render(&msg, f))
 }
 
-/// The codec of a protocol type (how hosts render its messages).
+fn render_timer_entry<P: Microprotocol>(
+    bytes: &[u8],
+    f: &mut fmt::Formatter<'_>,
+) -> Result<fmt::Result, WireError> {
+    let t: P::Timer = decode_bytes(bytes)?;
+    Ok(fmt::Debug::fmt(&t, f))
+}
+
+/// The codec of a protocol type (how hosts render its messages and timers).
 pub fn codec_of<P: Microprotocol>(name: &'static str) -> Codec {
     Codec {
         protocol: name,
         render: render_entry::<P>,
+        render_timer: render_timer_entry::<P>,
     }
+}
+
+/// `name` as a `&'static str`: each distinct name is allocated once per process.
+fn intern(name: &str) -> &'static str {
+    static NAMES: std::sync::Mutex<std::collections::BTreeSet<&'static str>> =
+        std::sync::Mutex::new(std::collections::BTreeSet::new());
+    let mut names = NAMES.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(n) = names.get(name) {
+        return n;
+    }
+    let n: &'static str = Box::leak(name.to_string().into_boxed_str());
+    names.insert(n);
+    n
 }
 
 impl Protocols {
@@ -205,15 +242,12 @@ impl Protocols {
 
     /// Registers the protocol `P` under `name` (replacing an earlier registration).
     pub fn protocol<P: Microprotocol>(&mut self, name: &str) -> &mut Self {
-        let leaked: &'static str = match self.entries.get(name) {
-            Some(e) => e.codec.protocol,
-            None => Box::leak(name.to_string().into_boxed_str()),
-        };
         self.entries.insert(
             name.to_string(),
             Entry {
+                type_id: std::any::TypeId::of::<P>(),
                 build: build_entry::<P>,
-                codec: codec_of::<P>(leaked),
+                codec: codec_of::<P>(intern(name)),
             },
         );
         self

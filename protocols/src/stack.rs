@@ -267,6 +267,23 @@ impl Wiring {
         crate::payload::render(&self.codecs, value)
     }
 
+    /// The readable form of a timer of layer `layer`.
+    pub fn render_timer(&self, layer: LayerIx, timer: &Payload) -> String {
+        struct Timer<'a>(&'a Codec, &'a Payload);
+        impl fmt::Display for Timer<'_> {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                match (self.0.render_timer)(self.1.bytes(), f) {
+                    Ok(r) => r,
+                    Err(e) => write!(f, "<{}: {e}>", self.0.protocol),
+                }
+            }
+        }
+        match self.codec(layer) {
+            Some(c) => self.render(&Timer(c, timer)),
+            None => format!("{timer}"),
+        }
+    }
+
     /// The codec of a layer (or of the application).
     pub fn codec(&self, layer: LayerIx) -> Option<&Codec> {
         if layer == APP {

@@ -121,5 +121,6 @@ pub fn app_codec() -> Codec {
     Codec {
         protocol: "app",
         render: render_app,
+        render_timer: render_app,
     }
 }

@@ -8,24 +8,25 @@ use nekosim::world::network::NetworkSpec;
 use nekosim::world::observation::{Observation, Record};
 use nekosim::world::virtual_world::RobotSpec;
 use nekosim::{Algorithm, Comms, Fault, SimConfig};
-use nekosim_protocols::stack::{LayerSpec, ProtocolSpec};
+use nekosim_protocols::stack::LayerSpec;
+use nekosim_protocols::AppMsg;
 use nekosim_protocols::MsgId;
 
 use crate::common::*;
 
-fn layer(id: &str, protocol: ProtocolSpec, below: &str, uses: &[&str]) -> LayerSpec {
+fn layer(id: &str, protocol: &str, below: &str, uses: &[&str]) -> LayerSpec {
     LayerSpec::new(id, protocol, below, uses)
 }
 
 fn lamport() -> Vec<LayerSpec> {
     vec![
-        layer("fifo", ProtocolSpec::Fifo, "net", &[]),
-        layer("abcast", ProtocolSpec::LamportAbcast, "fifo", &[]),
+        layer("fifo", "Fifo", "net", &[]),
+        layer("abcast", "LamportAbcast", "fifo", &[]),
     ]
 }
 
 fn sequencer() -> Vec<LayerSpec> {
-    vec![layer("abcast", ProtocolSpec::FixedSequencer, "net", &[])]
+    vec![layer("abcast", "FixedSequencer", "net", &[])]
 }
 
 fn ct() -> Vec<LayerSpec> {
@@ -33,21 +34,13 @@ fn ct() -> Vec<LayerSpec> {
         layer(
             "fd",
             // Slow heartbeats: on the Metric network every send costs its sender 1 s of CPU.
-            ProtocolSpec::Heartbeat {
-                period: 5.0,
-                timeout: 60.0,
-            },
+            "Heartbeat(period: 5.0, timeout: 60.0)",
             "net",
             &[],
         ),
-        layer("rb", ProtocolSpec::ReliableBroadcast, "net", &[]),
-        layer("consensus", ProtocolSpec::ChandraToueg, "net", &["fd"]),
-        layer(
-            "abcast",
-            ProtocolSpec::ConsensusAbcast,
-            "rb",
-            &["consensus"],
-        ),
+        layer("rb", "ReliableBroadcast", "net", &[]),
+        layer("consensus", "ChandraToueg", "net", &["fd"]),
+        layer("abcast", "ConsensusAbcast", "rb", &["consensus"]),
     ]
 }
 
@@ -219,9 +212,9 @@ fn consensus_abcast_tolerates_a_crash() {
 #[test]
 fn retransmit_and_fifo_give_reliable_fifo_over_lossy_links() {
     let stack = vec![
-        layer("rt", ProtocolSpec::Retransmit { period: 1.0 }, "net", &[]),
-        layer("fifo", ProtocolSpec::Fifo, "rt", &[]),
-        layer("abcast", ProtocolSpec::LamportAbcast, "fifo", &[]),
+        layer("rt", "Retransmit(period: 1.0)", "net", &[]),
+        layer("fifo", "Fifo", "rt", &[]),
+        layer("abcast", "LamportAbcast", "fifo", &[]),
     ];
     let net = NetworkSpec::Lossy {
         p: 0.3,
@@ -277,7 +270,7 @@ fn radio_networks_only_reach_robots_in_range() {
         1,
         4,
         net,
-        vec![layer("abcast", ProtocolSpec::ReliableBroadcast, "net", &[])],
+        vec![layer("abcast", "ReliableBroadcast", "net", &[])],
         vec![],
         50.0,
     );
@@ -336,28 +329,15 @@ impl Algorithm for Proposer {
 fn consensus_stack(links: &str) -> Vec<LayerSpec> {
     let mut s = Vec::new();
     if links != "net" {
-        s.push(layer(
-            links,
-            ProtocolSpec::Retransmit { period: 1.0 },
-            "net",
-            &[],
-        ));
+        s.push(layer(links, "Retransmit(period: 1.0)", "net", &[]));
     }
     s.push(layer(
         "fd",
-        ProtocolSpec::Heartbeat {
-            period: 5.0,
-            timeout: 40.0,
-        },
+        "Heartbeat(period: 5.0, timeout: 40.0)",
         "net",
         &[],
     ));
-    s.push(layer(
-        "consensus",
-        ProtocolSpec::ChandraToueg,
-        links,
-        &["fd"],
-    ));
+    s.push(layer("consensus", "ChandraToueg", links, &["fd"]));
     s
 }
 
@@ -417,20 +397,20 @@ fn consensus_properties_with_f_crashes_over_every_network() {
                         Observation::Request { op, msg, layer, .. }
                             if op == "propose" && layer == "consensus" =>
                         {
-                            let v = format!("{:?}", msg.app_part());
+                            let v = format!("{:?}", AppMsg::of(msg).map(|m| (m.kind, m.content)));
                             // The instance is encoded in the value: id * 10 + k.
-                            let kk = match msg.app_part() {
-                                Some((_, nekosim_protocols::Content::Int(x))) => (*x % 10) as u64,
+                            let kk = match AppMsg::of(msg).map(|m| (m.kind, m.content)) {
+                                Some((_, nekosim_protocols::Content::Int(x))) => (x % 10) as u64,
                                 other => panic!("{what}: unexpected proposal {other:?}"),
                             };
                             proposed.entry(kk).or_default().insert(v);
                         }
                         Observation::Decide {
                             robot, k, value, ..
-                        } => decided
-                            .entry((*robot, *k))
-                            .or_default()
-                            .push(format!("{:?}", value.app_part())),
+                        } => decided.entry((*robot, *k)).or_default().push(format!(
+                            "{:?}",
+                            AppMsg::of(value).map(|m| (m.kind, m.content))
+                        )),
                         Observation::Crash { robot, .. } => {
                             crashed.insert(*robot);
                         }

@@ -19,7 +19,7 @@ use super::observation::Observation;
 use super::sensor::{SensorKind, SensorQuery, SensorValue, Snapshot};
 use super::{MotionOutcome, Obstacle, RobotId};
 use crate::world::motion::Kinematics;
-use nekosim_protocols::{Indication, Input, LayerIx, Wire};
+use nekosim_protocols::{Indication, Input, LayerIx};
 
 /// Identity and tie-break key of an event: `(cause, index)`, see the module doc.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -147,7 +147,7 @@ pub enum Payload {
         from: RobotId,
         layer: LayerIx,
         to: Vec<RobotId>,
-        msg: Wire,
+        msg: nekosim_protocols::Payload,
     },
     /// An input for a robot's protocol layer.
     LayerInput {
@@ -159,7 +159,7 @@ pub enum Payload {
     LayerTimer {
         robot: RobotId,
         layer: LayerIx,
-        timer: u32,
+        timer: nekosim_protocols::Payload,
         generation: u64,
     },
     /// The robot crashes (handled by the event manager, then the motion manager).

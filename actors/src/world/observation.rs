@@ -7,7 +7,7 @@ use super::geometry::Point;
 use super::motion::{Kinematics, Progress, StepKind};
 use super::sensor::{SensorKind, SensorQuery, SensorValue};
 use super::{MotionOutcome, Obstacle, RobotId};
-use nekosim_protocols::{MsgId, Wire};
+use nekosim_protocols::{MsgId, Payload};
 
 /// One observation with its instant and sequence number.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -69,35 +69,35 @@ pub enum Observation {
         robot: RobotId,
         layer: String,
         op: String,
-        msg: Wire,
+        msg: Payload,
     },
     /// A message handed to the network by `layer` ("app" for the algorithm).
     Send {
         robot: RobotId,
         to: Vec<RobotId>,
         layer: String,
-        msg: Wire,
+        msg: Payload,
     },
     /// A message arrived from the network at `layer` of `robot`.
     Receive {
         robot: RobotId,
         from: RobotId,
         layer: String,
-        msg: Wire,
+        msg: Payload,
     },
     /// A broadcast layer delivered message `id` to the algorithm.
     Deliver {
         robot: RobotId,
         layer: String,
         id: MsgId,
-        msg: Wire,
+        msg: Payload,
     },
     /// A consensus layer decided `value` for instance `k`.
     Decide {
         robot: RobotId,
         layer: String,
         k: u64,
-        value: Wire,
+        value: Payload,
     },
     /// A failure detector (or Omega) told the algorithm something about `process`.
     Suspect {

@@ -24,7 +24,7 @@ fn counterexample(name: &str, o: &Outcome, property: &str, correct: &Options) {
     );
 }
 
-fn ids(d: &[(MsgId, nekosim_protocols::Wire)]) -> Vec<MsgId> {
+fn ids(d: &[(MsgId, nekosim_protocols::Payload)]) -> Vec<MsgId> {
     d.iter().map(|(id, _)| *id).collect()
 }
 
@@ -34,7 +34,7 @@ fn lamport_delivering_without_hearing_from_everybody_breaks_total_order() {
     let out = check_with(
         "lamport-abcast",
         &o,
-        |_, s| s.layers[1] = Layer::LamportAbcast(LamportAbcast::eager()),
+        |_, s| s.layers[1] = Layer::new(LamportAbcast::eager()),
         true,
     );
     counterexample("lamport-abcast", &out, "total order", &o);
@@ -56,7 +56,7 @@ fn two_sequencers_break_total_order() {
     let out = check_with(
         "sequencer-abcast",
         &o,
-        |_, s| s.layers[0] = Layer::FixedSequencer(FixedSequencer::rogue(0)),
+        |_, s| s.layers[0] = Layer::new(FixedSequencer::rogue(0)),
         true,
     );
     counterexample("sequencer-abcast", &out, "total order", &o);
@@ -72,7 +72,7 @@ fn consensus_deciding_on_a_minority_breaks_agreement() {
     let out = check_with(
         "ct-consensus",
         &o,
-        |_, s| s.layers[1] = Layer::ChandraToueg(ChandraToueg::minority()),
+        |_, s| s.layers[1] = Layer::new(ChandraToueg::minority()),
         true,
     );
     let v = out.verdict("agreement").unwrap();
@@ -96,7 +96,7 @@ fn reliable_broadcast_without_relay_breaks_agreement_when_the_sender_crashes() {
     let out = check_with(
         "reliable-broadcast",
         &o,
-        |_, s| s.layers[0] = Layer::ReliableBroadcast(ReliableBroadcast::without_relay()),
+        |_, s| s.layers[0] = Layer::new(ReliableBroadcast::without_relay()),
         true,
     );
     counterexample("reliable-broadcast", &out, "agreement", &o);

@@ -1,0 +1,381 @@
+//! The `nekosim` command line: run or validate a scenario file, or model-check a protocol
+//! stack. [`main_with`] gives a user's own program the whole command with the protocols (and
+//! algorithms) it registers:
+//!
+//! ```no_run
+//! use nekosim::scenario::Registry;
+//! # #[derive(Clone, Debug, PartialEq, Eq, Hash)] struct MyProtocol;
+//! fn main() -> std::process::ExitCode {
+//!     let mut registry = Registry::with_builtins();
+//!     // registry.protocol::<MyProtocol>("MyProtocol");
+//!     nekosim::cli::main_with(registry)
+//! }
+//! ```
+//!
+//! Exit codes: 0 success, 2 invalid input (the message names FILE:LINE:COL where it can),
+//! 1 internal error, or for `check` a counterexample found; 130 a run ended by Ctrl-C or SIGTERM
+//! (its outputs hold the run up to the virtual time reached).
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use crate::check::{self, CheckArgs};
+use crate::recording::{RecordingError, Target};
+use crate::runner::{self, RunError, RunOptions};
+use crate::scenario::{Overrides, Registry, Source};
+use clap::{Parser, Subcommand};
+use nekosim_models::NetworkKind;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "nekosim",
+    version,
+    about = "Deterministic simulator of cooperative mobile robots (Neko robot simulation engine)"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run a scenario.
+    Run {
+        /// The scenario file (RON).
+        scenario: PathBuf,
+        /// Seed of every random stream (overrides the file).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// End time in simulated seconds (overrides the file).
+        #[arg(long)]
+        until: Option<f64>,
+        /// Write the Neko-style text log here.
+        #[arg(long)]
+        log: Option<PathBuf>,
+        /// Write the JSON Lines trace here.
+        #[arg(long)]
+        trace: Option<PathBuf>,
+        /// Save a Rerun recording here (open it with `rerun FILE`).
+        #[arg(long, value_name = "FILE")]
+        rrd: Option<PathBuf>,
+        /// Stream to a running Rerun viewer (default: the SDK's local viewer URL).
+        #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
+        connect: Option<String>,
+        /// Print nothing on success.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Check a scenario file without running it.
+    Validate {
+        /// The scenario file (RON).
+        scenario: PathBuf,
+    },
+    /// Model-check a protocol stack with stateright (exit 1 when a property fails).
+    Check {
+        /// The model (see --list).
+        #[arg(required_unless_present = "list")]
+        model: Option<String>,
+        /// Print the model names, one per line.
+        #[arg(long, conflicts_with = "model")]
+        list: bool,
+        /// Number of processes.
+        #[arg(long, default_value_t = 3)]
+        processes: u32,
+        /// Client requests (broadcasts or proposals), handed out round-robin.
+        #[arg(long, default_value_t = 2)]
+        requests: u32,
+        /// Processes that may crash.
+        #[arg(long, default_value_t = 0)]
+        crashes: u32,
+        /// Network semantics.
+        #[arg(long, value_enum, default_value_t = NetArg::Unordered)]
+        network: NetArg,
+        /// Explore paths of at most this many steps.
+        #[arg(long)]
+        depth: Option<usize>,
+        /// Checker threads.
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Write the counterexample (or a witness) here as a JSONL trace.
+        #[arg(long)]
+        trace: Option<PathBuf>,
+        /// Save the counterexample (or a witness) as a Rerun recording (.rrd).
+        #[arg(long)]
+        rrd: Option<PathBuf>,
+        /// Protocol timer firings allowed per process.
+        #[arg(long)]
+        timers: Option<u32>,
+        /// Last Chandra-Toueg round explored.
+        #[arg(long)]
+        rounds: Option<u64>,
+    },
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum NetArg {
+    Unordered,
+    Ordered,
+    Lossy,
+}
+
+/// A failure and its exit code.
+struct Failure {
+    code: u8,
+    message: String,
+}
+
+fn invalid(e: impl std::fmt::Display) -> Failure {
+    Failure {
+        code: 2,
+        message: e.to_string(),
+    }
+}
+
+/// Runs the command line of `std::env::args` with the protocols and algorithms of
+/// `registry`; returns the process's exit code.
+pub fn main_with(registry: Registry) -> ExitCode {
+    ExitCode::from(run_cli(&registry, std::env::args_os()))
+}
+
+/// Runs the command line `args` (the program name first) with the protocols and algorithms
+/// of `registry`, as [`main_with`] does; returns the exit code.
+pub fn run_cli<I, T>(registry: &Registry, args: I) -> u8
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    // Errors only unless RUST_LOG says otherwise; the Rerun client's own report of an
+    // unreachable viewer is left out, since nekosim reports it in one line (exit 2).
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("error,re_grpc_client=off"));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return code;
+        }
+    };
+    // A panic is an internal error: exit 1 with one line, never Rust's 101.
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|info| {
+        eprintln!("nekosim: internal error: {info}");
+    }));
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        execute(cli.command, registry)
+    }));
+    std::panic::set_hook(previous);
+    match outcome {
+        Ok(Ok(code)) => code,
+        Ok(Err(f)) => {
+            // Invalid input starts with FILE:LINE:COL, like a compiler's diagnostics.
+            if f.code == 2 {
+                eprintln!("{}", f.message);
+            } else {
+                eprintln!("nekosim: internal error: {}", f.message);
+            }
+            f.code
+        }
+        Err(_) => 1,
+    }
+}
+
+/// Runs a command; `Ok` carries the exit code (a check's counterexample is 1).
+/// Exit code of a run ended by Ctrl-C or SIGTERM (128 + SIGINT, as shells report it).
+const INTERRUPTED: i32 = 130;
+
+fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
+    match command {
+        Command::Check { list: true, .. } => {
+            print!("{}", check::list());
+            Ok(0)
+        }
+        Command::Check {
+            model,
+            processes,
+            requests,
+            crashes,
+            network,
+            depth,
+            threads,
+            trace,
+            rrd,
+            timers,
+            rounds,
+            ..
+        } => {
+            if rrd.is_some() && !cfg!(feature = "rerun") {
+                return Err(invalid(RecordingError::Unsupported));
+            }
+            let args = CheckArgs {
+                model: model.unwrap_or_default(),
+                processes,
+                requests,
+                crashes,
+                network: match network {
+                    NetArg::Unordered => NetworkKind::Unordered,
+                    NetArg::Ordered => NetworkKind::Ordered,
+                    NetArg::Lossy => NetworkKind::Lossy,
+                },
+                depth,
+                threads,
+                trace,
+                rrd,
+                timers,
+                rounds,
+            };
+            let holds =
+                check::check(&args, &mut std::io::stdout().lock()).map_err(|e| match e {
+                    check::CheckError::Recording(r) if !r.is_input_error() => Failure {
+                        code: 1,
+                        message: r.to_string(),
+                    },
+                    other => invalid(other),
+                })?;
+            Ok(if holds { 0 } else { 1 })
+        }
+        Command::Validate { scenario } => {
+            let source = Source::load(&scenario).map_err(invalid)?;
+            let built = source
+                .build(Overrides::default(), registry)
+                .map_err(invalid)?;
+            println!(
+                "{}: ok: scenario {:?}, {} robots",
+                scenario.display(),
+                built.name,
+                built.robots.len()
+            );
+            Ok(0)
+        }
+        Command::Run {
+            scenario,
+            seed,
+            until,
+            log,
+            trace,
+            rrd,
+            connect,
+            quiet,
+        } => {
+            if (rrd.is_some() || connect.is_some()) && !cfg!(feature = "rerun") {
+                return Err(invalid(RecordingError::Unsupported));
+            }
+            let recording = Target {
+                rrd,
+                connect: connect.map(|u| (!u.is_empty()).then_some(u)),
+            };
+            let saved = recording.rrd.clone();
+            let source = Source::load(&scenario).map_err(invalid)?;
+            let built = source
+                .build(Overrides { seed, until }, registry)
+                .map_err(invalid)?;
+            let horizon = built.until;
+            let bar =
+                (!quiet && std::io::stderr().is_terminal() && horizon.is_finite()).then(|| {
+                    let bar = indicatif::ProgressBar::new((horizon * 1000.0) as u64);
+                    bar.set_style(
+                        indicatif::ProgressStyle::with_template(
+                            "{spinner} simulated {msg} [{bar:40}] {percent}% ({elapsed})",
+                        )
+                        .expect("template")
+                        .progress_chars("=> "),
+                    );
+                    bar
+                });
+            let progress: Option<Box<dyn FnMut(f64)>> = bar.clone().map(|b| {
+                Box::new(move |t: f64| {
+                    b.set_position((t * 1000.0) as u64);
+                    b.set_message(format!("{t:.1} s"));
+                }) as Box<dyn FnMut(f64)>
+            });
+            // Ctrl-C (or SIGTERM) ends the run at the virtual time reached and writes the
+            // outputs for the run up to there; a second one ends the process at once.
+            let stop = Arc::new(AtomicBool::new(false));
+            {
+                let stop = stop.clone();
+                // Without a handler (e.g. one already set), an interrupt kills the process.
+                let _ = ctrlc::set_handler(move || {
+                    if stop.swap(true, Ordering::Relaxed) {
+                        std::process::exit(INTERRUPTED);
+                    }
+                });
+            }
+            let result = runner::run(
+                built,
+                RunOptions {
+                    log,
+                    trace,
+                    recording,
+                    progress,
+                    stop: Some(stop),
+                },
+            );
+            if let Some(b) = bar {
+                b.finish_and_clear();
+            }
+            let summary = result.map_err(|e| match e {
+                RunError::CreateOutput { .. } => invalid(e),
+                RunError::Recording(r) if r.is_input_error() => invalid(r),
+                other => Failure {
+                    code: 1,
+                    message: causes(&other),
+                },
+            })?;
+            if !quiet {
+                println!(
+                    "scenario: {} (seed {})\nrobots: {}, events: {}, collisions: {}, simulated time: {:.3} s, wall time: {:.3} s, events/s: {:.0}, cancelled events: {}",
+                    summary.name,
+                    summary.seed,
+                    summary.robots,
+                    summary.events,
+                    summary.collisions,
+                    summary.end_time,
+                    summary.wall_seconds,
+                    summary.events_per_second(),
+                    summary.cancelled
+                );
+                if let Some(l) = &summary.latency {
+                    println!(
+                        "deliveries: {}, latency mean: {:.3} s, p50: {:.3} s, p99: {:.3} s, throughput: {:.3} deliveries/s",
+                        l.deliveries, l.mean, l.p50, l.p99, l.throughput
+                    );
+                }
+                if let Some(path) = &saved {
+                    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+                    println!(
+                        "recording: {} ({:.1} MB); view it with `rerun {}`",
+                        path.display(),
+                        size as f64 / 1e6,
+                        path.display()
+                    );
+                }
+            }
+            if summary.interrupted {
+                eprintln!(
+                    "interrupted at simulated time {:.3} s: the outputs hold the run up to there",
+                    summary.end_time
+                );
+                return Ok(INTERRUPTED as u8);
+            }
+            Ok(0)
+        }
+    }
+}
+
+/// An error and its causes, `: `-separated.
+fn causes(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut source = e.source();
+    while let Some(c) = source {
+        s.push_str(&format!(": {c}"));
+        source = c.source();
+    }
+    s
+}
