@@ -1,22 +1,49 @@
-//! A custom microprotocol written in Rust and stacked from a scenario file.
+//! A microprotocol written in Rust by a user, stacked from a scenario file and run by the whole
+//! `nekosim` command (docs/extending.md walks through it).
 //!
 //! `RingGossip` is a broadcast layer: a process delivers its own message at once and hands it
 //! to its `fanout` successors on the ring of process ids; every process that receives a message
-//! for the first time delivers it and passes it on the same way. It is registered under the name
-//! "RingGossip", so a scenario stacks it with
-//! `Layer(id: "gossip", protocol: Custom(name: "RingGossip", params: {"fanout": 1.0}), below: "net")`.
-//! Being a [`Microprotocol`], the very same code could be hosted by a stateright model.
+//! for the first time delivers it and passes it on the same way. Its messages, configuration
+//! and service are its own types; the registry line
+//! `registry.protocol::<RingGossip>("RingGossip")` lets a scenario stack it with
+//! `Layer(id: "gossip", protocol: RingGossip(fanout: 1), below: "net")`.
 //!
-//! Run: `cargo run --example custom_protocol` (prints the Neko log).
+//! Run: `cargo run --example custom_protocol -- run examples/user/ring_gossip.ron --log out/gossip.log`
+//! (any `nekosim` command works: `validate`, `run --rrd`, ...).
 //! Test: `cargo test --example custom_protocol`.
 
 use std::collections::BTreeSet;
+use std::fmt;
+use std::process::ExitCode;
 
-use nekosim::runner::{self, RunOptions};
-use nekosim::scenario::{Overrides, Registry, Source};
-use nekosim_protocols::service::{Ctx, Indication, LayerIx, Out, Request};
-use nekosim_protocols::stack::Service;
-use nekosim_protocols::{Content, Microprotocol, MsgId, Pid, Shape, Wire};
+use nekosim::scenario::Registry;
+use nekosim_protocols::{
+    ConfigError, Ctx, Indication, LayerIx, Microprotocol, MsgId, Out, Payload, Pid, Request,
+    Service, Shape,
+};
+use serde::{Deserialize, Serialize};
+
+/// What the ring offers the layers above: a broadcast (so anything needing one can sit on it).
+const GOSSIP: Service = Service::new("Gossip", "ring gossip", &[Service::BROADCAST]);
+
+/// The layer's one message: a broadcast message and its id, passed along the ring.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+struct Gossip {
+    id: MsgId,
+    payload: Payload,
+}
+
+/// `RingGossip(fanout: 2)`; `fanout` defaults to 1.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RingConfig {
+    #[serde(default = "one")]
+    fanout: u32,
+}
+
+fn one() -> u32 {
+    1
+}
 
 /// Broadcast by relaying along the ring of process ids.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -27,21 +54,6 @@ struct RingGossip {
 }
 
 impl RingGossip {
-    fn from_params(p: &std::collections::BTreeMap<String, f64>) -> Result<Self, String> {
-        let fanout = p.get("fanout").copied().unwrap_or(1.0);
-        if !(fanout >= 1.0 && fanout.fract() == 0.0 && fanout <= 1e6) {
-            return Err(format!("fanout is {fanout}; expected a whole number >= 1"));
-        }
-        if let Some(k) = p.keys().find(|k| k.as_str() != "fanout") {
-            return Err(format!("unknown parameter {k:?}; expected fanout"));
-        }
-        Ok(Self {
-            fanout: fanout as u32,
-            count: 0,
-            delivered: BTreeSet::new(),
-        })
-    }
-
     /// The next `fanout` processes after `me`, stopping before `origin`.
     fn successors(&self, ctx: &Ctx, origin: Pid) -> Vec<Pid> {
         (1..=self.fanout.min(ctx.n - 1))
@@ -50,30 +62,47 @@ impl RingGossip {
             .collect()
     }
 
-    fn relay(&mut self, ctx: &Ctx, id: MsgId, msg: Wire, out: &mut Out) {
+    fn relay(&mut self, ctx: &Ctx, id: MsgId, payload: Payload, out: &mut Out<Self>) {
         if !self.delivered.insert(id) {
             return;
         }
-        let header = Wire::Custom {
-            protocol: "RingGossip".into(),
-            tag: "GOSSIP".into(),
-            data: Content::List(vec![
-                Content::Int(id.origin as i64),
-                Content::Int(id.n as i64),
-            ]),
-            inner: Some(Box::new(msg.clone())),
-        };
-        out.send(self.successors(ctx, id.origin), header);
-        out.up(Indication::BDeliver { id, msg });
+        let next = self.successors(ctx, id.origin);
+        out.send(
+            next,
+            Gossip {
+                id,
+                payload: payload.clone(),
+            },
+        );
+        out.up(Indication::BDeliver { id, msg: payload });
     }
 }
 
 impl Microprotocol for RingGossip {
-    fn name(&self) -> &'static str {
-        "RingGossip"
+    type Msg = Gossip;
+    type Timer = ();
+    type Config = RingConfig;
+    const NAME: &'static str = "RingGossip";
+
+    fn shape(_: &RingConfig) -> Shape {
+        Shape::on_links(GOSSIP)
     }
 
-    fn on_request(&mut self, ctx: &Ctx, _from: LayerIx, req: Request, out: &mut Out) {
+    fn new(c: RingConfig) -> Result<Self, ConfigError> {
+        if c.fanout == 0 {
+            return Err(ConfigError::field(
+                "fanout",
+                "fanout is 0; expected a whole number >= 1",
+            ));
+        }
+        Ok(Self {
+            fanout: c.fanout,
+            count: 0,
+            delivered: BTreeSet::new(),
+        })
+    }
+
+    fn on_request(&mut self, ctx: &Ctx, _from: LayerIx, req: Request, out: &mut Out<Self>) {
         if let Request::Broadcast { msg } = req {
             let id = MsgId {
                 origin: ctx.me,
@@ -84,103 +113,47 @@ impl Microprotocol for RingGossip {
         }
     }
 
-    fn on_indication(&mut self, ctx: &Ctx, _from: LayerIx, ind: Indication, out: &mut Out) {
-        if let Indication::Deliver {
-            msg:
-                Wire::Custom {
-                    data: Content::List(d),
-                    inner: Some(inner),
-                    ..
-                },
-            ..
-        } = ind
-        {
-            if let [Content::Int(origin), Content::Int(n)] = d[..] {
-                let id = MsgId {
-                    origin: origin as Pid,
-                    n: n as u64,
-                };
-                self.relay(ctx, id, *inner, out);
-            }
-        }
+    fn on_message(&mut self, ctx: &Ctx, _from: Pid, m: Gossip, out: &mut Out<Self>) {
+        self.relay(ctx, m.id, m.payload, out);
+    }
+
+    fn render(m: &Gossip, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "GOSSIP({}, {})", m.id, m.payload)
     }
 }
 
-const SCENARIO: &str = r#"
-Scenario(
-    name: "ring_gossip",
-    seed: 5,
-    until: 100.0,
-    world: (size: Infinite),
-    network: Reliable(delay: 1.0),
-    stack: [
-        Layer(id: "gossip", protocol: Custom(name: "RingGossip", params: {"fanout": 1.0}), below: "net"),
-    ],
-    robots: [
-        Group(count: 5, radius: 1.0, born: Points([(0.0, 0.0), (10.0, 0.0), (20.0, 0.0), (30.0, 0.0), (40.0, 0.0)]),
-              algorithm: BroadcastLoad(layer: "gossip", count: 3, mean_interval: 2.0)),
-    ],
-)
-"#;
-
+/// The built-ins plus RingGossip.
 fn registry() -> Registry {
-    let mut r = Registry::new();
-    r.register_protocol(
-        "RingGossip",
-        Shape {
-            provides: Service::Broadcast,
-            needs_below: Service::P2p,
-            needs_uses: vec![],
-        },
-        RingGossip::from_params,
-    );
+    let mut r = Registry::with_builtins();
+    r.protocol::<RingGossip>("RingGossip");
     r
 }
 
-/// Runs `scenario` and returns the log and trace text.
-fn run(scenario: &str) -> Result<(String, String), String> {
-    let source = Source::parse("ring_gossip.ron", scenario).map_err(|e| e.to_string())?;
-    let built = source
-        .build(Overrides::default(), &registry())
-        .map_err(|e| e.to_string())?;
-    let dir = std::env::temp_dir().join(format!(
-        "nekosim-gossip-{}-{}",
-        std::process::id(),
-        scenario.len()
-    ));
-    let (log, trace) = (dir.join("gossip.log"), dir.join("gossip.jsonl"));
-    runner::run(
-        built,
-        RunOptions {
-            log: Some(log.clone()),
-            trace: Some(trace.clone()),
-            ..RunOptions::default()
-        },
-    )
-    .map_err(|e| e.to_string())?;
-    let out = (
-        std::fs::read_to_string(&log).unwrap(),
-        std::fs::read_to_string(&trace).unwrap(),
-    );
-    let _ = std::fs::remove_dir_all(dir);
-    Ok(out)
-}
-
 #[cfg_attr(test, allow(dead_code))]
-fn main() {
-    match run(SCENARIO) {
-        Ok((log, _)) => print!("{log}"),
-        Err(e) => {
-            eprintln!("{e}");
-            std::process::exit(2);
-        }
-    }
+fn main() -> ExitCode {
+    nekosim::cli::main_with(registry())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::collections::BTreeMap;
+    use std::path::{Path, PathBuf};
+
+    const SCENARIO: &str = "examples/user/ring_gossip.ron";
+
+    fn root() -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    }
+
+    /// Runs the command line `args` of this example's program; returns the exit code.
+    fn cli(args: &[&str]) -> u8 {
+        std::env::set_current_dir(root()).unwrap();
+        nekosim::cli::run_cli(
+            &registry(),
+            std::iter::once("custom_protocol").chain(args.iter().copied()),
+        )
+    }
 
     fn records(trace: &str, kind: &str) -> Vec<serde_json::Value> {
         trace
@@ -190,9 +163,27 @@ mod tests {
             .collect()
     }
 
+    /// Runs the scenario file through the program; returns its log and trace.
+    fn run(scenario: &Path, dir: &Path) -> (u8, String, String) {
+        let (log, trace) = (dir.join("gossip.log"), dir.join("gossip.jsonl"));
+        let code = cli(&[
+            "run",
+            scenario.to_str().unwrap(),
+            "--quiet",
+            "--log",
+            log.to_str().unwrap(),
+            "--trace",
+            trace.to_str().unwrap(),
+        ]);
+        let read = |p: &Path| std::fs::read_to_string(p).unwrap_or_default();
+        (code, read(&log), read(&trace))
+    }
+
     #[test]
     fn every_robot_delivers_every_message_once_after_its_ring_distance() {
-        let (log, trace) = run(SCENARIO).expect("runs");
+        let dir = tempfile::tempdir().unwrap();
+        let (code, log, trace) = run(&root().join(SCENARIO), dir.path());
+        assert_eq!(code, 0);
         let requests = records(&trace, "request");
         assert_eq!(requests.len(), 15, "5 robots x 3 broadcasts");
         // When each message was broadcast: origin:n -> time.
@@ -222,23 +213,66 @@ mod tests {
         }
         assert_eq!(seen.len(), 5 * 15, "every robot delivers every message");
         assert!(log.contains("GOSSIP"), "the log names the custom header");
+        // The trace shows the protocol's own rendering, the application message inside.
+        let send = &records(&trace, "send")[0];
+        assert_eq!(send["type"], "GOSSIP");
+        let text = send["msg"].as_str().unwrap();
+        assert!(
+            text.starts_with("GOSSIP(") && text.contains("LOAD "),
+            "{text}"
+        );
+    }
+
+    /// The error the program gives for the scenario with `from` replaced by `to`, and where
+    /// (line, column) `word` starts in the changed file.
+    fn error(registry: &Registry, from: &str, to: &str, word: &str) -> (String, String) {
+        use nekosim::scenario::{Overrides, Source};
+        let text = std::fs::read_to_string(root().join(SCENARIO)).unwrap();
+        assert!(text.contains(from));
+        let text = text.replace(from, to);
+        let e = Source::parse("ring_gossip.ron", &text)
+            .and_then(|s| s.build(Overrides::default(), registry))
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        let (line, l) = text
+            .lines()
+            .enumerate()
+            .find(|(_, l)| l.contains(to))
+            .unwrap();
+        let col = l.find(to).unwrap() + to.find(word).unwrap() + 1;
+        (e, format!("ring_gossip.ron:{}:{col}: ", line + 1))
     }
 
     #[test]
-    fn unknown_names_and_bad_parameters_are_located_input_errors() {
-        let unknown = SCENARIO.replace("Custom(name: \"RingGossip\"", "Custom(name: \"Gossip\"");
-        let e = run(&unknown).unwrap_err();
+    fn unknown_names_fields_and_bad_values_are_located_input_errors() {
+        let r = registry();
+        let (e, at) = error(&r, "RingGossip(fanout: 1)", "Gossip(fanout: 1)", "Gossip");
         assert!(
-            e.starts_with(
-                "ring_gossip.ron:9:39: unknown protocol \"Gossip\"; registered: RingGossip"
-            ),
+            e.starts_with(&format!(
+                "{at}unknown protocol \"Gossip\"; expected one of "
+            )) && e.contains("RingGossip"),
             "{e}"
         );
-        let bad = SCENARIO.replace("\"fanout\": 1.0", "\"fanout\": 0.5");
-        let e = run(&bad).unwrap_err();
+        let (e, at) = error(&r, "RingGossip(fanout: 1)", "RingGossip(fanot: 1)", "fanot");
+        assert_eq!(
+            e,
+            format!("{at}RingGossip: unknown field `fanot`; expected one of `fanout`")
+        );
+        let (e, at) = error(&r, "RingGossip(fanout: 1)", "RingGossip(fanout: 0)", "0");
+        assert_eq!(
+            e,
+            format!("{at}RingGossip: fanout is 0; expected a whole number >= 1")
+        );
+        // Without the registry line, the name is unknown (as to the stock `nekosim`).
+        let stock = Registry::with_builtins();
+        let same = "RingGossip(fanout: 1)";
+        let (e, at) = error(&stock, same, same, "RingGossip");
         assert!(
-            e.starts_with("ring_gossip.ron:9:39: protocol \"RingGossip\": fanout is 0.5"),
+            e.starts_with(&format!("{at}unknown protocol \"RingGossip\"")),
             "{e}"
         );
+        // Validating the file with the program succeeds.
+        assert_eq!(cli(&["validate", SCENARIO]), 0);
     }
 }

@@ -137,6 +137,10 @@ fn invalid(e: impl std::fmt::Display) -> Failure {
 /// Runs the command line of `std::env::args` with the protocols and algorithms of
 /// `registry`; returns the process's exit code.
 pub fn main_with(registry: Registry) -> ExitCode {
+    // A panic is an internal error: exit 1 with one line, never Rust's 101.
+    std::panic::set_hook(Box::new(|info| {
+        eprintln!("nekosim: internal error: {info}");
+    }));
     ExitCode::from(run_cli(&registry, std::env::args_os()))
 }
 
@@ -163,15 +167,10 @@ where
             return code;
         }
     };
-    // A panic is an internal error: exit 1 with one line, never Rust's 101.
-    let previous = std::panic::take_hook();
-    std::panic::set_hook(Box::new(|info| {
-        eprintln!("nekosim: internal error: {info}");
-    }));
+    // A panic is an internal error (exit 1); `main_with` prints it as one line.
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         execute(cli.command, registry)
     }));
-    std::panic::set_hook(previous);
     match outcome {
         Ok(Ok(code)) => code,
         Ok(Err(f)) => {

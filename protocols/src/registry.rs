@@ -105,8 +105,9 @@ struct Entry {
     codec: Codec,
 }
 
-/// Protocols by the name scenarios use for them.
-#[derive(Clone, Default)]
+/// Protocols by the name scenarios use for them. A new (or default) registry holds the
+/// built-in protocols; [`Protocols::empty`] holds none.
+#[derive(Clone)]
 pub struct Protocols {
     entries: BTreeMap<String, Entry>,
 }
@@ -227,15 +228,29 @@ fn intern(name: &str) -> &'static str {
     n
 }
 
+impl Default for Protocols {
+    /// [`Protocols::with_builtins`].
+    fn default() -> Self {
+        Self::with_builtins()
+    }
+}
+
 impl Protocols {
-    /// An empty registry.
+    /// The built-in protocols (the same as [`Protocols::with_builtins`]).
     pub fn new() -> Self {
-        Self::default()
+        Self::with_builtins()
+    }
+
+    /// A registry without any protocol.
+    pub fn empty() -> Self {
+        Self {
+            entries: BTreeMap::new(),
+        }
     }
 
     /// Every built-in protocol of [`crate::builtins`], under its name.
     pub fn with_builtins() -> Self {
-        let mut r = Self::new();
+        let mut r = Self::empty();
         crate::builtins::register(&mut r);
         r
     }
@@ -283,6 +298,7 @@ impl Protocols {
         let entry = self.entry(spec)?;
         let offset = spec.name().len();
         (entry.build)(spec.config_text()).map_err(|mut e| {
+            e.message = format!("{}: {}", spec.name(), e.message);
             // The configuration text starts right after the name on the spec's first line.
             if let Some((line, col)) = e.at {
                 e.at = Some(if line == 1 {

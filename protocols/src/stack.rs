@@ -120,7 +120,7 @@ impl Wiring {
                     None => "protocol".into(),
                 },
                 at: e.at,
-                message: format!("{}: {}", s.protocol.name(), e.message),
+                message: e.message,
             })?;
             codecs.push(protocols.codec(&s.protocol).expect("built"));
             shapes.push(shape);
