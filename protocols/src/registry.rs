@@ -96,12 +96,15 @@ pub struct SpecError {
     pub message: String,
 }
 
+/// Reads a configuration text (none for a bare name) into a shape and a fresh instance.
+type BuildFn = fn(Option<&str>) -> Result<(Shape, Layer), SpecError>;
+
 /// A protocol type's registered functions.
 #[derive(Clone, Copy)]
 struct Entry {
     type_id: std::any::TypeId,
     /// Reads the configuration text and builds the shape and a fresh instance.
-    build: fn(Option<&str>) -> Result<(Shape, Layer), SpecError>,
+    build: BuildFn,
     codec: Codec,
 }
 
