@@ -12,3 +12,8 @@ pub mod recording;
 pub mod runner;
 pub mod scenario;
 pub mod trace;
+
+/// Extending nekosim with your own protocols: docs/extending.md, whose snippets run as
+/// doc tests.
+#[doc = include_str!("../docs/extending.md")]
+pub mod extending {}

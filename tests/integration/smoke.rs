@@ -36,3 +36,17 @@ fn head_on_robots_collide_at_the_closed_form_instant() {
     // Gap 18 closed at 5 units/s.
     assert!((c[0].t - 3.6).abs() < 1e-12, "{}", c[0].t);
 }
+
+/// docs/extending.md's doc tests include the `Redundant` protocol from a file; the page shows
+/// the same code.
+#[test]
+fn the_extending_page_shows_the_protocol_its_snippets_include() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let page = std::fs::read_to_string(root.join("docs/extending.md")).unwrap();
+    let start = page.find("```rust\n").unwrap() + "```rust\n".len();
+    let block = &page[start..start + page[start..].find("```").unwrap()];
+    let shown = block.replace("# fn main() {}\n", "");
+    let included = std::fs::read_to_string(root.join("docs/extending_redundant.rs")).unwrap();
+    let included = included.split_once('\n').unwrap().1;
+    assert_eq!(shown, included);
+}
