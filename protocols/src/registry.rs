@@ -153,20 +153,37 @@ fn build_entry<P: Microprotocol>(text: Option<&str>) -> Result<(Shape, Layer), S
     Ok((shape, Layer::new(p)))
 }
 
-/// Where an error starts: ron reports an unknown field just after its name; point at the
-/// name itself.
+/// Where an error starts: ron reports an unknown field or a bad value just after it; point at
+/// the name or the value itself.
 fn name_start(text: &str, e: &ron::error::SpannedError) -> (usize, usize) {
     let (line, col) = (e.position.line, e.position.col);
+    let Some(l) = text.lines().nth(line.saturating_sub(1)) else {
+        return (line, col);
+    };
+    let chars: Vec<char> = l.chars().collect();
+    let end = col.saturating_sub(1).min(chars.len());
     if let ron::Error::NoSuchStructField { found, .. } = &e.code {
-        if let Some(l) = text.lines().nth(line.saturating_sub(1)) {
-            let before: String = l.chars().take(col.saturating_sub(1)).collect();
-            let trimmed = before.trim_end_matches(|c: char| c.is_whitespace() || c == ':');
-            if trimmed.ends_with(found.as_str()) {
-                return (line, trimmed.chars().count() - found.chars().count() + 1);
-            }
+        let before: String = chars[..end].iter().collect();
+        let trimmed = before.trim_end_matches(|c: char| c.is_whitespace() || c == ':');
+        if trimmed.ends_with(found.as_str()) {
+            return (line, trimmed.chars().count() - found.chars().count() + 1);
+        }
+        return (line, col);
+    }
+    // A scalar that ends right before the position: its first character.
+    let mut i = end;
+    if i > 0 && chars[i - 1] == '"' {
+        i -= 1;
+        while i > 0 && chars[i - 1] != '"' {
+            i -= 1;
+        }
+        i = i.saturating_sub(1);
+    } else {
+        while i > 0 && (chars[i - 1].is_alphanumeric() || "._+-".contains(chars[i - 1])) {
+            i -= 1;
         }
     }
-    (line, col)
+    (line, i + 1)
 }
 
 /// A ron error in the words of a scenario error.

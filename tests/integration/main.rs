@@ -13,4 +13,5 @@ mod rerun_reader;
 mod scale;
 mod sensors;
 mod smoke;
+mod user_protocol;
 mod virtual_time;
