@@ -247,6 +247,7 @@ impl NekoLog {
             Observation::SensorRequest { robot, query } => {
                 format!("{t} p{robot} SensorRequest: ROBOT# {robot} | {}", query_text(query))
             }
+            Observation::Log { robot, text } => format!("{t} p{robot} Info: {text}"),
             Observation::Request { robot, layer, op, msg } => {
                 format!("{t} p{robot} Request: layer {layer} | {op} | {}", wire_text(msg))
             }

@@ -145,6 +145,11 @@ pub fn to_json(r: &Record) -> Value {
             put("sensor", json!(query.kind().name()));
             put("value", query_json(query));
         }
+        Observation::Log { robot, text } => {
+            put("kind", json!("log"));
+            put("robot", json!(robot));
+            put("text", json!(text));
+        }
         Observation::Request {
             robot,
             layer,

@@ -294,6 +294,11 @@ impl Algorithm for AskForHelp {
                         break Point::new(x.get(), y.get());
                     }
                 };
+                // As the seed's TestCommunication does (seed 5.3).
+                robot.log(format!(
+                    "Someone told me to go to: ({:.3}, {:.3})",
+                    goto.x, goto.y
+                ));
                 move_or_wait(&robot, goto, move_speed, turn_speed, 1.0).await;
             }
         })

@@ -69,7 +69,8 @@ enum Request {
     Motion { ticket: u64, motion: Motion },
     Sensor { ticket: u64, query: SensorQuery },
     Timer { ticket: u64, at: f64 },
-    ListEvents { ticket: u64 },
+    ListEvents { of: RobotId, ticket: u64 },
+    Log(String),
     Net { to: Vec<RobotId>, msg: MsgPayload },
     Layer { ix: LayerIx, req: ProtoRequest },
 }
@@ -288,8 +289,14 @@ impl Robot {
     /// The robot's pending events, as the event manager lists them now (seed 4.2.3): for
     /// instance to see a predicted collision before acting.
     pub async fn future_events(&self) -> Vec<FutureEvent> {
+        self.future_events_of(self.info.id).await
+    }
+
+    /// The pending events of robot `of` (any robot, as the seed's event manager lists them),
+    /// now.
+    pub async fn future_events_of(&self, of: RobotId) -> Vec<FutureEvent> {
         let ticket = self.ticket();
-        self.push(Request::ListEvents { ticket });
+        self.push(Request::ListEvents { of, ticket });
         let (v, _) = self
             .take(|n| match n {
                 Notice::FutureEvents { ticket: t, events } if *t == ticket => Some(events.clone()),
@@ -297,6 +304,12 @@ impl Robot {
             })
             .await;
         v
+    }
+
+    /// Writes `text` to the run's log as this robot, now (seed 5.3's `logger.info(..)`): a
+    /// line of the Neko log, a `log` record of the trace and an entry of a recording's log.
+    pub fn log(&self, text: impl Into<String>) {
+        self.push(Request::Log(text.into()));
     }
 
     /// Sends an application message to robots `to` directly over the network (multicast).
@@ -605,13 +618,21 @@ impl Handler<Deliver> for RobotActor {
                         },
                     )
                 }
-                Request::ListEvents { ticket } => out.schedule(
+                Request::ListEvents { of, ticket } => out.schedule(
                     msg.now,
                     Target::EventManager,
                     EventClass::Eventual,
                     me,
-                    Payload::ListEvents { robot: id, ticket },
+                    Payload::ListEvents {
+                        robot: id,
+                        of,
+                        ticket,
+                    },
                 ),
+                Request::Log(text) => {
+                    out.record(Observation::Log { robot: id, text });
+                    continue;
+                }
             };
         }
         MessageResult(out.into_effects())

@@ -231,10 +231,10 @@ impl Scheduler {
                 [Some(robot), None],
                 Payload::Crash { robot },
             );
-        } else if let Payload::ListEvents { robot, ticket } = event.payload {
+        } else if let Payload::ListEvents { robot, of, ticket } = event.payload {
             let events = self
                 .queue
-                .future_of(robot)
+                .future_of(of)
                 .into_iter()
                 .map(|e| FutureEvent {
                     time: e.time,

@@ -185,3 +185,74 @@ fn an_algorithm_can_list_its_future_events_and_avoid_a_predicted_collision() {
         }
     ) && r.t == 10.0));
 }
+
+/// Lists another robot's future events and writes what it saw to the log.
+#[derive(Debug)]
+struct Watcher;
+
+impl Algorithm for Watcher {
+    fn name(&self) -> &str {
+        "Watcher"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        Box::pin(async move {
+            robot.sleep(1.0).await;
+            let events = robot.future_events_of(0).await;
+            let arrival = events
+                .iter()
+                .find(|e| e.kind == "motion_step" && e.robots[0] == Some(0))
+                .map(|e| e.time);
+            let mine = events.iter().filter(|e| e.robots[0] == Some(1)).count();
+            robot.log(format!(
+                "robot 0 arrives at {arrival:?}; {mine} events of mine"
+            ));
+        })
+    }
+}
+
+#[test]
+fn an_algorithm_can_list_another_robots_future_events_and_log_what_it_saw() {
+    let out = run(
+        infinite(),
+        100.0,
+        vec![
+            (
+                spec(0.0, 0.0, 0.0, 1.0),
+                script(vec![nekosim::algorithm::ScriptStep::Forward {
+                    distance: 100.0,
+                    move_speed: 2.0,
+                }]),
+            ),
+            (spec(0.0, 50.0, 0.0, 1.0), Box::new(Watcher)),
+        ],
+    );
+    // Robot 0 moves 100 units at 2 units/s from t = 0: its motion ends at t = 50.
+    let logs: Vec<(f64, u32, &str)> = out
+        .records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::Log { robot, text } => Some((r.t, *robot, text.as_str())),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        logs,
+        vec![(1.0, 1, "robot 0 arrives at Some(50.0); 0 events of mine")]
+    );
+    let log = out
+        .records
+        .iter()
+        .find(|r| matches!(r.obs, Observation::Log { .. }))
+        .unwrap();
+    assert_eq!(
+        nekosim::log::NekoLog::new().line(log),
+        "1.000 p1 Info: robot 0 arrives at Some(50.0); 0 events of mine"
+    );
+    let json = nekosim::trace::to_json(log);
+    assert_eq!(json["kind"], "log");
+    assert_eq!(json["robot"], 1);
+    assert_eq!(
+        json["text"],
+        "robot 0 arrives at Some(50.0); 0 events of mine"
+    );
+}

@@ -140,8 +140,12 @@ pub enum Payload {
     Notice(Notice),
     /// A robot's own timer.
     Timer { robot: RobotId, ticket: u64 },
-    /// Robot -> event manager: list my future events.
-    ListEvents { robot: RobotId, ticket: u64 },
+    /// Robot -> event manager: list the future events of robot `of` (itself or another).
+    ListEvents {
+        robot: RobotId,
+        of: RobotId,
+        ticket: u64,
+    },
     /// A layer or the application hands a message to the network.
     NetSend {
         from: RobotId,

@@ -64,6 +64,11 @@ pub enum Observation {
         robot: RobotId,
         query: SensorQuery,
     },
+    /// The algorithm wrote a line to the log (seed 5.3's `logger.info(..)`).
+    Log {
+        robot: RobotId,
+        text: String,
+    },
     /// The algorithm asked a protocol layer to `op` ("broadcast", "propose", "send") `msg`.
     Request {
         robot: RobotId,
