@@ -85,8 +85,19 @@ pub struct RunStats {
 pub struct RunOutput {
     pub records: Vec<Record>,
     pub stats: RunStats,
-    /// Set if the run stopped because an actor failed.
-    pub failure: Option<String>,
+    /// Set if the run stopped early: a livelock, or an actor that failed.
+    pub failure: Option<RunFailure>,
+}
+
+/// Why a run stopped before its end time.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RunFailure {
+    /// More than `limit` events happened at the instant `t` without virtual time advancing.
+    #[error("livelock at t={t}: more than {limit} events without virtual time advancing (an algorithm keeps retrying at the same instant, e.g. a motion blocked by a collision, without waiting)")]
+    Livelock { t: f64, limit: u64 },
+    /// An actor did not answer an event (an internal error).
+    #[error("{target} did not answer: {error}")]
+    NoAnswer { target: String, error: String },
 }
 
 /// The scheduler actor.
@@ -318,10 +329,10 @@ impl Handler<Step> for Scheduler {
         if event.time == self.now {
             self.at_instant += 1;
             if self.at_instant > self.instant_limit {
-                self.output.failure = Some(format!(
-                    "livelock at t={}: more than {} events without virtual time advancing (an algorithm keeps retrying at the same instant, e.g. a motion blocked by a collision, without waiting)",
-                    self.now, self.instant_limit
-                ));
+                self.output.failure = Some(RunFailure::Livelock {
+                    t: self.now,
+                    limit: self.instant_limit,
+                });
                 return self.finish(ctx);
             }
         } else {
@@ -363,7 +374,10 @@ impl Handler<Step> for Scheduler {
                 ctx.notify(Step);
             }
             Err(e) => {
-                act.output.failure = Some(format!("{target:?} did not answer: {e}"));
+                act.output.failure = Some(RunFailure::NoAnswer {
+                    target: format!("{target:?}"),
+                    error: e.to_string(),
+                });
                 act.finish(ctx);
             }
         }));

@@ -98,9 +98,9 @@ pub enum SimError {
     /// The protocol stack is wired wrongly (fatal before the run starts).
     #[error("stack: {0}")]
     Stack(#[from] nekosim_protocols::StackError),
-    /// The run stopped: virtual time stopped advancing.
-    #[error("{0}")]
-    Livelock(String),
+    /// The run stopped before its end: virtual time stopped advancing, or an actor failed.
+    #[error(transparent)]
+    Stopped(#[from] crate::scheduler::RunFailure),
 }
 
 /// Runs a simulation to its end.
@@ -247,9 +247,8 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     let out = rx
         .recv()
         .map_err(|_| SimError::System("the scheduler ended without a result".into()))?;
-    match &out.failure {
-        Some(f) if f.starts_with("livelock") => Err(SimError::Livelock(f.clone())),
-        Some(f) => Err(SimError::System(f.clone())),
+    match out.failure {
+        Some(f) => Err(SimError::Stopped(f)),
         None => Ok(out),
     }
 }
