@@ -1,18 +1,20 @@
 //! A custom robot algorithm written in Rust and used from a scenario file.
 //!
 //! `Patrol` drives its robot around a square, corner after corner, for a number of laps, and
-//! looks around with the view sensor at every corner. It is registered under the name
-//! "patrol", so a scenario can say `algorithm: Custom(name: "patrol", params: {"side": 40.0})`.
+//! looks around with the view sensor at every corner. Its configuration is its own serde type,
+//! and one registry line, `registry.algorithm::<Patrol>("Patrol")`, lets a scenario say
+//! `algorithm: Patrol(side: 40.0, laps: 2)`.
 //!
 //! Run: `cargo run --example custom_algorithm` (prints the Neko log).
 //! Test: `cargo test --example custom_algorithm`.
 
-use std::collections::BTreeMap;
-
+use nekosim::registry::{Configured, Setting};
 use nekosim::runner::{self, RunOptions};
 use nekosim::scenario::{Overrides, Registry, Source};
 use nekosim::world::geometry::Point;
 use nekosim::{Algorithm, AlgorithmFuture, Robot};
+use nekosim_protocols::ConfigError;
+use serde::Deserialize;
 
 /// Drives around a square of `side` units, `laps` times, anticlockwise from the born point.
 #[derive(Debug, Clone)]
@@ -22,18 +24,43 @@ struct Patrol {
     speed: f64,
 }
 
-impl Patrol {
-    fn from_params(p: &BTreeMap<String, f64>) -> Result<Box<dyn Algorithm>, String> {
-        let side = p.get("side").copied().unwrap_or(40.0);
-        if !(side.is_finite() && side > 0.0) {
-            return Err(format!("patrol side is {side}; expected a number > 0"));
+/// `Patrol(side: 40.0, laps: 2, speed: 5.0)`; every field has a default.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PatrolConfig {
+    #[serde(default = "forty")]
+    side: f64,
+    #[serde(default = "one")]
+    laps: u32,
+    #[serde(default = "five")]
+    speed: f64,
+}
+
+fn forty() -> f64 {
+    40.0
+}
+fn one() -> u32 {
+    1
+}
+fn five() -> f64 {
+    5.0
+}
+
+impl Configured for Patrol {
+    type Config = PatrolConfig;
+
+    fn configure(c: PatrolConfig, _: &Setting) -> Result<Self, ConfigError> {
+        if !(c.side.is_finite() && c.side > 0.0) {
+            return Err(ConfigError::field(
+                "side",
+                format!("patrol side is {}; expected a number > 0", c.side),
+            ));
         }
-        let laps = p.get("laps").copied().unwrap_or(1.0);
-        Ok(Box::new(Patrol {
-            side,
-            laps: laps as u32,
-            speed: p.get("speed").copied().unwrap_or(5.0),
-        }))
+        Ok(Patrol {
+            side: c.side,
+            laps: c.laps,
+            speed: c.speed,
+        })
     }
 }
 
@@ -67,15 +94,15 @@ Scenario(
     until: 200.0,
     world: (size: Infinite),
     robots: [
-        Robot(id: 0, radius: 2.0, at: (0.0, 0.0), algorithm: Custom(name: "patrol", params: {"side": 40.0, "laps": 2.0})),
-        Robot(id: 1, radius: 2.0, at: (100.0, 100.0), algorithm: Custom(name: "patrol", params: {"side": 10.0})),
+        Robot(id: 0, radius: 2.0, at: (0.0, 0.0), algorithm: Patrol(side: 40.0, laps: 2)),
+        Robot(id: 1, radius: 2.0, at: (100.0, 100.0), algorithm: Patrol(side: 10.0)),
     ],
 )
 "#;
 
 fn registry() -> Registry {
-    let mut r = Registry::new();
-    r.register("patrol", Patrol::from_params);
+    let mut r = Registry::with_builtins();
+    r.algorithm::<Patrol>("Patrol");
     r
 }
 
@@ -146,12 +173,37 @@ mod tests {
         assert_eq!(arrivals.iter().filter(|a| a.0 == 1).count(), 4);
     }
 
-    #[test]
-    fn bad_parameters_are_reported_at_the_params() {
-        let text = SCENARIO.replace("\"side\": 40.0", "\"side\": -1.0");
+    /// The error for the scenario with `from` replaced by `to`, and where `word` starts.
+    fn error(from: &str, to: &str, word: &str) -> (String, String) {
+        let text = SCENARIO.replace(from, to);
         let source = Source::parse("patrol.ron", &text).unwrap();
-        let e = source.build(Overrides::default(), &registry()).unwrap_err();
-        assert!(e.to_string().starts_with("patrol.ron:8:"), "{e}");
-        assert!(e.to_string().contains("patrol side is -1"), "{e}");
+        let e = source
+            .build(Overrides::default(), &registry())
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        let (line, l) = text
+            .lines()
+            .enumerate()
+            .find(|(_, l)| l.contains(to))
+            .unwrap();
+        let col = l.find(to).unwrap() + to.find(word).unwrap() + 1;
+        (e, format!("patrol.ron:{}:{col}: ", line + 1))
+    }
+
+    #[test]
+    fn bad_configurations_are_reported_where_they_are() {
+        let (e, at) = error("side: 40.0", "side: -1.0", "-1.0");
+        assert_eq!(
+            e,
+            format!("{at}Patrol: patrol side is -1; expected a number > 0")
+        );
+        let (e, at) = error("laps: 2", "laps: 2.5", "2.5");
+        assert!(e.starts_with(&format!("{at}Patrol: ")), "{e}");
+        let (e, at) = error("laps: 2", "lap: 2", "lap");
+        assert_eq!(
+            e,
+            format!("{at}Patrol: unknown field `lap`; expected one of `side`, `laps`, `speed`")
+        );
     }
 }

@@ -6,12 +6,12 @@
 
 mod locate;
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::fmt;
 use std::path::Path;
 use std::sync::Arc;
 
-use nekosim_actors::algorithm::{Gathering, Idle, RandomMovement, Script, ScriptStep, SpeedRange};
+use nekosim_actors::registry::{Algorithms, Configured, Setting};
 use nekosim_actors::world::born::random_born_points;
 use nekosim_actors::world::geometry::Point;
 use nekosim_actors::world::motion::Pose;
@@ -19,7 +19,7 @@ use nekosim_actors::world::network::{NetworkSpec, Partition};
 use nekosim_actors::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldSize};
 use nekosim_actors::{Algorithm, Comms, Fault};
 use nekosim_protocols::payload::Codecs;
-use nekosim_protocols::{LayerSpec, Protocols, StackError, Wiring};
+use nekosim_protocols::{LayerSpec, Protocols, Spec, SpecError, StackError, Wiring};
 use rand::{Rng, SeedableRng};
 use serde::Deserialize;
 
@@ -86,14 +86,6 @@ fn one() -> usize {
     1
 }
 
-fn five() -> f64 {
-    5.0
-}
-
-fn ninety() -> f64 {
-    90.0
-}
-
 /// The virtual world (seed 3.2, 6.1).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -129,8 +121,8 @@ pub enum RobotEntry {
         /// Heading [deg], anticlockwise from +x.
         #[serde(default)]
         angle: f64,
-        #[serde(default)]
-        algorithm: AlgorithmSpec,
+        #[serde(default = "idle")]
+        algorithm: Spec,
     },
     Group {
         count: usize,
@@ -140,8 +132,8 @@ pub enum RobotEntry {
         /// Heading of every robot of the group [deg]; by default each draws one at random.
         #[serde(default)]
         angle: Option<f64>,
-        #[serde(default)]
-        algorithm: AlgorithmSpec,
+        #[serde(default = "idle")]
+        algorithm: Spec,
     },
 }
 
@@ -157,67 +149,9 @@ pub enum Born {
     Points(Vec<(f64, f64)>),
 }
 
-/// A robot's algorithm.
-#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub enum AlgorithmSpec {
-    #[default]
-    Idle,
-    Script(Vec<ScriptStep>),
-    /// Seed 5.1. Ranges are `(min, max)`; by default move speed in [3, 13) and turn speed
-    /// `3 + move_speed × U`, as the seed's code.
-    RandomMovement {
-        #[serde(default)]
-        move_speed: Option<(f64, f64)>,
-        #[serde(default)]
-        turn_speed: Option<(f64, f64)>,
-        /// Wait after a move that took no time (boxed in) [s]; default 1.
-        #[serde(default)]
-        retry: Option<f64>,
-    },
-    /// Seed 5.2. By default move speed in [3, 6) and turn speed `3 + move_speed × U`.
-    Gathering {
-        #[serde(default)]
-        move_speed: Option<(f64, f64)>,
-        #[serde(default)]
-        turn_speed: Option<(f64, f64)>,
-        /// GPS error factor.
-        #[serde(default)]
-        error: f64,
-        /// Wait after a move that took no time (gathered, or blocked) [s]; default 1.
-        #[serde(default)]
-        retry: Option<f64>,
-    },
-    /// Seed 5.3: multicast a random GOTO order to all others, obey the first order received.
-    AskForHelp,
-    /// Agreement: propose the own position to consensus `layer`, go to the decided point.
-    MeetingPoint {
-        layer: String,
-        #[serde(default = "five")]
-        move_speed: f64,
-        #[serde(default = "ninety")]
-        turn_speed: f64,
-    },
-    /// Reserve each straight path through the total-order `layer` before moving along it.
-    PathReservation {
-        layer: String,
-        #[serde(default = "five")]
-        move_speed: f64,
-        #[serde(default = "ninety")]
-        turn_speed: f64,
-    },
-    /// Neko's latency test: `count` broadcasts through `layer` at exponential intervals.
-    BroadcastLoad {
-        layer: String,
-        count: u32,
-        mean_interval: f64,
-    },
-    /// An algorithm registered in Rust under `name` (see [`Registry`]).
-    Custom {
-        name: String,
-        #[serde(default)]
-        params: BTreeMap<String, f64>,
-    },
+/// `Idle`, the algorithm of a robot that names none.
+fn idle() -> Spec {
+    Spec::new("Idle")
 }
 
 /// A problem with a scenario, located when possible.
@@ -237,15 +171,12 @@ impl fmt::Display for ScenarioError {
     }
 }
 
-/// Builds a custom algorithm from its parameters.
-pub type Factory =
-    Box<dyn Fn(&BTreeMap<String, f64>) -> Result<Box<dyn Algorithm>, String> + Send + Sync>;
-
-/// Algorithms and protocols by name: custom algorithms for `Custom(name: ..)`, and the
-/// protocols a scenario's `stack` names (`protocol: Name(config)`), built-in and the user's
-/// alike.
+/// Algorithms and protocols by name: what a robot's `algorithm: Name(config)` and a layer's
+/// `protocol: Name(config)` name, built-in and the user's alike.
+#[derive(Debug)]
 pub struct Registry {
-    factories: BTreeMap<String, Factory>,
+    /// The algorithms robots run.
+    pub algorithms: Algorithms,
     /// The protocols for the `stack`.
     pub protocols: Protocols,
 }
@@ -257,39 +188,25 @@ impl Default for Registry {
     }
 }
 
-impl fmt::Debug for Registry {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Registry")
-            .field("names", &self.factories.keys().collect::<Vec<_>>())
-            .field("protocols", &self.protocols)
-            .finish()
-    }
-}
-
 impl Registry {
-    /// The built-in protocols and no custom algorithm (the same as [`Registry::with_builtins`]).
+    /// The built-in algorithms and protocols (the same as [`Registry::with_builtins`]).
     pub fn new() -> Self {
         Self::default()
     }
 
-    /// The built-in protocols ([`Protocols::with_builtins`]) and no custom algorithm.
+    /// The built-in algorithms ([`Algorithms::with_builtins`]) and protocols
+    /// ([`Protocols::with_builtins`]).
     pub fn with_builtins() -> Self {
         Self {
-            factories: BTreeMap::new(),
+            algorithms: Algorithms::with_builtins(),
             protocols: Protocols::with_builtins(),
         }
     }
 
-    /// Registers `factory` under `name`.
-    pub fn register(
-        &mut self,
-        name: &str,
-        factory: impl Fn(&BTreeMap<String, f64>) -> Result<Box<dyn Algorithm>, String>
-            + Send
-            + Sync
-            + 'static,
-    ) -> &mut Self {
-        self.factories.insert(name.to_string(), Box::new(factory));
+    /// Registers the algorithm `A` under `name`, for `algorithm: Name(config)` in a scenario
+    /// (see docs/extending.md).
+    pub fn algorithm<A: Configured>(&mut self, name: &str) -> &mut Self {
+        self.algorithms.algorithm::<A>(name);
         self
     }
 
@@ -399,219 +316,18 @@ impl Source {
         }
     }
 
-    fn range(
-        &self,
-        path: &str,
-        what: &str,
-        r: Option<(f64, f64)>,
-    ) -> Result<Option<SpeedRange>, ScenarioError> {
-        let Some((lo, hi)) = r else { return Ok(None) };
-        self.positive(&format!("{path}[0]"), what, lo)?;
-        self.positive(&format!("{path}[1]"), what, hi)?;
-        if hi < lo {
-            return Err(self.err(
-                path,
-                format!(
-                    "{what} range ({lo}, {hi}) is reversed; expected (min, max) with min <= max"
-                ),
-            ));
-        }
-        Ok(Some(SpeedRange {
-            min: lo,
-            spread: hi - lo,
-        }))
-    }
-
+    /// A robot's algorithm, built by the registry; errors point into the spec at `path`.
     fn algorithm(
         &self,
         path: &str,
-        spec: &AlgorithmSpec,
+        spec: &Spec,
+        setting: &Setting,
         registry: &Registry,
     ) -> Result<Box<dyn Algorithm>, ScenarioError> {
-        Ok(match spec {
-            AlgorithmSpec::Idle => Box::new(Idle),
-            AlgorithmSpec::AskForHelp => Box::new(nekosim_actors::algorithm::AskForHelp),
-            AlgorithmSpec::PathReservation {
-                layer,
-                move_speed,
-                turn_speed,
-            } => {
-                self.positive(&format!("{path}.move_speed"), "move speed", *move_speed)?;
-                self.positive(&format!("{path}.turn_speed"), "turn speed", *turn_speed)?;
-                let total_order = self.scenario.stack.iter().any(|l| {
-                    &l.id == layer
-                        && registry.protocols.build(&l.protocol).is_ok_and(|(sh, _)| {
-                            sh.provides.serves(nekosim_protocols::Service::TOTAL_ORDER)
-                        })
-                });
-                if !total_order {
-                    return Err(self.err(&format!("{path}.layer"), format!("{layer:?} is not a total-order broadcast layer of the stack; expected the id of one")));
-                }
-                Box::new(nekosim_actors::algorithm::PathReservation {
-                    layer: layer.clone(),
-                    move_speed: *move_speed,
-                    turn_speed: *turn_speed,
-                })
-            }
-            AlgorithmSpec::MeetingPoint {
-                layer,
-                move_speed,
-                turn_speed,
-            } => {
-                self.positive(&format!("{path}.move_speed"), "move speed", *move_speed)?;
-                self.positive(&format!("{path}.turn_speed"), "turn speed", *turn_speed)?;
-                if !self.scenario.stack.iter().any(|l| &l.id == layer) {
-                    return Err(self.err(
-                        &format!("{path}.layer"),
-                        format!(
-                            "no layer {layer:?} in the stack; expected the id of a consensus layer"
-                        ),
-                    ));
-                }
-                Box::new(nekosim_actors::algorithm::MeetingPoint {
-                    layer: layer.clone(),
-                    move_speed: *move_speed,
-                    turn_speed: *turn_speed,
-                })
-            }
-            AlgorithmSpec::BroadcastLoad {
-                layer,
-                count,
-                mean_interval,
-            } => {
-                self.positive(
-                    &format!("{path}.mean_interval"),
-                    "mean interval",
-                    *mean_interval,
-                )?;
-                if !self.scenario.stack.iter().any(|l| &l.id == layer) {
-                    return Err(self.err(
-                        &format!("{path}.layer"),
-                        format!(
-                            "no layer {layer:?} in the stack; expected the id of a broadcast layer"
-                        ),
-                    ));
-                }
-                Box::new(nekosim_actors::algorithm::BroadcastLoad {
-                    layer: layer.clone(),
-                    count: *count,
-                    mean_interval: *mean_interval,
-                })
-            }
-            AlgorithmSpec::Script(steps) => {
-                for (k, step) in steps.iter().enumerate() {
-                    let p = format!("{path}[0][{k}]");
-                    match *step {
-                        ScriptStep::Turn { angle, turn_speed } => {
-                            self.finite(&format!("{p}.angle"), "turn angle", angle)?;
-                            self.positive(&format!("{p}.turn_speed"), "turn speed", turn_speed)?;
-                        }
-                        ScriptStep::Forward {
-                            distance,
-                            move_speed,
-                        } => {
-                            self.finite(&format!("{p}.distance"), "distance", distance)?;
-                            if distance < 0.0 {
-                                return Err(self.err(
-                                    &format!("{p}.distance"),
-                                    format!("distance is {distance}; expected a number >= 0"),
-                                ));
-                            }
-                            self.positive(&format!("{p}.move_speed"), "move speed", move_speed)?;
-                        }
-                        ScriptStep::MoveTo {
-                            x,
-                            y,
-                            move_speed,
-                            turn_speed,
-                        } => {
-                            self.finite(&format!("{p}.x"), "x", x)?;
-                            self.finite(&format!("{p}.y"), "y", y)?;
-                            self.positive(&format!("{p}.move_speed"), "move speed", move_speed)?;
-                            self.positive(&format!("{p}.turn_speed"), "turn speed", turn_speed)?;
-                        }
-                        ScriptStep::Wait(d) => {
-                            self.finite(&format!("{p}[0]"), "wait", d)?;
-                            if d < 0.0 {
-                                return Err(self.err(
-                                    &format!("{p}[0]"),
-                                    format!("wait is {d}; expected a duration >= 0"),
-                                ));
-                            }
-                        }
-                    }
-                }
-                Box::new(Script(steps.clone()))
-            }
-            AlgorithmSpec::RandomMovement {
-                move_speed,
-                turn_speed,
-                retry,
-            } => {
-                let d = RandomMovement::default();
-                Box::new(RandomMovement {
-                    move_speed: self
-                        .range(&format!("{path}.move_speed"), "move speed", *move_speed)?
-                        .unwrap_or(d.move_speed),
-                    turn_speed: self.range(
-                        &format!("{path}.turn_speed"),
-                        "turn speed",
-                        *turn_speed,
-                    )?,
-                    retry: match retry {
-                        Some(r) => self.positive(&format!("{path}.retry"), "retry", *r)?,
-                        None => d.retry,
-                    },
-                })
-            }
-            AlgorithmSpec::Gathering {
-                move_speed,
-                turn_speed,
-                error,
-                retry,
-            } => {
-                let d = Gathering::default();
-                self.finite(&format!("{path}.error"), "error factor", *error)?;
-                if *error < 0.0 {
-                    return Err(self.err(
-                        &format!("{path}.error"),
-                        format!("error factor is {error}; expected a number >= 0"),
-                    ));
-                }
-                Box::new(Gathering {
-                    move_speed: self
-                        .range(&format!("{path}.move_speed"), "move speed", *move_speed)?
-                        .unwrap_or(d.move_speed),
-                    turn_speed: self.range(
-                        &format!("{path}.turn_speed"),
-                        "turn speed",
-                        *turn_speed,
-                    )?,
-                    error: *error,
-                    retry: match retry {
-                        Some(r) => self.positive(&format!("{path}.retry"), "retry", *r)?,
-                        None => d.retry,
-                    },
-                })
-            }
-            AlgorithmSpec::Custom { name, params } => {
-                let Some(f) = registry.factories.get(name) else {
-                    let known: Vec<&str> = registry.factories.keys().map(String::as_str).collect();
-                    return Err(self.err(
-                        &format!("{path}.name"),
-                        format!(
-                            "unknown algorithm {name:?}; registered custom algorithms: {}",
-                            if known.is_empty() {
-                                "none".to_string()
-                            } else {
-                                known.join(", ")
-                            }
-                        ),
-                    ));
-                };
-                f(params).map_err(|m| self.err(&format!("{path}.params"), m))?
-            }
-        })
+        registry
+            .algorithms
+            .build(spec, setting)
+            .map_err(|e| self.spec_err(path, &e))
     }
 
     /// Checks the scenario and builds the robots, ids, born points and algorithms.
@@ -687,6 +403,9 @@ impl Source {
             }
         }
 
+        // The stack first: algorithms are checked against it.
+        let (comms, codecs, setting) = self.comms(total, registry)?;
+
         // Placement: explicit robots, then each group's listed points, then random points.
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(0xB0B0);
@@ -741,8 +460,12 @@ impl Source {
                 };
                 check_spot(&placed, *id as usize, &spec, &format!("{path}.at"))?;
                 placed[*id as usize] = Some(spec);
-                algorithms[*id as usize] =
-                    Some(self.algorithm(&format!("{path}.algorithm"), algorithm, registry)?);
+                algorithms[*id as usize] = Some(self.algorithm(
+                    &format!("{path}.algorithm"),
+                    algorithm,
+                    &setting,
+                    registry,
+                )?);
             }
         }
         let mut free = (0..total).filter(|&k| taken[k].is_none());
@@ -822,8 +545,12 @@ impl Source {
                     if let Some(spec) = placed[*id].as_mut() {
                         spec.pose.angle = heading;
                     }
-                    algorithms[*id] =
-                        Some(self.algorithm(&format!("{path}.algorithm"), algorithm, registry)?);
+                    algorithms[*id] = Some(self.algorithm(
+                        &format!("{path}.algorithm"),
+                        algorithm,
+                        &setting,
+                        registry,
+                    )?);
                 }
             }
         }
@@ -840,7 +567,6 @@ impl Source {
         // The kernel's own checks, as a second net.
         let specs: Vec<RobotSpec> = robots.iter().map(|r| r.0).collect();
         VirtualWorld::new(world, &specs).map_err(|e| self.err("robots", e.to_string()))?;
-        let (comms, codecs) = self.comms(total, registry)?;
         let framerate = match &s.animation {
             None => crate::recording::DEFAULT_FRAMERATE,
             Some(a) => {
@@ -878,7 +604,11 @@ impl Source {
 
 impl Source {
     /// Network, stack and faults, checked against `n` robots.
-    fn comms(&self, n: usize, registry: &Registry) -> Result<(Comms, Arc<Codecs>), ScenarioError> {
+    fn comms(
+        &self,
+        n: usize,
+        registry: &Registry,
+    ) -> Result<(Comms, Arc<Codecs>, Setting), ScenarioError> {
         let s = &self.scenario;
         let network = s.network.clone().unwrap_or_default();
         network
@@ -940,34 +670,64 @@ impl Source {
                 faults,
                 protocols: registry.protocols.clone(),
             },
-            wiring.codecs,
+            wiring.codecs.clone(),
+            Setting {
+                layers: wiring
+                    .ids
+                    .iter()
+                    .cloned()
+                    .zip(wiring.provides.iter().copied())
+                    .collect(),
+            },
         ))
     }
 
     /// A stack error at its place: inside a layer's protocol text when it says where, else at
     /// the offending field.
     fn stack_err(&self, e: &StackError) -> ScenarioError {
-        let base = self.spans.get(&format!("stack[{}].protocol", e.layer));
-        match (e.at, base) {
-            (Some((line, col)), Some(base)) => ScenarioError {
-                file: self.file.clone(),
-                pos: Some(if line == 1 {
-                    Pos {
-                        line: base.line,
-                        col: base.col + col - 1,
-                    }
-                } else {
-                    Pos {
-                        line: base.line + line - 1,
-                        col,
-                    }
-                }),
-                message: e.message.clone(),
-            },
-            _ => self.err(
+        let path = format!("stack[{}].protocol", e.layer);
+        match (e.at, e.field.strip_prefix("protocol")) {
+            (Some(at), _) => self.err_in(&path, at, &e.message),
+            (None, Some(rest)) => self.err(&format!("{path}{rest}"), e.message.clone()),
+            (None, None) => self.err(
                 &format!("stack[{}].{}", e.layer, e.field),
                 e.message.clone(),
             ),
+        }
+    }
+
+    /// An error about the spec (a name and its configuration) at `path`: inside its text when
+    /// it says where, else at the offending field.
+    fn spec_err(&self, path: &str, e: &SpecError) -> ScenarioError {
+        match (e.at, &e.field) {
+            (Some(at), _) => self.err_in(path, at, &e.message),
+            (None, Some(f)) if f.starts_with('[') => {
+                self.err(&format!("{path}{f}"), e.message.clone())
+            }
+            (None, Some(f)) => self.err(&format!("{path}.{f}"), e.message.clone()),
+            (None, None) => self.err(path, e.message.clone()),
+        }
+    }
+
+    /// An error at `(line, col)` of the value at `path` (1-based, within the value's text).
+    fn err_in(&self, path: &str, (line, col): (usize, usize), message: &str) -> ScenarioError {
+        let Some(base) = self.spans.get(path) else {
+            return self.err(path, message);
+        };
+        ScenarioError {
+            file: self.file.clone(),
+            pos: Some(if line == 1 {
+                Pos {
+                    line: base.line,
+                    col: base.col + col - 1,
+                }
+            } else {
+                Pos {
+                    line: base.line + line - 1,
+                    col,
+                }
+            }),
+            message: message.to_string(),
         }
     }
 }

@@ -542,3 +542,263 @@ impl Algorithm for PathReservation {
         })
     }
 }
+
+// How scenarios configure the built-ins (`algorithm: Name(field: value, ...)`), through the
+// same registry a user's algorithm is registered in (crate::registry).
+
+use crate::registry::{finite, positive, Configured, Setting};
+use nekosim_protocols::{ConfigError, NoConfig, Service};
+
+impl Configured for Idle {
+    type Config = NoConfig;
+    fn configure(_: NoConfig, _: &Setting) -> Result<Self, ConfigError> {
+        Ok(Idle)
+    }
+}
+
+impl Configured for AskForHelp {
+    type Config = NoConfig;
+    fn configure(_: NoConfig, _: &Setting) -> Result<Self, ConfigError> {
+        Ok(AskForHelp)
+    }
+}
+
+/// `Script([Turn(angle: 90.0, turn_speed: 30.0), Forward(..), MoveTo(..), Wait(2.0)])`.
+#[derive(Debug, Deserialize)]
+pub struct ScriptConfig(pub Vec<ScriptStep>);
+
+impl Configured for Script {
+    type Config = ScriptConfig;
+    fn configure(ScriptConfig(steps): ScriptConfig, _: &Setting) -> Result<Self, ConfigError> {
+        for (k, step) in steps.iter().enumerate() {
+            let p = |f: &str| format!("[0][{k}]{f}");
+            match *step {
+                ScriptStep::Turn { angle, turn_speed } => {
+                    finite(&p(".angle"), "turn angle", angle)?;
+                    positive(&p(".turn_speed"), "turn speed", turn_speed)?;
+                }
+                ScriptStep::Forward {
+                    distance,
+                    move_speed,
+                } => {
+                    finite(&p(".distance"), "distance", distance)?;
+                    if distance < 0.0 {
+                        return Err(ConfigError::field(
+                            &p(".distance"),
+                            format!("distance is {distance}; expected a number >= 0"),
+                        ));
+                    }
+                    positive(&p(".move_speed"), "move speed", move_speed)?;
+                }
+                ScriptStep::MoveTo {
+                    x,
+                    y,
+                    move_speed,
+                    turn_speed,
+                } => {
+                    finite(&p(".x"), "x", x)?;
+                    finite(&p(".y"), "y", y)?;
+                    positive(&p(".move_speed"), "move speed", move_speed)?;
+                    positive(&p(".turn_speed"), "turn speed", turn_speed)?;
+                }
+                ScriptStep::Wait(d) => {
+                    finite(&p("[0]"), "wait", d)?;
+                    if d < 0.0 {
+                        return Err(ConfigError::field(
+                            &p("[0]"),
+                            format!("wait is {d}; expected a duration >= 0"),
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(Script(steps))
+    }
+}
+
+/// A `(min, max)` range read from a scenario, checked and turned into a [`SpeedRange`].
+fn range(
+    field: &str,
+    what: &str,
+    r: Option<(f64, f64)>,
+) -> Result<Option<SpeedRange>, ConfigError> {
+    let Some((lo, hi)) = r else { return Ok(None) };
+    positive(&format!("{field}[0]"), what, lo)?;
+    positive(&format!("{field}[1]"), what, hi)?;
+    if hi < lo {
+        return Err(ConfigError::field(
+            field,
+            format!("{what} range ({lo}, {hi}) is reversed; expected (min, max) with min <= max"),
+        ));
+    }
+    Ok(Some(SpeedRange {
+        min: lo,
+        spread: hi - lo,
+    }))
+}
+
+/// `RandomMovement(move_speed: (3.0, 13.0), turn_speed: (10.0, 30.0), retry: 1.0)`, every
+/// field optional (seed 5.1's speeds by default).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RandomMovementConfig {
+    #[serde(default)]
+    pub move_speed: Option<(f64, f64)>,
+    #[serde(default)]
+    pub turn_speed: Option<(f64, f64)>,
+    /// Wait after a move that took no time (boxed in) [s]; default 1.
+    #[serde(default)]
+    pub retry: Option<f64>,
+}
+
+impl Configured for RandomMovement {
+    type Config = RandomMovementConfig;
+    fn configure(c: RandomMovementConfig, _: &Setting) -> Result<Self, ConfigError> {
+        let d = RandomMovement::default();
+        Ok(RandomMovement {
+            move_speed: range("move_speed", "move speed", c.move_speed)?.unwrap_or(d.move_speed),
+            turn_speed: range("turn_speed", "turn speed", c.turn_speed)?,
+            retry: match c.retry {
+                Some(r) => positive("retry", "retry", r)?,
+                None => d.retry,
+            },
+        })
+    }
+}
+
+/// `Gathering(move_speed: (3.0, 6.0), turn_speed: .., error: 0.0, retry: 1.0)`, every field
+/// optional (seed 5.2's speeds by default).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GatheringConfig {
+    #[serde(default)]
+    pub move_speed: Option<(f64, f64)>,
+    #[serde(default)]
+    pub turn_speed: Option<(f64, f64)>,
+    /// GPS error factor.
+    #[serde(default)]
+    pub error: f64,
+    /// Wait after a move that took no time (gathered, or blocked) [s]; default 1.
+    #[serde(default)]
+    pub retry: Option<f64>,
+}
+
+impl Configured for Gathering {
+    type Config = GatheringConfig;
+    fn configure(c: GatheringConfig, _: &Setting) -> Result<Self, ConfigError> {
+        let d = Gathering::default();
+        finite("error", "error factor", c.error)?;
+        if c.error < 0.0 {
+            return Err(ConfigError::field(
+                "error",
+                format!("error factor is {}; expected a number >= 0", c.error),
+            ));
+        }
+        Ok(Gathering {
+            move_speed: range("move_speed", "move speed", c.move_speed)?.unwrap_or(d.move_speed),
+            turn_speed: range("turn_speed", "turn speed", c.turn_speed)?,
+            error: c.error,
+            retry: match c.retry {
+                Some(r) => positive("retry", "retry", r)?,
+                None => d.retry,
+            },
+        })
+    }
+}
+
+fn five() -> f64 {
+    5.0
+}
+
+fn ninety() -> f64 {
+    90.0
+}
+
+/// `MeetingPoint(layer: "consensus", move_speed: 5.0, turn_speed: 90.0)` and
+/// `PathReservation(layer: "abcast", ..)`: a layer of the stack and speeds.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LayerMoveConfig {
+    pub layer: String,
+    #[serde(default = "five")]
+    pub move_speed: f64,
+    #[serde(default = "ninety")]
+    pub turn_speed: f64,
+}
+
+impl Configured for MeetingPoint {
+    type Config = LayerMoveConfig;
+    fn configure(c: LayerMoveConfig, setting: &Setting) -> Result<Self, ConfigError> {
+        positive("move_speed", "move speed", c.move_speed)?;
+        positive("turn_speed", "turn speed", c.turn_speed)?;
+        if setting.layer(&c.layer).is_none() {
+            return Err(ConfigError::field(
+                "layer",
+                format!(
+                    "no layer {:?} in the stack; expected the id of a consensus layer",
+                    c.layer
+                ),
+            ));
+        }
+        Ok(MeetingPoint {
+            layer: c.layer,
+            move_speed: c.move_speed,
+            turn_speed: c.turn_speed,
+        })
+    }
+}
+
+impl Configured for PathReservation {
+    type Config = LayerMoveConfig;
+    fn configure(c: LayerMoveConfig, setting: &Setting) -> Result<Self, ConfigError> {
+        positive("move_speed", "move speed", c.move_speed)?;
+        positive("turn_speed", "turn speed", c.turn_speed)?;
+        if !setting
+            .layer(&c.layer)
+            .is_some_and(|s| s.serves(Service::TOTAL_ORDER))
+        {
+            return Err(ConfigError::field(
+                "layer",
+                format!(
+                    "{:?} is not a total-order broadcast layer of the stack; expected the id of one",
+                    c.layer
+                ),
+            ));
+        }
+        Ok(PathReservation {
+            layer: c.layer,
+            move_speed: c.move_speed,
+            turn_speed: c.turn_speed,
+        })
+    }
+}
+
+/// `BroadcastLoad(layer: "abcast", count: 20, mean_interval: 1.0)`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BroadcastLoadConfig {
+    pub layer: String,
+    pub count: u32,
+    pub mean_interval: f64,
+}
+
+impl Configured for BroadcastLoad {
+    type Config = BroadcastLoadConfig;
+    fn configure(c: BroadcastLoadConfig, setting: &Setting) -> Result<Self, ConfigError> {
+        positive("mean_interval", "mean interval", c.mean_interval)?;
+        if setting.layer(&c.layer).is_none() {
+            return Err(ConfigError::field(
+                "layer",
+                format!(
+                    "no layer {:?} in the stack; expected the id of a broadcast layer",
+                    c.layer
+                ),
+            ));
+        }
+        Ok(BroadcastLoad {
+            layer: c.layer,
+            count: c.count,
+            mean_interval: c.mean_interval,
+        })
+    }
+}

@@ -11,6 +11,7 @@ pub mod algorithm;
 pub mod layer;
 pub mod motion_manager;
 pub mod network;
+pub mod registry;
 pub mod robot;
 pub mod scheduler;
 pub mod sensor;

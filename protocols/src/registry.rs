@@ -7,21 +7,22 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::payload::{decode_bytes, Codec, WireError};
 use crate::protocol::{ConfigError, Layer, Microprotocol};
 use crate::service::Shape;
 
-/// A protocol and its configuration as a scenario writes it, kept as RON text
-/// (`Fifo`, `Retransmit(period: 0.5)`, `RingGossip(fanout: 2)`); the registry reads it into
-/// the protocol's own configuration type.
+/// A protocol (or algorithm) and its configuration as a scenario writes it, kept as RON text
+/// (`Fifo`, `Retransmit(period: 0.5)`, `RingGossip(fanout: 2)`); a registry reads it into the
+/// protocol's own configuration type.
 #[derive(Clone, PartialEq, Eq, Hash)]
-pub struct ProtocolSpec {
+pub struct Spec {
     text: String,
 }
 
-impl ProtocolSpec {
+impl Spec {
     /// A spec from its RON text.
     pub fn new(text: &str) -> Self {
         Self {
@@ -43,26 +44,47 @@ impl ProtocolSpec {
         &self.text[..end]
     }
 
+    /// Reads the configuration part into the configuration type `C` (serde, from RON; a bare
+    /// name reads as `()`). Errors say where in the spec's text and start with its name.
+    pub fn read_config<C: DeserializeOwned>(&self) -> Result<C, SpecError> {
+        read(self.config_text()).map_err(|e| self.locate(e))
+    }
+
+    /// An error about the configuration text, placed in the spec's text and prefixed with the
+    /// name.
+    pub fn locate(&self, mut e: SpecError) -> SpecError {
+        e.message = format!("{}: {}", self.name(), e.message);
+        // The configuration text starts right after the name on the spec's first line.
+        if let Some((line, col)) = e.at {
+            e.at = Some(if line == 1 {
+                (1, col + self.name().len())
+            } else {
+                (line, col)
+            });
+        }
+        e
+    }
+
     /// The configuration part after the name, as RON (none for a bare name).
-    fn config_text(&self) -> Option<&str> {
+    pub fn config_text(&self) -> Option<&str> {
         let rest = &self.text[self.name().len()..];
         (!rest.trim().is_empty()).then_some(rest)
     }
 }
 
-impl fmt::Debug for ProtocolSpec {
+impl fmt::Debug for Spec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.text)
     }
 }
 
-impl fmt::Display for ProtocolSpec {
+impl fmt::Display for Spec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.text)
     }
 }
 
-impl Serialize for ProtocolSpec {
+impl Serialize for Spec {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         match ron::value::RawValue::from_ron(&self.text) {
             Ok(raw) => raw.serialize(s),
@@ -71,20 +93,23 @@ impl Serialize for ProtocolSpec {
     }
 }
 
-impl<'de> Deserialize<'de> for ProtocolSpec {
+impl<'de> Deserialize<'de> for Spec {
     /// Takes the value's RON text as it is (read from a RON document only).
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let raw = Box::<ron::value::RawValue>::deserialize(d)?;
         let spec = Self::new(raw.get_ron());
         if spec.name().is_empty() {
             return Err(serde::de::Error::custom(format!(
-                "expected a protocol name, like `Fifo` or `Retransmit(period: 1.0)`; got `{}`",
+                "expected a name and its configuration, like `Fifo` or `Retransmit(period: 1.0)`; got `{}`",
                 spec.text
             )));
         }
         Ok(spec)
     }
 }
+
+/// A layer's protocol and its configuration (`protocol: Retransmit(period: 0.5)`).
+pub type ProtocolSpec = Spec;
 
 /// Why a spec cannot be built: where in the spec's text (1-based line and column, when known),
 /// which configuration field (when known) and what is wrong.
@@ -135,15 +160,21 @@ impl PartialEq for Protocols {
     }
 }
 
-fn build_entry<P: Microprotocol>(text: Option<&str>) -> Result<(Shape, Layer), SpecError> {
+/// Reads a configuration text (none for a bare name: `()`) into a `C`; positions in the error
+/// are in the text.
+fn read<C: DeserializeOwned>(text: Option<&str>) -> Result<C, SpecError> {
     let opts =
         ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-    let config: P::Config = opts.from_str(text.unwrap_or("()")).map_err(|e| SpecError {
-        // No text: the error is about the protocol as named.
+    opts.from_str(text.unwrap_or("()")).map_err(|e| SpecError {
+        // No text: the error is about the thing as named.
         at: text.map(|t| name_start(t, &e)),
         field: None,
         message: describe(&e.code),
-    })?;
+    })
+}
+
+fn build_entry<P: Microprotocol>(text: Option<&str>) -> Result<(Shape, Layer), SpecError> {
+    let config: P::Config = read(text)?;
     let shape = P::shape(&config);
     let p = P::new(config).map_err(|ConfigError { field, message }| SpecError {
         at: None,
@@ -316,19 +347,7 @@ impl Protocols {
     /// fresh instance. Positions in the error are in `spec`'s text.
     pub fn build(&self, spec: &ProtocolSpec) -> Result<(Shape, Layer), SpecError> {
         let entry = self.entry(spec)?;
-        let offset = spec.name().len();
-        (entry.build)(spec.config_text()).map_err(|mut e| {
-            e.message = format!("{}: {}", spec.name(), e.message);
-            // The configuration text starts right after the name on the spec's first line.
-            if let Some((line, col)) = e.at {
-                e.at = Some(if line == 1 {
-                    (1, col + offset)
-                } else {
-                    (line, col)
-                });
-            }
-            e
-        })
+        (entry.build)(spec.config_text()).map_err(|e| spec.locate(e))
     }
 
     /// The codec of `spec`'s protocol.

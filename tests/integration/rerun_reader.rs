@@ -226,9 +226,20 @@ fn counterexample_recordings_read_back_with_the_official_reader() {
 
 /// Switches its push proximity sensor on, drives, looks around (view, proximity), switches
 /// it off, and drives on.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 struct Sentry {
     range: f64,
+}
+
+impl nekosim::registry::Configured for Sentry {
+    type Config = Sentry;
+    fn configure(
+        config: Sentry,
+        _: &nekosim::registry::Setting,
+    ) -> Result<Self, nekosim_protocols::ConfigError> {
+        Ok(config)
+    }
 }
 
 impl nekosim::Algorithm for Sentry {
@@ -267,19 +278,15 @@ fn push_sensor_circles_follow_their_robots_while_active() {
         r#"Scenario(name: "sentries", seed: 1, until: 30.0,
             world: (size: Bounded(width: 200.0, height: 200.0), origin: (0.0, 0.0)),
             robots: [
-                Robot(id: 0, radius: 2.0, at: (20.0, 20.0), algorithm: Custom(name: "sentry", params: {"range": 6.0})),
+                Robot(id: 0, radius: 2.0, at: (20.0, 20.0), algorithm: Sentry(range: 6.0)),
                 Robot(id: 1, radius: 3.0, at: (20.0, 100.0), algorithm: Idle),
-                Robot(id: 2, radius: 2.5, at: (100.0, 20.0), algorithm: Custom(name: "sentry", params: {"range": 9.0})),
+                Robot(id: 2, radius: 2.5, at: (100.0, 20.0), algorithm: Sentry(range: 9.0)),
             ],
             animation: (framerate: 10.0))"#,
     )
     .unwrap();
     let mut registry = Registry::new();
-    registry.register("sentry", |p| {
-        Ok(Box::new(Sentry {
-            range: p.get("range").copied().unwrap_or(5.0),
-        }) as Box<dyn nekosim::Algorithm>)
-    });
+    registry.algorithm::<Sentry>("Sentry");
     let built = Source::load(&scenario)
         .unwrap()
         .build(Overrides::default(), &registry)

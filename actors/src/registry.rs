@@ -1,0 +1,162 @@
+//! Algorithms by name (seed ch. 5, 6.2): a scenario names each robot's algorithm with its
+//! configuration, `algorithm: RandomMovement(move_speed: (3.0, 13.0))`, and an [`Algorithms`]
+//! registry reads the configuration into the algorithm's own type (serde) and builds it. The
+//! built-in algorithms are registered exactly as a user's are ([`Algorithms::with_builtins`],
+//! [`Algorithms::algorithm`]).
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use nekosim_protocols::{ConfigError, Service, Spec, SpecError};
+use serde::de::DeserializeOwned;
+
+use crate::robot::Algorithm;
+
+/// What an algorithm's configuration is checked against: the stack its robot runs on.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Setting {
+    /// The stack's layers: id and the service each provides.
+    pub layers: Vec<(String, Service)>,
+}
+
+impl Setting {
+    /// The service layer `id` provides, if the stack has it.
+    pub fn layer(&self, id: &str) -> Option<Service> {
+        self.layers.iter().find(|(l, _)| l == id).map(|(_, s)| *s)
+    }
+}
+
+/// An algorithm a scenario can name: its configuration type and how it is built from it.
+pub trait Configured: Algorithm + Sized + 'static {
+    /// What `algorithm: Name(field: value, ...)` is read into (derive `Deserialize` with
+    /// `#[serde(deny_unknown_fields)]`).
+    type Config: DeserializeOwned;
+
+    /// The algorithm, or why the configuration is refused (a [`ConfigError::field`] is
+    /// reported at that field in the scenario file; a field path starting with `[` is joined
+    /// without a dot, as in `[0][2].angle` for a tuple's element).
+    fn configure(config: Self::Config, setting: &Setting) -> Result<Self, ConfigError>;
+}
+
+/// Reads a spec's configuration and builds the algorithm.
+type BuildFn = fn(&Spec, &Setting) -> Result<Box<dyn Algorithm>, SpecError>;
+
+fn build_entry<A: Configured>(
+    spec: &Spec,
+    setting: &Setting,
+) -> Result<Box<dyn Algorithm>, SpecError> {
+    let config: A::Config = spec.read_config()?;
+    A::configure(config, setting)
+        .map(|a| Box::new(a) as Box<dyn Algorithm>)
+        .map_err(|ConfigError { field, message }| {
+            spec.locate(SpecError {
+                at: None,
+                field,
+                message,
+            })
+        })
+}
+
+/// Algorithms by the name scenarios use for them. A new (or default) registry holds the
+/// built-in algorithms; [`Algorithms::empty`] holds none.
+#[derive(Clone)]
+pub struct Algorithms {
+    entries: BTreeMap<String, BuildFn>,
+}
+
+impl fmt::Debug for Algorithms {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Algorithms")
+            .field("names", &self.entries.keys().collect::<Vec<_>>())
+            .finish()
+    }
+}
+
+impl Default for Algorithms {
+    /// [`Algorithms::with_builtins`].
+    fn default() -> Self {
+        Self::with_builtins()
+    }
+}
+
+impl Algorithms {
+    /// A registry without any algorithm.
+    pub fn empty() -> Self {
+        Self {
+            entries: BTreeMap::new(),
+        }
+    }
+
+    /// The built-in algorithms of [`crate::algorithm`], under their names.
+    pub fn with_builtins() -> Self {
+        use crate::algorithm::*;
+        let mut r = Self::empty();
+        r.algorithm::<Idle>("Idle")
+            .algorithm::<Script>("Script")
+            .algorithm::<RandomMovement>("RandomMovement")
+            .algorithm::<Gathering>("Gathering")
+            .algorithm::<AskForHelp>("AskForHelp")
+            .algorithm::<BroadcastLoad>("BroadcastLoad")
+            .algorithm::<MeetingPoint>("MeetingPoint")
+            .algorithm::<PathReservation>("PathReservation");
+        r
+    }
+
+    /// Registers the algorithm `A` under `name` (replacing an earlier registration).
+    pub fn algorithm<A: Configured>(&mut self, name: &str) -> &mut Self {
+        self.entries.insert(name.to_string(), build_entry::<A>);
+        self
+    }
+
+    /// Registered names, sorted.
+    pub fn names(&self) -> impl Iterator<Item = &str> {
+        self.entries.keys().map(String::as_str)
+    }
+
+    /// Reads `spec`'s configuration and builds the algorithm for a robot of `setting`.
+    /// Positions in the error are in `spec`'s text.
+    pub fn build(&self, spec: &Spec, setting: &Setting) -> Result<Box<dyn Algorithm>, SpecError> {
+        let name = spec.name();
+        let Some(build) = self.entries.get(name) else {
+            return Err(SpecError {
+                at: Some((1, 1)),
+                field: None,
+                message: format!(
+                    "unknown algorithm {name:?}; expected one of {}",
+                    self.names().collect::<Vec<_>>().join(", ")
+                ),
+            });
+        };
+        build(spec, setting)
+    }
+}
+
+/// `field`'s value `v` must be a finite number > 0; `what` names it in the message.
+pub fn positive(field: &str, what: &str, v: f64) -> Result<f64, ConfigError> {
+    if !v.is_finite() {
+        return Err(ConfigError::field(
+            field,
+            format!("{what} is {v}; expected a finite number"),
+        ));
+    }
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(ConfigError::field(
+            field,
+            format!("{what} is {v}; expected a number > 0"),
+        ))
+    }
+}
+
+/// `field`'s value `v` must be a finite number.
+pub fn finite(field: &str, what: &str, v: f64) -> Result<f64, ConfigError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(ConfigError::field(
+            field,
+            format!("{what} is {v}; expected a finite number"),
+        ))
+    }
+}
