@@ -218,7 +218,7 @@ mod tests {
         assert_eq!(send["type"], "GOSSIP");
         let text = send["msg"].as_str().unwrap();
         assert!(
-            text.starts_with("GOSSIP(") && text.contains("LOAD "),
+            text.starts_with("GOSSIP(") && text.contains("LOAD("),
             "{text}"
         );
     }

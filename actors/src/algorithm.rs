@@ -254,6 +254,14 @@ impl Algorithm for Gathering {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct AskForHelp;
 
+/// [`AskForHelp`]'s message (seed 5.3's `GOTO` message type).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Help {
+    /// Go to `(x, y)`.
+    #[serde(rename = "GOTO")]
+    Goto(f64, f64),
+}
+
 impl Algorithm for AskForHelp {
     fn name(&self) -> &str {
         "AskForHelp"
@@ -272,14 +280,7 @@ impl Algorithm for AskForHelp {
                     (rng.gen(), rng.gen())
                 };
                 let dest = Point::new(lo.x + 700.0 * x, lo.y + 700.0 * y);
-                robot.send(
-                    others.clone(),
-                    "GOTO",
-                    nekosim_protocols::Content::Point(
-                        nekosim_protocols::Real::new(dest.x),
-                        nekosim_protocols::Real::new(dest.y),
-                    ),
-                );
+                robot.send(others.clone(), &Help::Goto(dest.x, dest.y));
                 let (turn_speed, move_speed) = {
                     let mut rng = robot.rng();
                     (
@@ -288,12 +289,8 @@ impl Algorithm for AskForHelp {
                     )
                 };
                 // The first order that arrives.
-                let goto = loop {
-                    let r = robot.receive().await;
-                    if let Some(("GOTO", nekosim_protocols::Content::Point(x, y))) = r.app() {
-                        break Point::new(x.get(), y.get());
-                    }
-                };
+                let (_, Help::Goto(x, y)) = robot.receive_msg::<Help>().await;
+                let goto = Point::new(x, y);
                 // As the seed's TestCommunication does (seed 5.3).
                 robot.log(format!(
                     "Someone told me to go to: ({:.3}, {:.3})",
@@ -304,6 +301,11 @@ impl Algorithm for AskForHelp {
         })
     }
 }
+
+/// [`BroadcastLoad`]'s message: its `n`-th broadcast.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename = "LOAD")]
+pub struct Load(pub u32);
 
 /// Neko's latency test: broadcasts `count` messages through `layer` at exponentially
 /// distributed intervals of mean `mean_interval` [s], and keeps receiving (deliveries are in
@@ -329,7 +331,7 @@ impl Algorithm for BroadcastLoad {
             for i in 0..cfg.count {
                 let u: f64 = robot.rng().gen();
                 robot.sleep(-cfg.mean_interval * (1.0 - u).ln()).await;
-                layer.broadcast("LOAD", nekosim_protocols::Content::Int(i as i64));
+                layer.broadcast(&Load(i));
             }
             loop {
                 robot.receive().await;
@@ -361,27 +363,38 @@ impl Algorithm for MeetingPoint {
                 tracing::warn!(layer = cfg.layer, "MeetingPoint: no such layer");
                 return;
             };
-            consensus.propose(
-                0,
-                "MEET",
-                nekosim_protocols::Content::Point(
-                    nekosim_protocols::Real::new(here.x),
-                    nekosim_protocols::Real::new(here.y),
-                ),
-            );
+            consensus.propose(0, &Meet(here.x, here.y));
             loop {
-                let r = robot.receive().await;
+                let (r, Meet(x, y)) = robot.receive_msg::<Meet>().await;
                 if let nekosim_protocols::Indication::Decide { k: 0, .. } = r.ind {
-                    if let Some(("MEET", nekosim_protocols::Content::Point(x, y))) = r.app() {
-                        robot
-                            .move_to(Point::new(x.get(), y.get()), cfg.move_speed, cfg.turn_speed)
-                            .await;
-                        return;
-                    }
+                    robot
+                        .move_to(Point::new(x, y), cfg.move_speed, cfg.turn_speed)
+                        .await;
+                    return;
                 }
             }
         })
     }
+}
+
+/// [`MeetingPoint`]'s proposal: a meeting point.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename = "MEET")]
+pub struct Meet(pub f64, pub f64);
+
+/// [`PathReservation`]'s messages.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Reserve {
+    /// Robot `who` asks for the straight path from `from` to `to`.
+    #[serde(rename = "REQ")]
+    Request {
+        who: u32,
+        from: (f64, f64),
+        to: (f64, f64),
+    },
+    /// Robot `who` has arrived and releases its path.
+    #[serde(rename = "REL")]
+    Release { who: u32 },
 }
 
 /// Path reservation through a total-order broadcast layer: before moving, a robot broadcasts
@@ -447,28 +460,21 @@ enum Applied {
 impl Reservations {
     /// Applies one delivered message (in delivery order, the same at every robot).
     fn apply(&mut self, r: &crate::robot::Received, reach: f64) -> Applied {
-        use nekosim_protocols::Content;
-        let Some((_, Content::List(items))) = r.app() else {
-            return Applied::Other;
-        };
-        match items.as_slice() {
-            [Content::Text(t), Content::Int(who), Content::Point(ax, ay), Content::Point(bx, by)]
-                if t == "REQ" =>
-            {
-                let who = *who as u32;
+        match r.msg::<Reserve>() {
+            Some(Reserve::Request { who, from, to }) => {
                 let granted = self.request(
                     who,
-                    Point::new(ax.get(), ay.get()),
-                    Point::new(bx.get(), by.get()),
+                    Point::new(from.0, from.1),
+                    Point::new(to.0, to.1),
                     reach,
                 );
                 Applied::Request { who, granted }
             }
-            [Content::Text(t), Content::Int(who)] if t == "REL" => {
-                self.release(*who as u32);
-                Applied::Release { who: *who as u32 }
+            Some(Reserve::Release { who }) => {
+                self.release(who);
+                Applied::Release { who }
             }
-            _ => Applied::Other,
+            None => Applied::Other,
         }
     }
 }
@@ -478,7 +484,6 @@ impl Algorithm for PathReservation {
         "PathReservation"
     }
     fn run(&self, robot: Robot) -> AlgorithmFuture {
-        use nekosim_protocols::{Content, Real};
         let cfg = self.clone();
         Box::pin(async move {
             let info = robot.info();
@@ -505,13 +510,11 @@ impl Algorithm for PathReservation {
                         lo.y + r + (hi.y - lo.y - 2.0 * r) * v,
                     )
                 };
-                let req = Content::List(vec![
-                    Content::Text("REQ".into()),
-                    Content::Int(me as i64),
-                    Content::Point(Real::new(here.x), Real::new(here.y)),
-                    Content::Point(Real::new(dest.x), Real::new(dest.y)),
-                ]);
-                layer.broadcast("RESERVE", req);
+                layer.broadcast(&Reserve::Request {
+                    who: me,
+                    from: (here.x, here.y),
+                    to: (dest.x, dest.y),
+                });
                 // Apply deliveries in order until our own request is decided.
                 let granted = loop {
                     if let Applied::Request { who, granted } =
@@ -525,10 +528,7 @@ impl Algorithm for PathReservation {
                 if granted {
                     robot.move_to(dest, cfg.move_speed, cfg.turn_speed).await;
                     here = dest;
-                    layer.broadcast(
-                        "RESERVE",
-                        Content::List(vec![Content::Text("REL".into()), Content::Int(me as i64)]),
-                    );
+                    layer.broadcast(&Reserve::Release { who: me });
                     // Wait for our own release before asking again, so every robot sees them in
                     // this order.
                     while !matches!(book.apply(&robot.receive().await, reach), Applied::Release { who } if who == me)

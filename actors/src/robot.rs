@@ -35,9 +35,11 @@ use crate::world::sensor::{SensorQuery, SensorValue};
 use crate::world::virtual_world::WorldSize;
 use crate::world::{MotionOutcome, RobotId};
 use nekosim_protocols::{
-    AppMsg, Content, Indication, Input, LayerIx, Payload as MsgPayload, Request as ProtoRequest,
-    APP, NET,
+    app_decode, app_payload, AppMsg, Content, Indication, Input, LayerIx, Payload as MsgPayload,
+    Request as ProtoRequest, APP, NET,
 };
+use serde::de::DeserializeOwned;
+use serde::Serialize;
 
 /// A running algorithm.
 pub type AlgorithmFuture = Pin<Box<dyn Future<Output = ()>>>;
@@ -101,24 +103,34 @@ pub struct Received {
     /// `"net"` for a direct message, else the id of the layer that indicated it.
     pub layer: String,
     pub ind: Indication,
-    /// The application message carried, decoded.
-    msg: Option<AppMsg>,
 }
 
 impl Received {
-    /// `ind` from `layer`, with the application message it carries decoded.
+    /// `ind` from `layer`.
     pub fn new(layer: String, ind: Indication) -> Self {
-        let msg = match &ind {
-            Indication::Deliver { msg, .. } | Indication::BDeliver { msg, .. } => AppMsg::of(msg),
-            Indication::Decide { value, .. } => AppMsg::of(value),
-            _ => None,
-        };
-        Self { layer, ind, msg }
+        Self { layer, ind }
     }
 
-    /// The application message carried, if any: `(kind, content)`.
-    pub fn app(&self) -> Option<(&str, &Content)> {
-        self.msg.as_ref().map(|m| (m.kind.as_str(), &m.content))
+    /// The application payload carried (a message, a delivered broadcast, a decided value).
+    pub fn payload(&self) -> Option<&MsgPayload> {
+        match &self.ind {
+            Indication::Deliver { msg, .. } | Indication::BDeliver { msg, .. } => Some(msg),
+            Indication::Decide { value, .. } => Some(value),
+            _ => None,
+        }
+    }
+
+    /// The algorithm's own message carried, if there is one and it reads as an `M` (sent with
+    /// [`Robot::send`] or a [`LayerHandle`] method).
+    pub fn msg<M: DeserializeOwned>(&self) -> Option<M> {
+        self.payload().and_then(app_decode)
+    }
+
+    /// The dynamic application message carried, if any: `(kind, content)`.
+    pub fn app(&self) -> Option<(String, Content)> {
+        self.payload()
+            .and_then(AppMsg::of)
+            .map(|m| (m.kind, m.content))
     }
 
     /// Who sent it (direct messages) or broadcast it (broadcast deliveries).
@@ -312,12 +324,28 @@ impl Robot {
         self.push(Request::Log(text.into()));
     }
 
-    /// Sends an application message to robots `to` directly over the network (multicast).
-    pub fn send(&self, to: Vec<RobotId>, kind: &str, content: Content) {
+    /// Sends the algorithm's own message `msg` (any serde type) to robots `to` directly over
+    /// the network (multicast). The log and trace show it as compact RON (`GOTO(60.2, 31.7)`).
+    pub fn send<M: Serialize>(&self, to: Vec<RobotId>, msg: &M) {
         self.push(Request::Net {
             to,
-            msg: AppMsg::new(kind, content).payload(),
+            msg: app_payload(msg),
         });
+    }
+
+    /// Waits for the next message or indication that carries an `M` (other notices stay
+    /// queued for other waits).
+    pub async fn receive_msg<M: DeserializeOwned>(&self) -> (Received, M) {
+        let (r, _) = self
+            .take(|n| match n {
+                Notice::Incoming { layer, ind } => {
+                    let r = Received::new(self.layer_id(*layer), ind.clone());
+                    r.msg::<M>().map(|m| (r, m))
+                }
+                _ => None,
+            })
+            .await;
+        r
     }
 
     /// A layer of the robot's protocol stack, by id (as in the scenario's `stack`).
@@ -404,34 +432,35 @@ pub struct LayerHandle<'a> {
 }
 
 impl LayerHandle<'_> {
-    /// Broadcasts an application message through the layer (broadcast layers).
-    pub fn broadcast(&self, kind: &str, content: Content) {
+    /// Broadcasts the algorithm's own message through the layer (broadcast layers).
+    pub fn broadcast<M: Serialize>(&self, msg: &M) {
         self.robot.push(Request::Layer {
             ix: self.ix,
             req: ProtoRequest::Broadcast {
-                msg: AppMsg::new(kind, content).payload(),
+                msg: app_payload(msg),
             },
         });
     }
 
-    /// Proposes a value to instance `k` (consensus layers).
-    pub fn propose(&self, k: u64, kind: &str, content: Content) {
+    /// Proposes the algorithm's own value to instance `k` (consensus layers).
+    pub fn propose<M: Serialize>(&self, k: u64, value: &M) {
         self.robot.push(Request::Layer {
             ix: self.ix,
             req: ProtoRequest::Propose {
                 k,
-                value: AppMsg::new(kind, content).payload(),
+                value: app_payload(value),
             },
         });
     }
 
-    /// Sends through the layer (point-to-point layers such as Fifo).
-    pub fn send(&self, to: Vec<RobotId>, kind: &str, content: Content) {
+    /// Sends the algorithm's own message through the layer (point-to-point layers such as
+    /// Fifo).
+    pub fn send<M: Serialize>(&self, to: Vec<RobotId>, msg: &M) {
         self.robot.push(Request::Layer {
             ix: self.ix,
             req: ProtoRequest::Send {
                 to,
-                msg: AppMsg::new(kind, content).payload(),
+                msg: app_payload(msg),
             },
         });
     }

@@ -35,4 +35,4 @@ pub use protocol::{ConfigError, Layer, Message, Microprotocol, NoConfig, NoMsg, 
 pub use registry::{ProtocolSpec, Protocols, Spec, SpecError};
 pub use service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, Shape, APP, NET};
 pub use stack::{LayerSpec, Routed, Stack, StackError, Wiring};
-pub use wire::{AppMsg, Content, MsgId, Pid, Real};
+pub use wire::{app_decode, app_payload, AppMsg, Content, MsgId, Pid, Real};

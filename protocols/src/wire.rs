@@ -4,6 +4,7 @@
 
 use std::fmt;
 
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 use crate::payload::{decode_bytes, Codec, Payload, WireError};
@@ -96,12 +97,15 @@ impl AppMsg {
 
     /// Encoded as the application's payload.
     pub fn payload(&self) -> Payload {
-        Payload::encode(APP, self)
+        Payload::encode(APP, &AppWireRef::Dynamic(self))
     }
 
-    /// The application message a payload encodes, if it is the application's.
+    /// The application message a payload encodes, if it is the application's and of this form.
     pub fn of(p: &Payload) -> Option<Self> {
-        (p.layer() == APP).then(|| p.decode().ok()).flatten()
+        match decode_app(p)? {
+            AppWire::Dynamic(m) => Some(m),
+            AppWire::Typed(_) => None,
+        }
     }
 }
 
@@ -111,9 +115,58 @@ impl fmt::Display for AppMsg {
     }
 }
 
+/// What the application's payloads hold: a dynamic [`AppMsg`], or an algorithm's own typed
+/// message as compact RON text (self-describing, so every tool can show it without its type).
+#[derive(Deserialize)]
+enum AppWire {
+    Dynamic(AppMsg),
+    Typed(String),
+}
+
+/// [`AppWire`] borrowed, for encoding (the same postcard layout).
+#[derive(Serialize)]
+enum AppWireRef<'a> {
+    Dynamic(&'a AppMsg),
+    Typed(&'a str),
+}
+
+fn decode_app(p: &Payload) -> Option<AppWire> {
+    (p.layer() == APP).then(|| p.decode().ok()).flatten()
+}
+
+/// An algorithm's own message (any serde type) as the application's payload: compact RON with
+/// type names, so the log shows `GOTO(60.2, 31.7)` and its type `GOTO`.
+///
+/// # Panics
+/// If `msg`'s serde form cannot be written as RON (a map with non-string keys can; a type
+/// whose `Serialize` fails cannot).
+pub fn app_payload<M: Serialize>(msg: &M) -> Payload {
+    let cfg = ron::ser::PrettyConfig::new()
+        .struct_names(true)
+        .compact_arrays(true)
+        .compact_structs(true)
+        .compact_maps(true)
+        .new_line("")
+        .indentor("");
+    let text = ron::ser::to_string_pretty(msg, cfg)
+        .unwrap_or_else(|e| panic!("an application message cannot be written: {e}"));
+    Payload::encode(APP, &AppWireRef::Typed(&text))
+}
+
+/// The algorithm's own message a payload carries, if it is the application's and reads as an
+/// `M`.
+pub fn app_decode<M: DeserializeOwned>(p: &Payload) -> Option<M> {
+    match decode_app(p)? {
+        AppWire::Typed(text) => ron::from_str(&text).ok(),
+        AppWire::Dynamic(_) => None,
+    }
+}
+
 fn render_app(bytes: &[u8], f: &mut fmt::Formatter<'_>) -> Result<fmt::Result, WireError> {
-    let m: AppMsg = decode_bytes(bytes)?;
-    Ok(fmt::Display::fmt(&m, f))
+    Ok(match decode_bytes::<AppWire>(bytes)? {
+        AppWire::Dynamic(m) => fmt::Display::fmt(&m, f),
+        AppWire::Typed(text) => f.write_str(&text),
+    })
 }
 
 /// How the application's messages render: `KIND content`.

@@ -463,16 +463,10 @@ fn partition_blocks_the_minority_until_it_heals_then_everybody_agrees() {
 fn every_correct_robot_meets_at_the_same_decided_point_despite_a_crash() {
     let trace = example_trace("examples/scenarios/meeting_point.ron");
     let (decided, arrived) = decisions_and_arrivals(&trace);
-    let spawn: Vec<String> = trace
+    let spawn: Vec<(f64, f64)> = trace
         .iter()
         .filter(|v| v["kind"] == "spawn")
-        .map(|v| {
-            format!(
-                "MEET [{}, {}]",
-                v["pos"][0].as_f64().unwrap(),
-                v["pos"][1].as_f64().unwrap()
-            )
-        })
+        .map(|v| (v["pos"][0].as_f64().unwrap(), v["pos"][1].as_f64().unwrap()))
         .collect();
     assert!(
         !decided.contains_key(&0),
@@ -486,8 +480,10 @@ fn every_correct_robot_meets_at_the_same_decided_point_despite_a_crash() {
             "everybody at the same point"
         );
     }
-    // Validity: the decided point is somebody's born position.
-    assert!(spawn.contains(value), "{value} was never proposed");
+    // Validity: the decided point (the trace shows the value as RON) is somebody's born
+    // position, exactly.
+    let nekosim::algorithm::Meet(x, y) = ron::from_str(value).expect("a MEET value");
+    assert!(spawn.contains(&(x, y)), "{value} was never proposed");
 }
 
 #[test]

@@ -8,8 +8,8 @@ use nekosim::world::network::NetworkSpec;
 use nekosim::world::observation::{Observation, Record};
 use nekosim::world::virtual_world::RobotSpec;
 use nekosim::{Algorithm, Comms, Fault, SimConfig};
+use nekosim_protocols::app_decode;
 use nekosim_protocols::stack::LayerSpec;
-use nekosim_protocols::AppMsg;
 use nekosim_protocols::MsgId;
 
 use crate::common::*;
@@ -300,6 +300,10 @@ struct Proposer {
     instances: u64,
 }
 
+/// A proposed value: the proposer's id × 10 + the instance.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+struct V(i64);
+
 impl Algorithm for Proposer {
     fn name(&self) -> &str {
         "Proposer"
@@ -313,11 +317,7 @@ impl Algorithm for Proposer {
                 let pause = robot.rng().gen_range(0.0..3.0);
                 robot.sleep(pause).await;
                 let c = robot.layer("consensus").expect("consensus layer");
-                c.propose(
-                    k,
-                    "V",
-                    nekosim_protocols::Content::Int(robot.id() as i64 * 10 + k as i64),
-                );
+                c.propose(k, &V(robot.id() as i64 * 10 + k as i64));
             }
             loop {
                 robot.receive().await;
@@ -397,20 +397,20 @@ fn consensus_properties_with_f_crashes_over_every_network() {
                         Observation::Request { op, msg, layer, .. }
                             if op == "propose" && layer == "consensus" =>
                         {
-                            let v = format!("{:?}", AppMsg::of(msg).map(|m| (m.kind, m.content)));
+                            let v = format!("{:?}", app_decode::<V>(msg));
                             // The instance is encoded in the value: id * 10 + k.
-                            let kk = match AppMsg::of(msg).map(|m| (m.kind, m.content)) {
-                                Some((_, nekosim_protocols::Content::Int(x))) => (x % 10) as u64,
+                            let kk = match app_decode::<V>(msg) {
+                                Some(V(x)) => (x % 10) as u64,
                                 other => panic!("{what}: unexpected proposal {other:?}"),
                             };
                             proposed.entry(kk).or_default().insert(v);
                         }
                         Observation::Decide {
                             robot, k, value, ..
-                        } => decided.entry((*robot, *k)).or_default().push(format!(
-                            "{:?}",
-                            AppMsg::of(value).map(|m| (m.kind, m.content))
-                        )),
+                        } => decided
+                            .entry((*robot, *k))
+                            .or_default()
+                            .push(format!("{:?}", app_decode::<V>(value))),
                         Observation::Crash { robot, .. } => {
                             crashed.insert(*robot);
                         }

@@ -186,7 +186,7 @@ fn a_protocol_defined_in_a_test_runs_from_ron_and_reaches_exactly_its_hops() {
     assert_eq!(send["type"], "FIFO");
     let text = send["msg"].as_str().unwrap();
     assert!(
-        text.starts_with("FIFO#0(HOP(") && text.contains("1 left, LOAD "),
+        text.starts_with("FIFO#0(HOP(") && text.contains("1 left, LOAD("),
         "{text}"
     );
 }
