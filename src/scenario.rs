@@ -15,7 +15,7 @@ use nekosim_actors::registry::{Algorithms, Configured, Setting};
 use nekosim_actors::world::born::random_born_points;
 use nekosim_actors::world::geometry::Point;
 use nekosim_actors::world::motion::Pose;
-use nekosim_actors::world::network::{NetworkSpec, Partition};
+use nekosim_actors::world::network::{ConfiguredNetwork, Networks, Partition};
 use nekosim_actors::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldSize};
 use nekosim_actors::{Algorithm, Comms, Fault};
 use nekosim_protocols::payload::Codecs;
@@ -45,7 +45,7 @@ pub struct Scenario {
     pub arbiters: usize,
     /// The simulated network; default `Reliable(delay: 1.0)`.
     #[serde(default)]
-    pub network: Option<NetworkSpec>,
+    pub network: Option<Spec>,
     /// Every robot's protocol stack (bottom to top, any order); the algorithm sits on top.
     #[serde(default)]
     pub stack: Vec<LayerSpec>,
@@ -177,6 +177,8 @@ impl fmt::Display for ScenarioError {
 pub struct Registry {
     /// The algorithms robots run.
     pub algorithms: Algorithms,
+    /// The network models a scenario's `network` names.
+    pub networks: Networks,
     /// The protocols for the `stack`.
     pub protocols: Protocols,
 }
@@ -199,6 +201,7 @@ impl Registry {
     pub fn with_builtins() -> Self {
         Self {
             algorithms: Algorithms::with_builtins(),
+            networks: Networks::with_builtins(),
             protocols: Protocols::with_builtins(),
         }
     }
@@ -207,6 +210,13 @@ impl Registry {
     /// (see docs/extending.md).
     pub fn algorithm<A: Configured>(&mut self, name: &str) -> &mut Self {
         self.algorithms.algorithm::<A>(name);
+        self
+    }
+
+    /// Registers the network model `N` under `name`, for `network: Name(config)` in a scenario
+    /// (see docs/extending.md).
+    pub fn network<N: ConfiguredNetwork>(&mut self, name: &str) -> &mut Self {
+        self.networks.network::<N>(name);
         self
     }
 
@@ -610,10 +620,14 @@ impl Source {
         registry: &Registry,
     ) -> Result<(Comms, Arc<Codecs>, Setting), ScenarioError> {
         let s = &self.scenario;
-        let network = s.network.clone().unwrap_or_default();
-        network
-            .check()
-            .map_err(|(f, m)| self.err(&format!("network.{f}"), m))?;
+        let network = s
+            .network
+            .clone()
+            .unwrap_or_else(|| Spec::new("Reliable(delay: 1.0)"));
+        registry
+            .networks
+            .build(&network)
+            .map_err(|e| self.spec_err("network", &e))?;
         let (wiring, _) =
             Wiring::check(&s.stack, &registry.protocols).map_err(|e| self.stack_err(&e))?;
         let mut faults = Vec::new();
@@ -666,6 +680,7 @@ impl Source {
         Ok((
             Comms {
                 network,
+                networks: registry.networks.clone(),
                 stack: s.stack.clone(),
                 faults,
                 protocols: registry.protocols.clone(),
@@ -700,7 +715,8 @@ impl Source {
     /// it says where, else at the offending field.
     fn spec_err(&self, path: &str, e: &SpecError) -> ScenarioError {
         match (e.at, &e.field) {
-            (Some(at), _) => self.err_in(path, at, &e.message),
+            (Some(at), None) => self.err_in(path, at, &e.message),
+            (Some(at), Some(f)) => self.err_in(&format!("{path}.{f}"), at, &e.message),
             (None, Some(f)) if f.starts_with('[') => {
                 self.err(&format!("{path}{f}"), e.message.clone())
             }

@@ -15,10 +15,10 @@ use crate::sensor::Sensor;
 use crate::sensor_manager::SensorManager;
 use crate::world::event::Outbox;
 use crate::world::event::{EventClass, Payload, Target};
-use crate::world::network::{Network, NetworkSpec, Partition};
+use crate::world::network::{Network, Networks, Partition};
 use crate::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldError};
 use crate::world::RobotId;
-use nekosim_protocols::{Input, LayerSpec, Protocols, Wiring};
+use nekosim_protocols::{Input, LayerSpec, Protocols, Spec, Wiring};
 use rand::SeedableRng;
 
 /// Everything a run needs.
@@ -42,14 +42,30 @@ pub struct SimConfig {
 }
 
 /// Communication settings of a run (seed 3.4-3.5).
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Comms {
-    pub network: NetworkSpec,
+    /// The network model (`Reliable(delay: 1.0)` by default), built from `networks`.
+    pub network: Spec,
+    /// The network models the scenario may name (built-in and registered user models).
+    pub networks: Networks,
     /// Every robot gets this stack; the algorithm sits on top.
     pub stack: Vec<LayerSpec>,
     pub faults: Vec<Fault>,
     /// The protocols the stack may name (built-in and registered user protocols).
     pub protocols: Protocols,
+}
+
+impl Default for Comms {
+    /// `Reliable(delay: 1.0)`, no stack, no faults, the built-in protocols and networks.
+    fn default() -> Self {
+        Self {
+            network: Spec::new("Reliable(delay: 1.0)"),
+            networks: Networks::with_builtins(),
+            stack: Vec::new(),
+            faults: Vec::new(),
+            protocols: Protocols::with_builtins(),
+        }
+    }
 }
 
 /// A fault injected into a run.
@@ -95,6 +111,9 @@ pub enum SimError {
     /// The actor system failed (an internal error).
     #[error("actor system: {0}")]
     System(String),
+    /// The network model is unknown or misconfigured (fatal before the run starts).
+    #[error("network: {0}")]
+    Network(#[from] nekosim_protocols::SpecError),
     /// The protocol stack is wired wrongly (fatal before the run starts).
     #[error("stack: {0}")]
     Stack(#[from] nekosim_protocols::StackError),
@@ -147,7 +166,8 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     }
     let mut net_rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
     net_rng.set_stream(0x004E_4554);
-    let network = Network::new(cfg.comms.network.clone(), net_rng, partitions);
+    let model = cfg.comms.networks.build(&cfg.comms.network)?;
+    let network = Network::new(model, net_rng, partitions);
     let count = world.len();
     let world = Arc::new(Mutex::new(world));
 

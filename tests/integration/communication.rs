@@ -4,13 +4,13 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use nekosim::algorithm::BroadcastLoad;
-use nekosim::world::network::NetworkSpec;
 use nekosim::world::observation::{Observation, Record};
 use nekosim::world::virtual_world::RobotSpec;
 use nekosim::{Algorithm, Comms, Fault, SimConfig};
 use nekosim_protocols::app_decode;
 use nekosim_protocols::stack::LayerSpec;
 use nekosim_protocols::MsgId;
+use nekosim_protocols::Spec as NetworkSpec;
 
 use crate::common::*;
 
@@ -87,7 +87,7 @@ fn run_line(
             network,
             stack,
             faults,
-            protocols: Default::default(),
+            ..Default::default()
         },
     })
     .expect("run")
@@ -142,9 +142,9 @@ fn check_abcast(records: &[Record], n: u32, correct: &[u32], what: &str) {
 
 fn networks() -> Vec<NetworkSpec> {
     vec![
-        NetworkSpec::Reliable { delay: 0.5 },
-        NetworkSpec::RandomDelay { lambda: 2.0 },
-        NetworkSpec::Metric { lambda: 0.2 },
+        NetworkSpec::new("Reliable(delay: 0.5)"),
+        NetworkSpec::new("RandomDelay(lambda: 2.0)"),
+        NetworkSpec::new("Metric(lambda: 0.2)"),
     ]
 }
 
@@ -216,10 +216,7 @@ fn retransmit_and_fifo_give_reliable_fifo_over_lossy_links() {
         layer("fifo", "Fifo", "rt", &[]),
         layer("abcast", "LamportAbcast", "fifo", &[]),
     ];
-    let net = NetworkSpec::Lossy {
-        p: 0.3,
-        over: Box::new(NetworkSpec::RandomDelay { lambda: 1.0 }),
-    };
+    let net = NetworkSpec::new("Lossy(p: 0.3, over: RandomDelay(lambda: 1.0))");
     for seed in 0..3 {
         let r = run_load(seed, 3, net.clone(), stack.clone(), vec![], 300.0);
         let sent = r
@@ -252,7 +249,7 @@ fn communication_runs_are_deterministic() {
             .map(|x| format!("{} {:?}\n", x.t, x.obs))
             .collect::<String>()
     };
-    let net = NetworkSpec::RandomDelay { lambda: 2.0 };
+    let net = NetworkSpec::new("RandomDelay(lambda: 2.0)");
     let a = run_load(9, 3, net.clone(), ct(), vec![], 100.0);
     let b = run_load(9, 3, net.clone(), ct(), vec![], 100.0);
     assert_eq!(text(&a), text(&b));
@@ -262,10 +259,7 @@ fn communication_runs_are_deterministic() {
 #[test]
 fn radio_networks_only_reach_robots_in_range() {
     // Robots 20 apart; range 30 reaches the neighbours only.
-    let net = NetworkSpec::Radio {
-        range: 30.0,
-        over: Box::new(NetworkSpec::Reliable { delay: 0.1 }),
-    };
+    let net = NetworkSpec::new("Radio(range: 30.0, over: Reliable(delay: 0.1))");
     let r = run_load(
         1,
         4,
@@ -352,10 +346,7 @@ fn consensus_properties_with_f_crashes_over_every_network() {
     let mut nets: Vec<(NetworkSpec, &str)> = networks().into_iter().map(|x| (x, "net")).collect();
     // Lossy links made reliable by Retransmit under the consensus layer.
     nets.push((
-        NetworkSpec::Lossy {
-            p: 0.2,
-            over: Box::new(NetworkSpec::RandomDelay { lambda: 1.0 }),
-        },
+        NetworkSpec::new("Lossy(p: 0.2, over: RandomDelay(lambda: 1.0))"),
         "rt",
     ));
     let mut runs = 0;

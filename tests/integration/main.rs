@@ -13,5 +13,6 @@ mod rerun_reader;
 mod scale;
 mod sensors;
 mod smoke;
+mod user_network;
 mod user_protocol;
 mod virtual_time;

@@ -1,6 +1,9 @@
 //! Simulated networks (seed 3.4, fig. 3.8; Neko's simulated networks): when, and whether, a
 //! message sent at some instant reaches each destination.
 //!
+//! A network model implements [`NetworkModel`] and is registered by name in [`Networks`],
+//! the built-ins exactly as a user's model:
+//!
 //! - `Reliable(delay)`: every message arrives after a constant delay.
 //! - `RandomDelay(lambda)`: exponential delays with mean `lambda` (Neko's RandomNetwork).
 //! - `Metric(lambda)`: Neko's contention-aware model. A send occupies the sender's CPU for 1,
@@ -14,63 +17,340 @@
 //! come from the network's own seeded stream, in send order.
 
 use std::collections::BTreeMap;
+use std::fmt;
 
+use nekosim_protocols::{ConfigError, Spec, SpecError};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use serde::{Deserialize, Serialize};
+use serde::de::DeserializeOwned;
+use serde::Deserialize;
 
 use super::geometry::Point;
 use super::RobotId;
 
-/// A network model, as a scenario names it.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub enum NetworkSpec {
-    Reliable { delay: f64 },
-    RandomDelay { lambda: f64 },
-    Metric { lambda: f64 },
-    Lossy { p: f64, over: Box<NetworkSpec> },
-    Radio { range: f64, over: Box<NetworkSpec> },
+/// What a network model sees of one send: when, who to whom, where every robot is.
+#[allow(missing_debug_implementations)] // holds a position function
+pub struct Send<'a> {
+    /// The send instant [s].
+    pub now: f64,
+    pub from: RobotId,
+    pub to: &'a [RobotId],
+    /// Exact positions of the robots at `now` (the motion formulas, seed 3.1).
+    pub pos: &'a dyn Fn(RobotId) -> Point,
 }
 
-impl Default for NetworkSpec {
-    fn default() -> Self {
-        NetworkSpec::Reliable { delay: 1.0 }
+/// A network model: decides the arrival time of each copy of a message, or its loss.
+pub trait NetworkModel: fmt::Debug + std::marker::Send {
+    /// Arrival time of the copy to each destination of `send` (`None`: lost), in `send.to`'s
+    /// order. Random draws come from `rng`, the run's seeded network stream.
+    fn transmit(&mut self, send: &Send<'_>, rng: &mut ChaCha8Rng) -> Vec<(RobotId, Option<f64>)>;
+}
+
+/// A network model a scenario can name: `network: Name(field: value, ...)`.
+pub trait ConfiguredNetwork: NetworkModel + Sized + 'static {
+    /// What the scenario's configuration is read into (serde, from RON).
+    type Config: DeserializeOwned;
+
+    /// The model, or why the configuration is refused; `networks` builds the models a
+    /// configuration names in turn (`Lossy(p: 0.1, over: RandomDelay(lambda: 1.0))`).
+    fn configure(config: Self::Config, networks: &Networks) -> Result<Self, ConfigError>;
+}
+
+type BuildFn = fn(&Spec, &Networks) -> Result<Box<dyn NetworkModel>, SpecError>;
+
+fn build_entry<N: ConfiguredNetwork>(
+    spec: &Spec,
+    networks: &Networks,
+) -> Result<Box<dyn NetworkModel>, SpecError> {
+    let config: N::Config = spec.read_config()?;
+    N::configure(config, networks)
+        .map(|n| Box::new(n) as Box<dyn NetworkModel>)
+        .map_err(|ConfigError { field, message }| {
+            spec.locate(SpecError {
+                at: None,
+                field,
+                message,
+            })
+        })
+}
+
+/// Network models by the name scenarios use for them. A new (or default) registry holds the
+/// built-in models; [`Networks::empty`] holds none.
+#[derive(Clone)]
+pub struct Networks {
+    entries: BTreeMap<String, BuildFn>,
+}
+
+impl fmt::Debug for Networks {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Networks")
+            .field("names", &self.entries.keys().collect::<Vec<_>>())
+            .finish()
     }
 }
 
-impl NetworkSpec {
-    /// Checks the parameters; `Err((field path suffix, message))`.
-    pub fn check(&self) -> Result<(), (String, String)> {
-        let nonneg = |f: &str, v: f64| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err((
-                    f.to_string(),
-                    format!("{f} is {v}; expected a finite number >= 0"),
-                ))
-            }
+impl PartialEq for Networks {
+    fn eq(&self, other: &Self) -> bool {
+        self.entries.keys().eq(other.entries.keys())
+    }
+}
+
+impl Default for Networks {
+    /// [`Networks::with_builtins`].
+    fn default() -> Self {
+        Self::with_builtins()
+    }
+}
+
+impl Networks {
+    /// A registry without any model.
+    pub fn empty() -> Self {
+        Self {
+            entries: BTreeMap::new(),
+        }
+    }
+
+    /// The built-in models, under their names.
+    pub fn with_builtins() -> Self {
+        let mut r = Self::empty();
+        r.network::<Reliable>("Reliable")
+            .network::<RandomDelay>("RandomDelay")
+            .network::<Metric>("Metric")
+            .network::<Lossy>("Lossy")
+            .network::<Radio>("Radio");
+        r
+    }
+
+    /// Registers the model `N` under `name` (replacing an earlier registration).
+    pub fn network<N: ConfiguredNetwork>(&mut self, name: &str) -> &mut Self {
+        self.entries.insert(name.to_string(), build_entry::<N>);
+        self
+    }
+
+    /// Registered names, sorted.
+    pub fn names(&self) -> impl Iterator<Item = &str> {
+        self.entries.keys().map(String::as_str)
+    }
+
+    /// Reads `spec`'s configuration and builds the model. Positions in the error are in
+    /// `spec`'s text; an error inside a nested model names the field holding it.
+    pub fn build(&self, spec: &Spec) -> Result<Box<dyn NetworkModel>, SpecError> {
+        let name = spec.name();
+        let Some(build) = self.entries.get(name) else {
+            return Err(SpecError {
+                at: Some((1, 1)),
+                field: None,
+                message: format!(
+                    "unknown network {name:?}; expected one of {}",
+                    self.names().collect::<Vec<_>>().join(", ")
+                ),
+            });
         };
-        match self {
-            NetworkSpec::Reliable { delay } => nonneg("delay", *delay),
-            NetworkSpec::RandomDelay { lambda } | NetworkSpec::Metric { lambda } => {
-                nonneg("lambda", *lambda)
-            }
-            NetworkSpec::Lossy { p, over } => {
-                if !(p.is_finite() && (0.0..=1.0).contains(p)) {
-                    return Err((
-                        "p".into(),
-                        format!("p is {p}; expected a probability in [0, 1]"),
-                    ));
-                }
-                over.check().map_err(|(f, m)| (format!("over.{f}"), m))
-            }
-            NetworkSpec::Radio { range, over } => {
-                nonneg("range", *range)?;
-                over.check().map_err(|(f, m)| (format!("over.{f}"), m))
+        build(spec, self)
+    }
+
+    /// Builds the model `spec` held in field `field` of another model's configuration: an
+    /// error is reported at that field.
+    pub fn build_in(&self, field: &str, spec: &Spec) -> Result<Box<dyn NetworkModel>, ConfigError> {
+        // An error inside the nested model's text is reported at the field holding it.
+        self.build(spec).map_err(|e| ConfigError {
+            field: Some(match &e.field {
+                Some(f) => format!("{field}.{f}"),
+                None => field.to_string(),
+            }),
+            message: e.message,
+        })
+    }
+}
+
+/// `field`'s value must be a finite number >= 0.
+fn nonneg(field: &str, v: f64) -> Result<f64, ConfigError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(ConfigError::field(
+            field,
+            format!("{field} is {v}; expected a finite number >= 0"),
+        ))
+    }
+}
+
+/// `Reliable(delay: D)`: every copy arrives after `delay` seconds.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Reliable {
+    pub delay: f64,
+}
+
+impl NetworkModel for Reliable {
+    fn transmit(&mut self, s: &Send<'_>, _: &mut ChaCha8Rng) -> Vec<(RobotId, Option<f64>)> {
+        s.to.iter()
+            .map(|&d| (d, Some(s.now + self.delay)))
+            .collect()
+    }
+}
+
+impl ConfiguredNetwork for Reliable {
+    type Config = Reliable;
+    fn configure(c: Reliable, _: &Networks) -> Result<Self, ConfigError> {
+        nonneg("delay", c.delay)?;
+        Ok(c)
+    }
+}
+
+/// `RandomDelay(lambda: L)`: exponential delays of mean `lambda` (Neko's RandomNetwork).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RandomDelay {
+    pub lambda: f64,
+}
+
+impl NetworkModel for RandomDelay {
+    fn transmit(&mut self, s: &Send<'_>, rng: &mut ChaCha8Rng) -> Vec<(RobotId, Option<f64>)> {
+        s.to.iter()
+            .map(|&d| {
+                let u: f64 = rng.gen();
+                (d, Some(s.now - self.lambda * (1.0 - u).ln()))
+            })
+            .collect()
+    }
+}
+
+impl ConfiguredNetwork for RandomDelay {
+    type Config = RandomDelay;
+    fn configure(c: RandomDelay, _: &Networks) -> Result<Self, ConfigError> {
+        nonneg("lambda", c.lambda)?;
+        Ok(c)
+    }
+}
+
+/// `Metric(lambda: L)`: contention on the sender's CPU, the shared medium and the receivers'
+/// CPUs (Neko's MetricNetwork).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Metric {
+    lambda: f64,
+    send_cpu: BTreeMap<RobotId, f64>,
+    medium: f64,
+    recv_cpu: BTreeMap<RobotId, f64>,
+}
+
+/// `Metric(lambda: L)`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MetricConfig {
+    pub lambda: f64,
+}
+
+impl NetworkModel for Metric {
+    fn transmit(&mut self, s: &Send<'_>, _: &mut ChaCha8Rng) -> Vec<(RobotId, Option<f64>)> {
+        let cpu = self.send_cpu.entry(s.from).or_insert(0.0);
+        let sent = cpu.max(s.now) + 1.0;
+        *cpu = sent;
+        let on_wire = self.medium.max(sent) + self.lambda;
+        self.medium = on_wire;
+        s.to.iter()
+            .map(|&d| {
+                let rc = self.recv_cpu.entry(d).or_insert(0.0);
+                let arrived = rc.max(on_wire) + 1.0;
+                *rc = arrived;
+                (d, Some(arrived))
+            })
+            .collect()
+    }
+}
+
+impl ConfiguredNetwork for Metric {
+    type Config = MetricConfig;
+    fn configure(c: MetricConfig, _: &Networks) -> Result<Self, ConfigError> {
+        Ok(Self {
+            lambda: nonneg("lambda", c.lambda)?,
+            send_cpu: BTreeMap::new(),
+            medium: 0.0,
+            recv_cpu: BTreeMap::new(),
+        })
+    }
+}
+
+/// `Lossy(p: P, over: NET)`: `over`, then each copy is dropped with probability `p`.
+#[derive(Debug)]
+pub struct Lossy {
+    p: f64,
+    over: Box<dyn NetworkModel>,
+}
+
+/// `Lossy(p: P, over: NET)`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LossyConfig {
+    pub p: f64,
+    pub over: Spec,
+}
+
+impl NetworkModel for Lossy {
+    fn transmit(&mut self, s: &Send<'_>, rng: &mut ChaCha8Rng) -> Vec<(RobotId, Option<f64>)> {
+        let mut v = self.over.transmit(s, rng);
+        for (_, t) in v.iter_mut() {
+            let u: f64 = rng.gen();
+            if u < self.p {
+                *t = None;
             }
         }
+        v
+    }
+}
+
+impl ConfiguredNetwork for Lossy {
+    type Config = LossyConfig;
+    fn configure(c: LossyConfig, networks: &Networks) -> Result<Self, ConfigError> {
+        if !(c.p.is_finite() && (0.0..=1.0).contains(&c.p)) {
+            return Err(ConfigError::field(
+                "p",
+                format!("p is {}; expected a probability in [0, 1]", c.p),
+            ));
+        }
+        Ok(Self {
+            p: c.p,
+            over: networks.build_in("over", &c.over)?,
+        })
+    }
+}
+
+/// `Radio(range: R, over: NET)`: `over`, but only destinations within `range` of the sender
+/// at the send instant receive.
+#[derive(Debug)]
+pub struct Radio {
+    range: f64,
+    over: Box<dyn NetworkModel>,
+}
+
+/// `Radio(range: R, over: NET)`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RadioConfig {
+    pub range: f64,
+    pub over: Spec,
+}
+
+impl NetworkModel for Radio {
+    fn transmit(&mut self, s: &Send<'_>, rng: &mut ChaCha8Rng) -> Vec<(RobotId, Option<f64>)> {
+        let me = (s.pos)(s.from);
+        let mut v = self.over.transmit(s, rng);
+        for (d, t) in v.iter_mut() {
+            if ((s.pos)(*d) - me).norm() > self.range {
+                *t = None;
+            }
+        }
+        v
+    }
+}
+
+impl ConfiguredNetwork for Radio {
+    type Config = RadioConfig;
+    fn configure(c: RadioConfig, networks: &Networks) -> Result<Self, ConfigError> {
+        Ok(Self {
+            range: nonneg("range", c.range)?,
+            over: networks.build_in("over", &c.over)?,
+        })
     }
 }
 
@@ -92,27 +372,21 @@ impl Partition {
     }
 }
 
-/// A network's state: its model, random stream and, for `Metric`, when each resource is free.
+/// A run's network: its model, random stream and partitions.
 #[derive(Debug)]
 pub struct Network {
-    spec: NetworkSpec,
+    model: Box<dyn NetworkModel>,
     rng: ChaCha8Rng,
     partitions: Vec<Partition>,
-    send_cpu: BTreeMap<RobotId, f64>,
-    medium: f64,
-    recv_cpu: BTreeMap<RobotId, f64>,
 }
 
 impl Network {
-    /// A network following `spec`, drawing from `rng`.
-    pub fn new(spec: NetworkSpec, rng: ChaCha8Rng, partitions: Vec<Partition>) -> Self {
+    /// A network following `model`, drawing from `rng`.
+    pub fn new(model: Box<dyn NetworkModel>, rng: ChaCha8Rng, partitions: Vec<Partition>) -> Self {
         Self {
-            spec,
+            model,
             rng,
             partitions,
-            send_cpu: BTreeMap::new(),
-            medium: 0.0,
-            recv_cpu: BTreeMap::new(),
         }
     }
 
@@ -125,69 +399,14 @@ impl Network {
         to: &[RobotId],
         pos: &dyn Fn(RobotId) -> Point,
     ) -> Vec<(RobotId, Option<f64>)> {
-        let spec = self.spec.clone();
-        let mut out = self.model(&spec, now, from, to, pos);
+        let send = Send { now, from, to, pos };
+        let mut out = self.model.transmit(&send, &mut self.rng);
         for (d, t) in out.iter_mut() {
             if self.partitions.iter().any(|p| p.separates(from, *d, now)) {
                 *t = None;
             }
         }
         out
-    }
-
-    fn model(
-        &mut self,
-        spec: &NetworkSpec,
-        now: f64,
-        from: RobotId,
-        to: &[RobotId],
-        pos: &dyn Fn(RobotId) -> Point,
-    ) -> Vec<(RobotId, Option<f64>)> {
-        match spec {
-            NetworkSpec::Reliable { delay } => to.iter().map(|&d| (d, Some(now + delay))).collect(),
-            NetworkSpec::RandomDelay { lambda } => to
-                .iter()
-                .map(|&d| {
-                    let u: f64 = self.rng.gen();
-                    (d, Some(now - lambda * (1.0 - u).ln()))
-                })
-                .collect(),
-            NetworkSpec::Metric { lambda } => {
-                let cpu = self.send_cpu.entry(from).or_insert(0.0);
-                let sent = cpu.max(now) + 1.0;
-                *cpu = sent;
-                let on_wire = self.medium.max(sent) + lambda;
-                self.medium = on_wire;
-                to.iter()
-                    .map(|&d| {
-                        let rc = self.recv_cpu.entry(d).or_insert(0.0);
-                        let arrived = rc.max(on_wire) + 1.0;
-                        *rc = arrived;
-                        (d, Some(arrived))
-                    })
-                    .collect()
-            }
-            NetworkSpec::Lossy { p, over } => {
-                let mut v = self.model(over, now, from, to, pos);
-                for (_, t) in v.iter_mut() {
-                    let u: f64 = self.rng.gen();
-                    if u < *p {
-                        *t = None;
-                    }
-                }
-                v
-            }
-            NetworkSpec::Radio { range, over } => {
-                let me = pos(from);
-                let mut v = self.model(over, now, from, to, pos);
-                for (d, t) in v.iter_mut() {
-                    if (pos(*d) - me).norm() > *range {
-                        *t = None;
-                    }
-                }
-                v
-            }
-        }
     }
 }
 
@@ -196,8 +415,14 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
 
-    fn net(spec: NetworkSpec) -> Network {
-        Network::new(spec, ChaCha8Rng::seed_from_u64(1), Vec::new())
+    fn model(spec: &str) -> Box<dyn NetworkModel> {
+        Networks::with_builtins()
+            .build(&Spec::new(spec))
+            .expect("valid")
+    }
+
+    fn net(spec: &str) -> Network {
+        Network::new(model(spec), ChaCha8Rng::seed_from_u64(1), Vec::new())
     }
 
     fn origin(_: RobotId) -> Point {
@@ -206,7 +431,7 @@ mod tests {
 
     #[test]
     fn random_delays_are_exponential_with_the_given_mean() {
-        let mut n = net(NetworkSpec::RandomDelay { lambda: 10.0 });
+        let mut n = net("RandomDelay(lambda: 10.0)");
         let d: Vec<f64> = (0..20_000)
             .map(|_| n.transmit(5.0, 0, &[1], &origin)[0].1.unwrap() - 5.0)
             .collect();
@@ -219,7 +444,7 @@ mod tests {
 
     #[test]
     fn metric_queues_on_cpus_and_the_shared_medium() {
-        let mut n = net(NetworkSpec::Metric { lambda: 2.0 });
+        let mut n = net("Metric(lambda: 2.0)");
         // Sender CPU 0->1, medium 1->3, receiver CPUs 3->4.
         assert_eq!(
             n.transmit(0.0, 0, &[1, 2], &origin),
@@ -234,18 +459,12 @@ mod tests {
 
     #[test]
     fn lossy_drops_about_p_and_radio_only_reaches_within_range() {
-        let mut n = net(NetworkSpec::Lossy {
-            p: 0.25,
-            over: Box::new(NetworkSpec::Reliable { delay: 1.0 }),
-        });
+        let mut n = net("Lossy(p: 0.25, over: Reliable(delay: 1.0))");
         let lost = (0..10_000)
             .filter(|_| n.transmit(0.0, 0, &[1], &origin)[0].1.is_none())
             .count();
         assert!((lost as f64 / 10_000.0 - 0.25).abs() < 0.02, "{lost}");
-        let mut r = net(NetworkSpec::Radio {
-            range: 10.0,
-            over: Box::new(NetworkSpec::Reliable { delay: 1.0 }),
-        });
+        let mut r = net("Radio(range: 10.0, over: Reliable(delay: 1.0))");
         let pos = |id: RobotId| Point::new(id as f64 * 6.0, 0.0);
         assert_eq!(
             r.transmit(0.0, 0, &[1, 2], &pos),
@@ -261,7 +480,7 @@ mod tests {
             to: 10.0,
         };
         let mut n = Network::new(
-            NetworkSpec::Reliable { delay: 1.0 },
+            model("Reliable(delay: 1.0)"),
             ChaCha8Rng::seed_from_u64(1),
             vec![p],
         );
@@ -275,19 +494,30 @@ mod tests {
 
     #[test]
     fn bad_parameters_are_named() {
-        let e = NetworkSpec::Lossy {
-            p: 1.5,
-            over: Box::new(NetworkSpec::Reliable { delay: 1.0 }),
-        }
-        .check()
-        .unwrap_err();
-        assert_eq!(e.0, "p");
-        let e = NetworkSpec::Radio {
-            range: 3.0,
-            over: Box::new(NetworkSpec::RandomDelay { lambda: -1.0 }),
-        }
-        .check()
-        .unwrap_err();
-        assert_eq!(e.0, "over.lambda");
+        let nets = Networks::with_builtins();
+        let e = nets
+            .build(&Spec::new("Lossy(p: 1.5, over: Reliable(delay: 1.0))"))
+            .unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("p"));
+        assert_eq!(
+            e.message,
+            "Lossy: p is 1.5; expected a probability in [0, 1]"
+        );
+        let e = nets
+            .build(&Spec::new(
+                "Radio(range: 3.0, over: RandomDelay(lambda: -1.0))",
+            ))
+            .unwrap_err();
+        assert_eq!(e.field.as_deref(), Some("over.lambda"));
+        assert_eq!(
+            e.message,
+            "Radio: RandomDelay: lambda is -1; expected a finite number >= 0"
+        );
+        let e = nets.build(&Spec::new("Reliable(dealy: 1.0)")).unwrap_err();
+        assert_eq!((e.field, e.at), (None, Some((1, 10))));
+        let e = nets.build(&Spec::new("Wormhole")).unwrap_err();
+        assert!(e
+            .message
+            .starts_with("unknown network \"Wormhole\"; expected one of Lossy"));
     }
 }
