@@ -47,6 +47,7 @@ fn ticker_config() -> SimConfig {
         })
         .collect();
     SimConfig {
+        sensors: Default::default(),
         seed: 1,
         until: TICKS as f64 - 0.5,
         world: WorldConfig {
@@ -146,6 +147,7 @@ fn random_config(n: usize, until: f64) -> SimConfig {
         })
         .collect();
     SimConfig {
+        sensors: Default::default(),
         seed: 3,
         until,
         world: WorldConfig {

@@ -168,6 +168,7 @@ fn run(obstacle_deg: f64) -> nekosim::scheduler::RunOutput {
             obstacle_deg.to_radians().sin(),
         ) * 50.0;
     nekosim::run(SimConfig {
+        sensors: Default::default(),
         seed: 1,
         until: 100.0,
         world: WorldConfig {

@@ -109,6 +109,8 @@ pub fn query_text(q: &SensorQuery) -> String {
         SensorQuery::DeactivateProximity => "DeactivateProximity".into(),
         SensorQuery::ActivateContact => "ActivateContact".into(),
         SensorQuery::DeactivateContact => "DeactivateContact".into(),
+        SensorQuery::User { sensor, query } => format!("{sensor} {query}"),
+        SensorQuery::UserOff { sensor } => format!("Deactivate {sensor}"),
     }
 }
 
@@ -132,6 +134,7 @@ fn value_text(v: &SensorValue) -> String {
         SensorValue::Contact(o) => format!("contact {}", obstacle(*o)),
         SensorValue::Done => "done".into(),
         SensorValue::Rejected(m) => format!("rejected: {m}"),
+        SensorValue::User(text) => text.clone(),
     }
 }
 

@@ -220,6 +220,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
             stop: opts.stop,
         },
         comms: built.comms,
+        sensors: built.sensors,
     });
     let wall_seconds = started.elapsed().as_secs_f64();
     // The recording is finished whatever the outcome: a failed run's recording shows what

@@ -16,6 +16,7 @@ use nekosim_actors::world::born::random_born_points;
 use nekosim_actors::world::geometry::Point;
 use nekosim_actors::world::motion::Pose;
 use nekosim_actors::world::network::{ConfiguredNetwork, Networks, Partition};
+use nekosim_actors::world::sensor::{SensorModel, Sensors};
 use nekosim_actors::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldSize};
 use nekosim_actors::{Algorithm, Comms, Fault};
 use nekosim_protocols::payload::Codecs;
@@ -179,6 +180,8 @@ pub struct Registry {
     pub algorithms: Algorithms,
     /// The network models a scenario's `network` names.
     pub networks: Networks,
+    /// Sensors robots read beside the built-in ones (`robot.read::<S>("Name", ..)`).
+    pub sensors: Sensors,
     /// The protocols for the `stack`.
     pub protocols: Protocols,
 }
@@ -202,6 +205,7 @@ impl Registry {
         Self {
             algorithms: Algorithms::with_builtins(),
             networks: Networks::with_builtins(),
+            sensors: Sensors::new(),
             protocols: Protocols::with_builtins(),
         }
     }
@@ -210,6 +214,13 @@ impl Registry {
     /// (see docs/extending.md).
     pub fn algorithm<A: Configured>(&mut self, name: &str) -> &mut Self {
         self.algorithms.algorithm::<A>(name);
+        self
+    }
+
+    /// Registers the sensor `S` under `name`, for `robot.read::<S>("Name", ..)` and
+    /// `robot.activate::<S>("Name", ..)` (see docs/extending.md).
+    pub fn sensor<S: SensorModel>(&mut self, name: &str) -> &mut Self {
+        self.sensors.sensor::<S>(name);
         self
     }
 
@@ -247,6 +258,8 @@ pub struct Built {
     pub comms: Comms,
     /// How the stack's messages render in the log, trace and recording.
     pub codecs: Arc<Codecs>,
+    /// Sensors registered beside the built-in ones.
+    pub sensors: Sensors,
     /// Animation frames per simulated second of recordings; 0: event instants only.
     pub framerate: f64,
 }
@@ -601,6 +614,7 @@ impl Source {
         Ok(Built {
             comms,
             codecs,
+            sensors: registry.sensors.clone(),
             framerate,
             name,
             seed,

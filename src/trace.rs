@@ -41,6 +41,8 @@ pub fn query_json(q: &SensorQuery) -> Value {
         SensorQuery::DeactivateProximity => json!({"query": "deactivate_proximity"}),
         SensorQuery::ActivateContact => json!({"query": "activate_contact"}),
         SensorQuery::DeactivateContact => json!({"query": "deactivate_contact"}),
+        SensorQuery::User { query, .. } => json!({"query": "read", "config": query}),
+        SensorQuery::UserOff { .. } => json!({"query": "deactivate"}),
     }
 }
 
@@ -59,6 +61,7 @@ pub fn value_json(v: &SensorValue) -> Value {
         SensorValue::Contact(o) => json!({"contact": obstacle(*o)}),
         SensorValue::Done => json!("done"),
         SensorValue::Rejected(m) => json!({"rejected": m}),
+        SensorValue::User(text) => json!(text),
     }
 }
 

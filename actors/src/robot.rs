@@ -31,7 +31,9 @@ use crate::world::event::{EventClass, FutureEvent, Notice, Outbox, Payload, Targ
 use crate::world::geometry::Point;
 use crate::world::motion::{Kinematics, Motion};
 use crate::world::observation::Observation;
-use crate::world::sensor::{SensorQuery, SensorValue};
+use crate::world::sensor::{
+    query_text as sensor_query_text, SensorModel, SensorQuery, SensorValue,
+};
 use crate::world::virtual_world::WorldSize;
 use crate::world::{MotionOutcome, RobotId};
 use nekosim_protocols::{
@@ -281,6 +283,52 @@ impl Robot {
             })
             .await;
         v
+    }
+
+    /// Reads the registered pull sensor `name` ([`crate::world::sensor::SensorModel`]): its
+    /// reply to `query`, or why the request was refused.
+    pub async fn read<S: SensorModel>(
+        &self,
+        name: &str,
+        query: &S::Query,
+    ) -> Result<S::Reply, String> {
+        let query = sensor_query_text(query)?;
+        self.sense(SensorQuery::User {
+            sensor: name.to_string(),
+            query,
+        })
+        .await
+        .decode()
+    }
+
+    /// Activates the registered push sensor `name` with `query`: from now on it re-senses
+    /// every interval and interrupts the robot ([`Robot::next_notice`]) when its condition
+    /// holds; the interrupt's value decodes as its reply ([`SensorValue::decode`]).
+    pub async fn activate<S: SensorModel>(
+        &self,
+        name: &str,
+        query: &S::Query,
+    ) -> Result<(), String> {
+        let query = sensor_query_text(query)?;
+        match self
+            .sense(SensorQuery::User {
+                sensor: name.to_string(),
+                query,
+            })
+            .await
+        {
+            SensorValue::Done => Ok(()),
+            SensorValue::Rejected(e) => Err(e),
+            other => Err(format!("{name} is a pull sensor (it answered {other:?})")),
+        }
+    }
+
+    /// Deactivates the registered push sensor `name`.
+    pub async fn deactivate(&self, name: &str) {
+        self.sense(SensorQuery::UserOff {
+            sensor: name.to_string(),
+        })
+        .await;
     }
 
     /// Waits for the next push-sensor interrupt, end of a motion started with

@@ -9,7 +9,9 @@ use rand_chacha::ChaCha8Rng;
 use crate::scheduler::Deliver;
 use crate::world::event::{Notice, Outbox, Payload};
 use crate::world::observation::Observation;
-use crate::world::sensor::{cal_reply, SensorKind};
+use std::sync::Arc;
+
+use crate::world::sensor::{cal_reply, SensorKind, SensorQuery, SensorValue, Sensors};
 use crate::world::RobotId;
 
 /// A robot's sensor.
@@ -18,15 +20,22 @@ pub struct Sensor {
     robot: RobotId,
     kind: SensorKind,
     rng: ChaCha8Rng,
+    /// Registered sensors, for the replies of user sensors.
+    sensors: Arc<Sensors>,
 }
 
 impl Sensor {
     /// The `kind` sensor of `robot`; its noise stream is derived from the run's seed.
-    pub fn new(robot: RobotId, kind: SensorKind, seed: u64) -> Self {
-        let stream = (robot as u64) << 8 | kind as u64;
+    pub fn new(robot: RobotId, kind: SensorKind, seed: u64, sensors: Arc<Sensors>) -> Self {
+        let stream = (robot as u64) << 8 | kind.stream();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(stream.wrapping_add(1 << 40));
-        Self { robot, kind, rng }
+        Self {
+            robot,
+            kind,
+            rng,
+            sensors,
+        }
     }
 }
 
@@ -47,9 +56,18 @@ impl Handler<Deliver> for Sensor {
         } = msg.event.payload
         {
             debug_assert_eq!(robot, self.robot);
-            let value = match ticket {
-                Some(_) => cal_reply(&query, snapshot, &mut self.rng),
-                None => snapshot,
+            let value = match (&query, snapshot) {
+                // A registered sensor's reply, from its reading (pull or push).
+                (SensorQuery::User { sensor, query }, SensorValue::User(reading)) => {
+                    match self.sensors.reply(sensor, query, &reading, &mut self.rng) {
+                        Ok(reply) => SensorValue::User(reply),
+                        Err(e) => SensorValue::Rejected(e),
+                    }
+                }
+                (_, snapshot) => match ticket {
+                    Some(_) => cal_reply(&query, snapshot, &mut self.rng),
+                    None => snapshot,
+                },
             };
             out.record(Observation::SensorReply {
                 robot,

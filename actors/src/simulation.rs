@@ -16,6 +16,7 @@ use crate::sensor_manager::SensorManager;
 use crate::world::event::Outbox;
 use crate::world::event::{EventClass, Payload, Target};
 use crate::world::network::{Network, Networks, Partition};
+use crate::world::sensor::Sensors;
 use crate::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldError};
 use crate::world::RobotId;
 use nekosim_protocols::{Input, LayerSpec, Protocols, Spec, Wiring};
@@ -39,6 +40,8 @@ pub struct SimConfig {
     pub observers: Observers,
     /// Network, protocol stack and faults.
     pub comms: Comms,
+    /// Sensors registered beside the built-in ones.
+    pub sensors: Sensors,
 }
 
 /// Communication settings of a run (seed 3.4-3.5).
@@ -128,7 +131,8 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
         return Err(SimError::BadUntil(cfg.until));
     }
     let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
-    let world = VirtualWorld::new(cfg.world, &specs)?;
+    let sensors = Arc::new(cfg.sensors);
+    let world = VirtualWorld::new(cfg.world, &specs)?.with_sensors(sensors.clone());
     let (wiring, template) = Wiring::check(&cfg.comms.stack, &cfg.comms.protocols)?;
     let wiring = std::sync::Arc::new(wiring);
     let mut setup = Outbox::new(0.0, 0);
@@ -245,8 +249,9 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             network,
             layers,
             spawn_sensor: Box::new(move |robot, kind| {
+                let sensors = sensors.clone();
                 Sensor::start_in_arbiter(&arbiter_of(robot), move |_| {
-                    Sensor::new(robot, kind, seed)
+                    Sensor::new(robot, kind, seed, sensors)
                 })
                 .recipient()
             }),

@@ -39,6 +39,7 @@ fn random_run(seed: u64, n: usize, world: WorldConfig, until: f64) -> Vec<Record
         .map(|s| (s, Box::new(RandomMovement::default()) as Box<dyn Algorithm>))
         .collect();
     nekosim::run(SimConfig {
+        sensors: Default::default(),
         seed,
         until,
         world,

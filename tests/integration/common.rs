@@ -47,6 +47,7 @@ pub fn run(
     robots: Vec<(RobotSpec, Box<dyn Algorithm>)>,
 ) -> RunOutput {
     nekosim::run(SimConfig {
+        sensors: Default::default(),
         seed: 1,
         until,
         world,

@@ -76,6 +76,7 @@ fn run_line(
         .map(|i| (spec(20.0 * i as f64, 0.0, 0.0, 1.0), algorithm()))
         .collect::<Vec<(RobotSpec, Box<dyn Algorithm>)>>();
     nekosim::run(SimConfig {
+        sensors: Default::default(),
         seed,
         until,
         world: infinite(),

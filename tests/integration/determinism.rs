@@ -31,6 +31,7 @@ fn run_observed(seed: u64, arbiters: usize, observers: Observers) -> RunOutput {
         robots.push((spec(x, y, 15.0 * i as f64, 4.0), alg));
     }
     nekosim::run(SimConfig {
+        sensors: Default::default(),
         seed,
         until: 80.0,
         world: bounded(200.0, 200.0),

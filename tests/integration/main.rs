@@ -15,4 +15,5 @@ mod sensors;
 mod smoke;
 mod user_network;
 mod user_protocol;
+mod user_sensor;
 mod virtual_time;

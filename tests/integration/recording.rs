@@ -58,6 +58,7 @@ fn random_run() -> (Vec<Record>, f64) {
         })
         .collect();
     let out = nekosim::run(SimConfig {
+        sensors: Default::default(),
         seed: 9,
         until: 40.0,
         world: bounded(200.0, 200.0),

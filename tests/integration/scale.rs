@@ -29,6 +29,7 @@ fn ten_thousand_robots_run() {
         })
         .collect();
     let out = nekosim::run(SimConfig {
+        sensors: Default::default(),
         seed: 42,
         until: 20.0,
         world: bounded(side, side),

@@ -117,6 +117,13 @@ pub enum Payload {
     ProximityEntry { robot: RobotId, other: RobotId },
     /// `robot`'s push proximity sensor ends its quiet interval.
     ProximityRearm { robot: RobotId, generation: u64 },
+    /// A registered push sensor re-senses (every `interval` from its activation).
+    UserSense {
+        robot: RobotId,
+        sensor: SensorKind,
+        interval: super::sensor::Interval,
+        generation: u64,
+    },
     /// Robot -> sensor manager: a sensor request.
     SensorRequest {
         robot: RobotId,
@@ -180,6 +187,7 @@ impl Payload {
             Payload::CellCrossing { .. } => "cell_crossing",
             Payload::ProximityEntry { .. } => "proximity_entry",
             Payload::ProximityRearm { .. } => "proximity_rearm",
+            Payload::UserSense { .. } => "user_sense",
             Payload::SensorRequest { .. } => "sensor_request",
             Payload::SensorTrigger { .. } => "sensor_trigger",
             Payload::SensorCompute { .. } => "sensor_compute",

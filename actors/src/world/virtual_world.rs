@@ -20,7 +20,7 @@ use super::geometry::Point;
 use super::grid::{Cell, Grid};
 use super::motion::{Kinematics, Motion, MotionPattern, MotionStep, Pose};
 use super::observation::Observation;
-use super::sensor::{SensorKind, SensorQuery, SensorValue};
+use super::sensor::{SensorKind, SensorQuery, SensorValue, Sensors, WorldView};
 use super::{MotionOutcome, Obstacle, RobotId};
 
 /// The world's extent (seed 3.2).
@@ -125,6 +125,8 @@ struct RobotState {
     cell: Cell,
     push: Option<PushProximity>,
     contact: bool,
+    /// Active registered push sensors: query (RON) and activation generation.
+    user_push: BTreeMap<&'static str, (String, u64)>,
     crashed: bool,
 }
 
@@ -132,6 +134,10 @@ struct RobotState {
 #[derive(Debug)]
 pub struct VirtualWorld {
     cfg: WorldConfig,
+    /// Registered sensors (beside the built-in ones).
+    sensors: std::sync::Arc<Sensors>,
+    /// Activations of registered push sensors so far (tells a stale re-sense apart).
+    user_generation: u64,
     robots: Vec<RobotState>,
     grid: Grid,
     max_radius: f64,
@@ -183,6 +189,8 @@ impl VirtualWorld {
             .max(1e-9);
         let mut world = Self {
             cfg,
+            sensors: Default::default(),
+            user_generation: 0,
             robots: Vec::with_capacity(specs.len()),
             grid: Grid::new(size),
             max_radius,
@@ -212,6 +220,7 @@ impl VirtualWorld {
                 cell,
                 push: None,
                 contact: false,
+                user_push: BTreeMap::new(),
                 crashed: false,
             });
         }
@@ -711,6 +720,18 @@ impl VirtualWorld {
         value: SensorValue,
         out: &mut Outbox,
     ) {
+        self.push_interrupt_of(robot, sensor, SensorQuery::DeactivateContact, value, out)
+    }
+
+    /// An interrupt of `sensor`, whose reply the sensor computes for `query`.
+    fn push_interrupt_of(
+        &self,
+        robot: RobotId,
+        sensor: SensorKind,
+        query: SensorQuery,
+        value: SensorValue,
+        out: &mut Outbox,
+    ) {
         out.schedule(
             out.now(),
             Target::Sensor(robot, sensor),
@@ -719,10 +740,16 @@ impl VirtualWorld {
             Payload::SensorCompute {
                 robot,
                 ticket: None,
-                query: SensorQuery::DeactivateContact,
+                query,
                 snapshot: value,
             },
         );
+    }
+
+    /// Uses the registered sensors `sensors` (beside the built-in ones).
+    pub fn with_sensors(mut self, sensors: std::sync::Arc<Sensors>) -> Self {
+        self.sensors = sensors;
+        self
     }
 
     fn free_distances(&self, robot: RobotId, range: f64, t: f64) -> Vec<(RobotId, f64)> {
@@ -809,6 +836,52 @@ impl VirtualWorld {
                     self.fire_proximity(robot, out);
                 }
             }
+            Payload::UserSense {
+                robot,
+                sensor,
+                interval,
+                generation,
+            } => {
+                let SensorKind::User(name) = sensor else {
+                    return;
+                };
+                let r = &self.robots[robot as usize];
+                let Some((q, g)) = r.user_push.get(name).cloned() else {
+                    return;
+                };
+                if g != generation || r.crashed {
+                    return;
+                }
+                match self.sensors.sense(name, &q, &View::new(self, robot, now)) {
+                    Ok(reading) => {
+                        if self.sensors.fires(name, &q, &reading) {
+                            self.push_interrupt_of(
+                                robot,
+                                sensor,
+                                SensorQuery::User {
+                                    sensor: name.to_string(),
+                                    query: q,
+                                },
+                                SensorValue::User(reading),
+                                out,
+                            );
+                        }
+                    }
+                    Err(e) => tracing::warn!(robot, sensor = name, "push sensor: {e}"),
+                }
+                out.schedule(
+                    now + interval.0,
+                    Target::SensorManager,
+                    EventClass::Eventual,
+                    [Some(robot), None],
+                    Payload::UserSense {
+                        robot,
+                        sensor,
+                        interval,
+                        generation,
+                    },
+                );
+            }
             Payload::ProximityRearm { robot, generation } => {
                 let Some(push) = self.robots[robot as usize].push else {
                     return;
@@ -859,6 +932,45 @@ impl VirtualWorld {
         let now = out.now();
         let me = self.state_at(robot, now).pos;
         match *query {
+            SensorQuery::User {
+                ref sensor,
+                query: ref q,
+            } => match self.sensors.push_interval(sensor, q) {
+                Err(e) => SensorValue::Rejected(e),
+                Ok(None) => match self.sensors.sense(sensor, q, &View::new(self, robot, now)) {
+                    Ok(reading) => SensorValue::User(reading),
+                    Err(e) => SensorValue::Rejected(e),
+                },
+                Ok(Some(interval)) => {
+                    let SensorKind::User(name) = query.kind() else {
+                        unreachable!("a user query names a user sensor")
+                    };
+                    self.user_generation += 1;
+                    let generation = self.user_generation;
+                    self.robots[robot as usize]
+                        .user_push
+                        .insert(name, (q.clone(), generation));
+                    out.schedule(
+                        now,
+                        Target::SensorManager,
+                        EventClass::Eventual,
+                        [Some(robot), None],
+                        Payload::UserSense {
+                            robot,
+                            sensor: query.kind(),
+                            interval: crate::world::sensor::Interval(interval),
+                            generation,
+                        },
+                    );
+                    SensorValue::Done
+                }
+            },
+            SensorQuery::UserOff { .. } => {
+                if let SensorKind::User(name) = query.kind() {
+                    self.robots[robot as usize].user_push.remove(name);
+                }
+                SensorValue::Done
+            }
             SensorQuery::SelfPosition { .. } => SensorValue::Position(me),
             SensorQuery::AllPositions { .. } => SensorValue::Positions(self.positions_at(now)),
             SensorQuery::View { range } => SensorValue::Positions(
@@ -942,5 +1054,40 @@ impl VirtualWorld {
         for id in 0..self.robots.len() as RobotId {
             self.predict_all(id, out);
         }
+    }
+}
+
+/// A robot's view of the world at an instant, for registered sensors.
+struct View<'a> {
+    world: &'a VirtualWorld,
+    robot: RobotId,
+    now: f64,
+}
+
+impl<'a> View<'a> {
+    fn new(world: &'a VirtualWorld, robot: RobotId, now: f64) -> Self {
+        Self { world, robot, now }
+    }
+}
+
+impl WorldView for View<'_> {
+    fn now(&self) -> f64 {
+        self.now
+    }
+    fn robot(&self) -> RobotId {
+        self.robot
+    }
+    fn count(&self) -> usize {
+        self.world.robots.len()
+    }
+    fn position(&self, robot: RobotId) -> Point {
+        self.world.state_at(robot, self.now).pos
+    }
+    fn radius(&self, robot: RobotId) -> f64 {
+        self.world.radius(robot)
+    }
+    fn within(&self, range: f64) -> Vec<(RobotId, Point, f64)> {
+        let me = self.position(self.robot);
+        self.world.within(self.robot, me, range, self.now)
     }
 }

@@ -1,0 +1,238 @@
+//! Sensors defined only in this test file (seed 4.2.2: exact data gathered at the trigger,
+//! the reply computed on the robot's sensor with its seeded stream): a pull sensor and a push
+//! sensor that re-senses every interval, checked against closed-form positions.
+
+use crate::common::*;
+use nekosim::algorithm::ScriptStep;
+use nekosim::world::event::Notice;
+use nekosim::world::observation::Observation;
+use nekosim::world::sensor::{SensorKind, SensorModel, SensorValue, Sensors, WorldView};
+use nekosim::world::RobotId;
+use nekosim::{Algorithm, AlgorithmFuture, Robot, SimConfig};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// Pull: the nearest other robot within `range` and its centre distance, plus uniform noise
+/// of at most `noise` units drawn on the robot's sensor.
+#[derive(Debug)]
+struct Nearest;
+
+#[derive(Debug, Serialize, Deserialize)]
+struct NearestQuery {
+    range: f64,
+    noise: f64,
+}
+
+impl SensorModel for Nearest {
+    type Query = NearestQuery;
+    type Reading = Option<(RobotId, f64)>;
+    type Reply = Option<(RobotId, f64)>;
+
+    fn check(q: &NearestQuery) -> Result<(), String> {
+        if q.range >= 0.0 {
+            Ok(())
+        } else {
+            Err(format!("range is {}; expected >= 0", q.range))
+        }
+    }
+
+    fn sense(q: &NearestQuery, world: &dyn WorldView) -> Self::Reading {
+        world
+            .within(q.range)
+            .into_iter()
+            .map(|(id, _, d)| (id, d))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    fn reply(q: &NearestQuery, r: Self::Reading, rng: &mut ChaCha8Rng) -> Self::Reply {
+        r.map(|(id, d)| (id, d + q.noise * (2.0 * rng.gen::<f64>() - 1.0)))
+    }
+}
+
+/// Push: interrupts while at least `at_least` other robots are within `range`, re-sensing
+/// every `interval` seconds; the reply is their number.
+#[derive(Debug)]
+struct Crowd;
+
+#[derive(Debug, Serialize, Deserialize)]
+struct CrowdQuery {
+    range: f64,
+    at_least: usize,
+    interval: f64,
+}
+
+impl SensorModel for Crowd {
+    type Query = CrowdQuery;
+    type Reading = usize;
+    type Reply = usize;
+
+    fn sense(q: &CrowdQuery, world: &dyn WorldView) -> usize {
+        world.within(q.range).len()
+    }
+
+    fn reply(_: &CrowdQuery, n: usize, _: &mut ChaCha8Rng) -> usize {
+        n
+    }
+
+    fn push_interval(q: &CrowdQuery) -> Option<f64> {
+        Some(q.interval)
+    }
+
+    fn fires(q: &CrowdQuery, n: &usize) -> bool {
+        *n >= q.at_least
+    }
+}
+
+/// Activates Crowd, waits for its first interrupt, deactivates it, reads Nearest and logs
+/// what it got.
+#[derive(Debug)]
+struct Lookout;
+
+impl Algorithm for Lookout {
+    fn name(&self) -> &str {
+        "Lookout"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        Box::pin(async move {
+            let crowd = CrowdQuery {
+                range: 9.5,
+                at_least: 1,
+                interval: 0.5,
+            };
+            robot.activate::<Crowd>("Crowd", &crowd).await.unwrap();
+            let n = loop {
+                if let Notice::Interrupt {
+                    sensor: SensorKind::User("Crowd"),
+                    value,
+                } = robot.next_notice().await
+                {
+                    break value.decode::<usize>().unwrap();
+                }
+            };
+            robot.deactivate("Crowd").await;
+            let exact = robot
+                .read::<Nearest>(
+                    "Nearest",
+                    &NearestQuery {
+                        range: 50.0,
+                        noise: 0.0,
+                    },
+                )
+                .await
+                .unwrap();
+            let noisy = robot
+                .read::<Nearest>(
+                    "Nearest",
+                    &NearestQuery {
+                        range: 50.0,
+                        noise: 0.5,
+                    },
+                )
+                .await
+                .unwrap();
+            let refused = robot
+                .read::<Nearest>(
+                    "Nearest",
+                    &NearestQuery {
+                        range: -1.0,
+                        noise: 0.0,
+                    },
+                )
+                .await;
+            robot.log(format!("{n} {exact:?} {noisy:?} {refused:?}"));
+        })
+    }
+}
+
+fn run_lookout(seed: u64) -> Vec<nekosim::world::observation::Record> {
+    let mut sensors = Sensors::new();
+    sensors
+        .sensor::<Nearest>("Nearest")
+        .sensor::<Crowd>("Crowd");
+    nekosim::run(SimConfig {
+        sensors,
+        seed,
+        until: 60.0,
+        world: infinite(),
+        robots: vec![
+            (spec(0.0, 0.0, 0.0, 1.0), Box::new(Lookout)),
+            // Drives towards robot 0 at 2 units/s: centre distance 30 - 2t until t = 12.5.
+            (
+                spec(30.0, 0.0, 180.0, 1.0),
+                script(vec![ScriptStep::Forward {
+                    distance: 25.0,
+                    move_speed: 2.0,
+                }]),
+            ),
+        ],
+        arbiters: 1,
+        record: true,
+        observers: Default::default(),
+        comms: Default::default(),
+    })
+    .expect("run")
+    .records
+}
+
+#[test]
+fn user_pull_and_push_sensors_read_the_exact_world_at_their_trigger() {
+    let records = run_lookout(1);
+    // Crowd re-senses at 0, 0.5, 1, ...: the first sense with the other robot within 9.5 is
+    // at t = 10.5 (distance 30 - 21 = 9; at t = 10 it was 10).
+    let interrupts: Vec<(f64, &SensorValue)> = records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::SensorReply {
+                sensor: SensorKind::User("Crowd"),
+                value,
+                interrupt: true,
+                ..
+            } => Some((r.t, value)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(interrupts, vec![(10.5, &SensorValue::User("1".into()))]);
+    // Deactivated: no re-sense fires later although the robot stays within range.
+    let log: Vec<(f64, &str)> = records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::Log { text, .. } => Some((r.t, text.as_str())),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(log.len(), 1);
+    assert_eq!(log[0].0, 10.5);
+    let (n, rest) = log[0].1.split_once(' ').unwrap();
+    assert_eq!(n, "1");
+    assert!(
+        rest.starts_with("Some((1, 9.0)) Some((1, "),
+        "the exact reading is the closed-form distance: {rest}"
+    );
+    assert!(
+        rest.ends_with(r#"Err("range is -1; expected >= 0")"#),
+        "{rest}"
+    );
+    // The noisy reply is within its bound, and drawn from the sensor's seeded stream.
+    let noisy = |records: &[nekosim::world::observation::Record]| -> f64 {
+        let text = records
+            .iter()
+            .find_map(|r| match &r.obs {
+                Observation::Log { text, .. } => Some(text.clone()),
+                _ => None,
+            })
+            .unwrap();
+        let at = text.find("Some((1, 9.0)) Some((1, ").unwrap() + "Some((1, 9.0)) Some((1, ".len();
+        text[at..text[at..].find(')').unwrap() + at]
+            .parse()
+            .unwrap()
+    };
+    let (a, b, c) = (
+        noisy(&records),
+        noisy(&run_lookout(1)),
+        noisy(&run_lookout(2)),
+    );
+    assert!((a - 9.0).abs() <= 0.5 && a != 9.0, "{a}");
+    assert_eq!(a, b, "same seed, same noise");
+    assert_ne!(a, c, "another seed, other noise");
+}
