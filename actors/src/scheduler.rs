@@ -89,8 +89,10 @@ pub struct RunOutput {
     pub failure: Option<RunFailure>,
 }
 
-/// Why a run stopped before its end time.
+/// Why a run stopped before its end time; both are fatal for the run (it ends where it got
+/// to, its outputs hold the run up to there).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum RunFailure {
     /// More than `limit` events happened at the instant `t` without virtual time advancing.
     #[error("livelock at t={t}: more than {limit} events without virtual time advancing (an algorithm keeps retrying at the same instant, e.g. a motion blocked by a collision, without waiting)")]
