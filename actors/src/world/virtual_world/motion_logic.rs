@@ -1,0 +1,288 @@
+//! The motion manager's logic (seed 4.2.3, fig. 4.4): motion requests become motion events,
+//! each step is applied when it happens, and collisions (seed 3.3, 4.4) end motions where the
+//! robots touch.
+
+use super::*;
+
+impl VirtualWorld {
+    /// Ends `id`'s motion in progress, if any, with `outcome`; the robot rests where it is.
+    /// Returns whether there was a motion to end.
+    fn end_motion(&mut self, id: RobotId, outcome: MotionOutcome, out: &mut Outbox) -> bool {
+        let now = out.now();
+        let state = self.state_at(id, now);
+        let r = &mut self.robots[id as usize];
+        if r.motion.take().is_none() {
+            return false;
+        }
+        r.rest = state.pose();
+        let state = Kinematics::at_rest(r.rest);
+        out.record(Observation::MotionFinish {
+            robot: id,
+            state,
+            outcome: outcome.clone(),
+        });
+        out.notify(
+            id,
+            Notice::MotionEnded {
+                ticket: r.ticket,
+                outcome,
+                state,
+            },
+        );
+        true
+    }
+
+    /// Handles an event addressed to the motion manager (seed fig. 4.4 and 4.6-4.8).
+    pub fn handle_motion(&mut self, payload: Payload, out: &mut Outbox) {
+        match payload {
+            Payload::MotionRequest { robot, .. } if self.robots[robot as usize].crashed => {}
+            Payload::MotionRequest {
+                robot,
+                ticket,
+                motion,
+            } => self.motion_request(robot, ticket, &motion, out),
+            Payload::Crash { robot } => {
+                let now = out.now();
+                self.end_motion(robot, MotionOutcome::Crashed, out);
+                self.invalidate(robot, out);
+                self.robots[robot as usize].crashed = true;
+                self.robots[robot as usize].push = None;
+                self.robots[robot as usize].contact = false;
+                out.record(Observation::Crash {
+                    robot,
+                    state: self.state_at(robot, now),
+                });
+                self.predict_all(robot, out);
+            }
+            Payload::MotionStep { robot, step } => self.motion_step(robot, step, out),
+            Payload::Collision { a, b, contact } => self.collision(a, b, contact, out),
+            Payload::CellCrossing { robot, offset } => {
+                let r = &mut self.robots[robot as usize];
+                let old = r.cell;
+                r.cell = [old[0] + offset[0], old[1] + offset[1]];
+                let new = r.cell;
+                self.grid.remove(robot, old);
+                self.grid.insert(robot, new);
+                self.predict_neighbours(robot, out);
+                self.predict_crossing(robot, out);
+            }
+            other => tracing::warn!(?other, "motion manager ignores an event it does not serve"),
+        }
+    }
+
+    fn motion_request(&mut self, robot: RobotId, ticket: u64, motion: &Motion, out: &mut Outbox) {
+        let now = out.now();
+        self.end_motion(robot, MotionOutcome::Replaced, out);
+        self.invalidate(robot, out);
+        let from = self.robots[robot as usize].rest;
+        out.record(Observation::MotionRequest {
+            robot,
+            ticket,
+            motion: motion.name().to_string(),
+            params: motion.params(),
+        });
+        match motion.begin(now, from) {
+            Err(e) => {
+                let outcome = MotionOutcome::Rejected(e.to_string());
+                out.record(Observation::MotionFinish {
+                    robot,
+                    state: Kinematics::at_rest(from),
+                    outcome: outcome.clone(),
+                });
+                out.notify(
+                    robot,
+                    Notice::MotionEnded {
+                        ticket,
+                        outcome,
+                        state: Kinematics::at_rest(from),
+                    },
+                );
+            }
+            Ok(pattern) => {
+                let steps = pattern.events();
+                let r = &mut self.robots[robot as usize];
+                r.motion = Some(pattern);
+                r.ticket = ticket;
+                for (k, s) in steps.iter().enumerate() {
+                    let class = if k == 0 {
+                        EventClass::Eventual
+                    } else {
+                        EventClass::Conditional
+                    };
+                    let e = out.schedule(
+                        s.t,
+                        Target::MotionManager,
+                        class,
+                        [Some(robot), None],
+                        Payload::MotionStep { robot, step: k },
+                    );
+                    r.own.push(e);
+                }
+                r.steps = steps;
+                r.next_step = 0;
+            }
+        }
+        self.predict_all(robot, out);
+    }
+
+    fn motion_step(&mut self, robot: RobotId, step: usize, out: &mut Outbox) {
+        let now = out.now();
+        let r = &mut self.robots[robot as usize];
+        if r.motion.is_none() {
+            return;
+        }
+        r.next_step = step + 1;
+        let kind = r.steps[step].kind.clone();
+        let r = &self.robots[robot as usize];
+        let m = r.motion.as_deref().expect("checked above");
+        out.record(Observation::MotionStep {
+            robot,
+            step: kind,
+            state: m.state_at(now),
+            progress: m.progress_at(now),
+        });
+        if step + 1 == r.steps.len() {
+            let state = m.state_at(m.end_time());
+            let ticket = r.ticket;
+            let r = &mut self.robots[robot as usize];
+            r.rest = state.pose();
+            r.motion = None;
+            out.record(Observation::MotionFinish {
+                robot,
+                state,
+                outcome: MotionOutcome::Arrived,
+            });
+            out.notify(
+                robot,
+                Notice::MotionEnded {
+                    ticket,
+                    outcome: MotionOutcome::Arrived,
+                    state,
+                },
+            );
+        }
+    }
+
+    /// Robots and walls that `x` touches at `now` while moving towards them, other than those
+    /// in `known`: contacts at the same instant as a collision that stops `x`.
+    fn simultaneous_contacts(
+        &self,
+        x: RobotId,
+        now: f64,
+        known: &[(RobotId, Obstacle)],
+    ) -> Vec<(Obstacle, Option<Point>)> {
+        const TOUCH: f64 = 1e-9;
+        let kx = self.state_at(x, now);
+        let rx = self.radius(x);
+        let mut out = Vec::new();
+        let listed = |o: Obstacle| {
+            known.iter().any(|&(p, q)| {
+                (p == x && q == o) || (q == Obstacle::Robot(x) && Obstacle::Robot(p) == o)
+            })
+        };
+        if !self.cfg.ghost_mode {
+            for o in self.grid.neighbours(self.robots[x as usize].cell) {
+                if o == x || listed(Obstacle::Robot(o)) {
+                    continue;
+                }
+                let ko = self.state_at(o, now);
+                let d = kx.pos - ko.pos;
+                if d.norm() - rx - self.radius(o) <= TOUCH && d.dot(&(kx.vel - ko.vel)) < 0.0 {
+                    out.push((Obstacle::Robot(o), None));
+                }
+            }
+        }
+        if let WorldSize::Bounded { min, max } = self.cfg.size {
+            if !listed(Obstacle::Boundary) {
+                let hit = crate::world::geometry::first_wall_contact(
+                    kx.pos,
+                    kx.vel,
+                    rx,
+                    min,
+                    max,
+                    TOUCH / kx.vel.norm().max(1e-300),
+                );
+                if let Some((_, c)) = hit {
+                    out.push((Obstacle::Boundary, Some(c)));
+                }
+            }
+        }
+        out
+    }
+
+    /// A collision stops both robots (seed 3.3); every other contact either of them makes at
+    /// the same instant is a collision too.
+    fn collision(&mut self, a: RobotId, b: Obstacle, contact: Option<Point>, out: &mut Outbox) {
+        let now = out.now();
+        let mut contacts = vec![(a, b, contact)];
+        let mut stopped = Vec::new();
+        let mut k = 0;
+        while k < contacts.len() {
+            let (x, y, c) = contacts[k];
+            k += 1;
+            let kx = self.state_at(x, now);
+            let other_pos = match y {
+                Obstacle::Robot(y) => self.state_at(y, now).pos,
+                Obstacle::Boundary => c.unwrap_or(kx.pos),
+            };
+            out.record(Observation::Collision {
+                robot: x,
+                other: y,
+                pos: kx.pos,
+                angle: kx.angle,
+                other_pos,
+            });
+            let mut sides = vec![(x, y)];
+            if let Obstacle::Robot(y) = y {
+                sides.push((y, Obstacle::Robot(x)));
+            }
+            for (r, with) in sides {
+                let known: Vec<(RobotId, Obstacle)> =
+                    contacts.iter().map(|&(p, q, _)| (p, q)).collect();
+                for (o, c) in self.simultaneous_contacts(r, now, &known) {
+                    contacts.push((r, o, c));
+                }
+                if self.end_motion(r, MotionOutcome::Collided { with }, out) {
+                    stopped.push(r);
+                }
+            }
+        }
+        for &x in &stopped {
+            self.invalidate(x, out);
+        }
+        // A pair's collision has been consumed even if neither path changed: drop the pair's
+        // remaining predictions and make them again from the new state.
+        let pairs: Vec<(RobotId, RobotId)> = contacts
+            .iter()
+            .filter_map(|&(x, y, _)| match y {
+                Obstacle::Robot(y) => Some((x, y)),
+                Obstacle::Boundary => None,
+            })
+            .collect();
+        for &(x, y) in &pairs {
+            if let Some(ids) = self.robots[x as usize].pairs.remove(&y) {
+                ids.into_iter().for_each(|e| out.cancel(e));
+                self.robots[y as usize].pairs.remove(&x);
+            }
+        }
+        for &x in &stopped {
+            self.predict_all(x, out);
+        }
+        for &(x, y) in &pairs {
+            if !self.robots[x as usize].pairs.contains_key(&y) {
+                self.predict_pair(x, y, out);
+            }
+        }
+        for &(x, y, _) in &contacts {
+            let mut sides = vec![(x, y)];
+            if let Obstacle::Robot(y) = y {
+                sides.push((y, Obstacle::Robot(x)));
+            }
+            for (r, with) in sides {
+                if self.robots[r as usize].contact {
+                    self.push_interrupt(r, SensorKind::Contact, SensorValue::Contact(with), out);
+                }
+            }
+        }
+    }
+}
