@@ -4,9 +4,7 @@
 //! built-in algorithms are registered exactly as a user's are ([`Algorithms::with_builtins`],
 //! [`Algorithms::algorithm`]).
 
-use std::collections::BTreeMap;
-use std::fmt;
-
+use nekosim_protocols::registry::Named;
 use nekosim_protocols::{ConfigError, Service, Spec, SpecError};
 use serde::de::DeserializeOwned;
 
@@ -45,31 +43,15 @@ fn build_entry<A: Configured>(
     spec: &Spec,
     setting: &Setting,
 ) -> Result<Box<dyn Algorithm>, SpecError> {
-    let config: A::Config = spec.read_config()?;
-    A::configure(config, setting)
+    spec.configure(|c| A::configure(c, setting))
         .map(|a| Box::new(a) as Box<dyn Algorithm>)
-        .map_err(|ConfigError { field, message }| {
-            spec.locate(SpecError {
-                at: None,
-                field,
-                message,
-            })
-        })
 }
 
 /// Algorithms by the name scenarios use for them. A new (or default) registry holds the
 /// built-in algorithms; [`Algorithms::empty`] holds none.
-#[derive(Clone)]
+#[derive(Clone, Debug)]
 pub struct Algorithms {
-    entries: BTreeMap<String, BuildFn>,
-}
-
-impl fmt::Debug for Algorithms {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Algorithms")
-            .field("names", &self.entries.keys().collect::<Vec<_>>())
-            .finish()
-    }
+    entries: Named<BuildFn>,
 }
 
 impl Default for Algorithms {
@@ -83,7 +65,7 @@ impl Algorithms {
     /// A registry without any algorithm.
     pub fn empty() -> Self {
         Self {
-            entries: BTreeMap::new(),
+            entries: Named::new("algorithm"),
         }
     }
 
@@ -104,30 +86,19 @@ impl Algorithms {
 
     /// Registers the algorithm `A` under `name` (replacing an earlier registration).
     pub fn algorithm<A: Configured>(&mut self, name: &str) -> &mut Self {
-        self.entries.insert(name.to_string(), build_entry::<A>);
+        self.entries.insert(name, build_entry::<A>);
         self
     }
 
     /// Registered names, sorted.
     pub fn names(&self) -> impl Iterator<Item = &str> {
-        self.entries.keys().map(String::as_str)
+        self.entries.names()
     }
 
     /// Reads `spec`'s configuration and builds the algorithm for a robot of `setting`.
     /// Positions in the error are in `spec`'s text.
     pub fn build(&self, spec: &Spec, setting: &Setting) -> Result<Box<dyn Algorithm>, SpecError> {
-        let name = spec.name();
-        let Some(build) = self.entries.get(name) else {
-            return Err(SpecError {
-                at: Some((1, 1)),
-                field: None,
-                message: format!(
-                    "unknown algorithm {name:?}; expected one of {}",
-                    self.names().collect::<Vec<_>>().join(", ")
-                ),
-            });
-        };
-        build(spec, setting)
+        (self.entries.get(spec)?)(spec, setting)
     }
 }
 

@@ -50,6 +50,21 @@ impl Spec {
         read(self.config_text()).map_err(|e| self.locate(e))
     }
 
+    /// Reads the configuration into `C` and builds with `build`; either error is placed in the
+    /// spec and prefixed with its name (a refusal by `build` points at its field).
+    pub fn configure<C: DeserializeOwned, T>(
+        &self,
+        build: impl FnOnce(C) -> Result<T, ConfigError>,
+    ) -> Result<T, SpecError> {
+        build(self.read_config()?).map_err(|ConfigError { field, message }| {
+            self.locate(SpecError {
+                at: None,
+                field,
+                message,
+            })
+        })
+    }
+
     /// An error about the configuration text, placed in the spec's text and prefixed with the
     /// name.
     pub fn locate(&self, mut e: SpecError) -> SpecError {
@@ -121,8 +136,8 @@ pub struct SpecError {
     pub message: String,
 }
 
-/// Reads a configuration text (none for a bare name) into a shape and a fresh instance.
-type BuildFn = fn(Option<&str>) -> Result<(Shape, Layer), SpecError>;
+/// Reads a spec's configuration into a shape and a fresh instance.
+type BuildFn = fn(&Spec) -> Result<(Shape, Layer), SpecError>;
 
 /// A protocol type's registered functions.
 #[derive(Clone, Copy)]
@@ -133,29 +148,88 @@ struct Entry {
     codec: Codec,
 }
 
-/// Protocols by the name scenarios use for them. A new (or default) registry holds the
-/// built-in protocols; [`Protocols::empty`] holds none.
+/// Entries by the name a scenario uses for them: the shape every registry shares (protocols,
+/// and the actors crate's algorithms, network models and sensors).
 #[derive(Clone)]
-pub struct Protocols {
-    entries: BTreeMap<String, Entry>,
+pub struct Named<E> {
+    /// What the entries are, for errors ("protocol", "network", ...).
+    what: &'static str,
+    entries: BTreeMap<String, E>,
 }
 
-impl fmt::Debug for Protocols {
+impl<E> fmt::Debug for Named<E> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Protocols")
+        f.debug_struct("Named")
+            .field("what", &self.what)
             .field("names", &self.entries.keys().collect::<Vec<_>>())
             .finish()
     }
 }
 
+impl<E> Named<E> {
+    /// No entry yet; `what` names the kind of entry in errors.
+    pub fn new(what: &'static str) -> Self {
+        Self {
+            what,
+            entries: BTreeMap::new(),
+        }
+    }
+
+    /// Registers `entry` under `name` (replacing an earlier one).
+    pub fn insert(&mut self, name: &str, entry: E) {
+        self.entries.insert(name.to_string(), entry);
+    }
+
+    /// Registered names, sorted.
+    pub fn names(&self) -> impl Iterator<Item = &str> {
+        self.entries.keys().map(String::as_str)
+    }
+
+    /// The entry `name`, or an error listing the registered names.
+    pub fn by_name(&self, name: &str) -> Result<&E, String> {
+        self.entries.get(name).ok_or_else(|| {
+            let (what, names) = (self.what, self.names().collect::<Vec<_>>());
+            if names.is_empty() {
+                format!("unknown {what} {name:?}; no {what} is registered")
+            } else {
+                format!(
+                    "unknown {what} {name:?}; expected one of {}",
+                    names.join(", ")
+                )
+            }
+        })
+    }
+
+    /// The entry `spec` names; the error points at the name.
+    pub fn get(&self, spec: &Spec) -> Result<&E, SpecError> {
+        self.by_name(spec.name()).map_err(|message| SpecError {
+            at: Some((1, 1)),
+            field: None,
+            message,
+        })
+    }
+
+    /// Name and entry pairs, sorted by name.
+    pub fn iter(&self) -> impl Iterator<Item = (&str, &E)> {
+        self.entries.iter().map(|(n, e)| (n.as_str(), e))
+    }
+}
+
+/// Protocols by the name scenarios use for them. A new (or default) registry holds the
+/// built-in protocols; [`Protocols::empty`] holds none.
+#[derive(Clone, Debug)]
+pub struct Protocols {
+    entries: Named<Entry>,
+}
+
 impl PartialEq for Protocols {
     /// Registries are equal when they register the same names to the same protocols.
     fn eq(&self, other: &Self) -> bool {
-        self.entries.len() == other.entries.len()
+        self.entries.iter().count() == other.entries.iter().count()
             && self
                 .entries
                 .iter()
-                .zip(&other.entries)
+                .zip(other.entries.iter())
                 .all(|((a, x), (b, y))| a == b && x.type_id == y.type_id)
     }
 }
@@ -173,15 +247,11 @@ fn read<C: DeserializeOwned>(text: Option<&str>) -> Result<C, SpecError> {
     })
 }
 
-fn build_entry<P: Microprotocol>(text: Option<&str>) -> Result<(Shape, Layer), SpecError> {
-    let config: P::Config = read(text)?;
-    let shape = P::shape(&config);
-    let p = P::new(config).map_err(|ConfigError { field, message }| SpecError {
-        at: None,
-        field,
-        message,
-    })?;
-    Ok((shape, Layer::new(p)))
+fn build_entry<P: Microprotocol>(spec: &Spec) -> Result<(Shape, Layer), SpecError> {
+    spec.configure(|config: P::Config| {
+        let shape = P::shape(&config);
+        P::new(config).map(|p| (shape, Layer::new(p)))
+    })
 }
 
 /// Where an error starts: ron reports an unknown field or a bad value just after it; point at
@@ -267,7 +337,7 @@ pub fn codec_of<P: Microprotocol>(name: &'static str) -> Codec {
 }
 
 /// `name` as a `&'static str`: each distinct name is allocated once per process.
-fn intern(name: &str) -> &'static str {
+pub fn intern(name: &str) -> &'static str {
     static NAMES: std::sync::Mutex<std::collections::BTreeSet<&'static str>> =
         std::sync::Mutex::new(std::collections::BTreeSet::new());
     let mut names = NAMES.lock().unwrap_or_else(|e| e.into_inner());
@@ -295,7 +365,7 @@ impl Protocols {
     /// A registry without any protocol.
     pub fn empty() -> Self {
         Self {
-            entries: BTreeMap::new(),
+            entries: Named::new("protocol"),
         }
     }
 
@@ -309,7 +379,7 @@ impl Protocols {
     /// Registers the protocol `P` under `name` (replacing an earlier registration).
     pub fn protocol<P: Microprotocol>(&mut self, name: &str) -> &mut Self {
         self.entries.insert(
-            name.to_string(),
+            name,
             Entry {
                 type_id: std::any::TypeId::of::<P>(),
                 build: build_entry::<P>,
@@ -321,33 +391,17 @@ impl Protocols {
 
     /// Registered names, sorted.
     pub fn names(&self) -> impl Iterator<Item = &str> {
-        self.entries.keys().map(String::as_str)
+        self.entries.names()
     }
 
     fn entry(&self, spec: &ProtocolSpec) -> Result<&Entry, SpecError> {
-        let name = spec.name();
-        self.entries.get(name).ok_or_else(|| {
-            let names: Vec<&str> = self.names().collect();
-            SpecError {
-                at: Some((1, 1)),
-                field: None,
-                message: if names.is_empty() {
-                    format!("unknown protocol {name:?}; no protocol is registered")
-                } else {
-                    format!(
-                        "unknown protocol {name:?}; expected one of {}",
-                        names.join(", ")
-                    )
-                },
-            }
-        })
+        self.entries.get(spec)
     }
 
     /// Reads `spec`'s configuration and builds what the protocol provides and needs and a
     /// fresh instance. Positions in the error are in `spec`'s text.
     pub fn build(&self, spec: &ProtocolSpec) -> Result<(Shape, Layer), SpecError> {
-        let entry = self.entry(spec)?;
-        (entry.build)(spec.config_text()).map_err(|e| spec.locate(e))
+        (self.entry(spec)?.build)(spec)
     }
 
     /// The codec of `spec`'s protocol.

@@ -141,6 +141,14 @@ fn decode_app(p: &Payload) -> Option<AppWire> {
 /// If `msg`'s serde form cannot be written as RON (a map with non-string keys can; a type
 /// whose `Serialize` fails cannot).
 pub fn app_payload<M: Serialize>(msg: &M) -> Payload {
+    let text = compact_ron(msg)
+        .unwrap_or_else(|e| panic!("an application message cannot be written: {e}"));
+    Payload::encode(APP, &AppWireRef::Typed(&text))
+}
+
+/// A value as one line of RON with type names (`GOTO(60.2, 31.7)`): how the algorithms' own
+/// messages and registered sensors' values travel and show.
+pub fn compact_ron<T: Serialize>(value: &T) -> Result<String, ron::Error> {
     let cfg = ron::ser::PrettyConfig::new()
         .struct_names(true)
         .compact_arrays(true)
@@ -148,9 +156,7 @@ pub fn app_payload<M: Serialize>(msg: &M) -> Payload {
         .compact_maps(true)
         .new_line("")
         .indentor("");
-    let text = ron::ser::to_string_pretty(msg, cfg)
-        .unwrap_or_else(|e| panic!("an application message cannot be written: {e}"));
-    Payload::encode(APP, &AppWireRef::Typed(&text))
+    ron::ser::to_string_pretty(value, cfg)
 }
 
 /// The algorithm's own message a payload carries, if it is the application's and reads as an

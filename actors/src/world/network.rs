@@ -19,6 +19,7 @@
 use std::collections::BTreeMap;
 use std::fmt;
 
+use nekosim_protocols::registry::Named;
 use nekosim_protocols::{ConfigError, Spec, SpecError};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -62,36 +63,20 @@ fn build_entry<N: ConfiguredNetwork>(
     spec: &Spec,
     networks: &Networks,
 ) -> Result<Box<dyn NetworkModel>, SpecError> {
-    let config: N::Config = spec.read_config()?;
-    N::configure(config, networks)
+    spec.configure(|c| N::configure(c, networks))
         .map(|n| Box::new(n) as Box<dyn NetworkModel>)
-        .map_err(|ConfigError { field, message }| {
-            spec.locate(SpecError {
-                at: None,
-                field,
-                message,
-            })
-        })
 }
 
 /// Network models by the name scenarios use for them. A new (or default) registry holds the
 /// built-in models; [`Networks::empty`] holds none.
-#[derive(Clone)]
+#[derive(Clone, Debug)]
 pub struct Networks {
-    entries: BTreeMap<String, BuildFn>,
-}
-
-impl fmt::Debug for Networks {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Networks")
-            .field("names", &self.entries.keys().collect::<Vec<_>>())
-            .finish()
-    }
+    entries: Named<BuildFn>,
 }
 
 impl PartialEq for Networks {
     fn eq(&self, other: &Self) -> bool {
-        self.entries.keys().eq(other.entries.keys())
+        self.entries.names().eq(other.entries.names())
     }
 }
 
@@ -106,7 +91,7 @@ impl Networks {
     /// A registry without any model.
     pub fn empty() -> Self {
         Self {
-            entries: BTreeMap::new(),
+            entries: Named::new("network"),
         }
     }
 
@@ -123,30 +108,19 @@ impl Networks {
 
     /// Registers the model `N` under `name` (replacing an earlier registration).
     pub fn network<N: ConfiguredNetwork>(&mut self, name: &str) -> &mut Self {
-        self.entries.insert(name.to_string(), build_entry::<N>);
+        self.entries.insert(name, build_entry::<N>);
         self
     }
 
     /// Registered names, sorted.
     pub fn names(&self) -> impl Iterator<Item = &str> {
-        self.entries.keys().map(String::as_str)
+        self.entries.names()
     }
 
     /// Reads `spec`'s configuration and builds the model. Positions in the error are in
     /// `spec`'s text; an error inside a nested model names the field holding it.
     pub fn build(&self, spec: &Spec) -> Result<Box<dyn NetworkModel>, SpecError> {
-        let name = spec.name();
-        let Some(build) = self.entries.get(name) else {
-            return Err(SpecError {
-                at: Some((1, 1)),
-                field: None,
-                message: format!(
-                    "unknown network {name:?}; expected one of {}",
-                    self.names().collect::<Vec<_>>().join(", ")
-                ),
-            });
-        };
-        build(spec, self)
+        (self.entries.get(spec)?)(spec, self)
     }
 
     /// Builds the model `spec` held in field `field` of another model's configuration: an

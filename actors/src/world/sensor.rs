@@ -7,8 +7,10 @@
 //! activated: Proximity (another robot's border comes within range; the re-sense interval is a
 //! quiet period after each interrupt) and Contact (the robot touches a robot or the boundary).
 
-use std::collections::BTreeMap;
 use std::fmt;
+
+use nekosim_protocols::registry::{intern, Named};
+use nekosim_protocols::wire::compact_ron;
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -235,19 +237,6 @@ pub fn cal_reply(query: &SensorQuery, snapshot: Snapshot, rng: &mut impl Rng) ->
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Interval(pub f64);
 
-/// `name` as a `&'static str`: each distinct name is allocated once per process.
-fn intern(name: &str) -> &'static str {
-    static NAMES: std::sync::Mutex<std::collections::BTreeSet<&'static str>> =
-        std::sync::Mutex::new(std::collections::BTreeSet::new());
-    let mut names = NAMES.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(n) = names.get(name) {
-        return n;
-    }
-    let n: &'static str = Box::leak(name.to_string().into_boxed_str());
-    names.insert(n);
-    n
-}
-
 /// What a sensor sees of the world at its trigger instant (the seed's `doSensor` runs on the
 /// sensor manager, which alone reaches the world): exact positions from the motion formulas.
 pub trait WorldView {
@@ -312,14 +301,7 @@ struct SensorEntry {
 }
 
 fn ron_text<T: Serialize>(v: &T) -> Result<String, String> {
-    let cfg = ron::ser::PrettyConfig::new()
-        .struct_names(true)
-        .compact_arrays(true)
-        .compact_structs(true)
-        .compact_maps(true)
-        .new_line("")
-        .indentor("");
-    ron::ser::to_string_pretty(v, cfg).map_err(|e| e.to_string())
+    compact_ron(v).map_err(|e| e.to_string())
 }
 
 fn read<T: DeserializeOwned>(text: &str) -> Result<T, String> {
@@ -361,29 +343,29 @@ fn fires_entry<S: SensorModel>(query: &str, reading: &str) -> bool {
 
 /// Sensors registered by name, beside the built-in GPS, view, proximity, push proximity and
 /// contact sensors: `robot.read::<S>("Name", &query)` reads one.
-#[derive(Clone, Default)]
+#[derive(Clone, Debug)]
 pub struct Sensors {
-    entries: BTreeMap<String, SensorEntry>,
+    entries: Named<SensorEntry>,
 }
 
-impl fmt::Debug for Sensors {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Sensors")
-            .field("names", &self.entries.keys().collect::<Vec<_>>())
-            .finish()
+impl Default for Sensors {
+    fn default() -> Self {
+        Self::new()
     }
 }
 
 impl Sensors {
     /// No registered sensor.
     pub fn new() -> Self {
-        Self::default()
+        Self {
+            entries: Named::new("sensor"),
+        }
     }
 
     /// Registers the sensor `S` under `name`.
     pub fn sensor<S: SensorModel>(&mut self, name: &str) -> &mut Self {
         self.entries.insert(
-            name.to_string(),
+            name,
             SensorEntry {
                 sense: sense_entry::<S>,
                 reply: reply_entry::<S>,
@@ -395,12 +377,7 @@ impl Sensors {
     }
 
     fn entry(&self, name: &str) -> Result<&SensorEntry, String> {
-        self.entries.get(name).ok_or_else(|| {
-            format!(
-                "unknown sensor {name:?}; registered: {}",
-                self.entries.keys().cloned().collect::<Vec<_>>().join(", ")
-            )
-        })
+        self.entries.by_name(name)
     }
 
     /// The exact reading of `name` for `query` (RON), as RON.
