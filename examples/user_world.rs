@@ -82,7 +82,7 @@ impl Microprotocol for Flood {
 #[derive(Debug)]
 struct Nearest;
 
-#[derive(Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 struct NearestQuery {
     range: f64,
 }

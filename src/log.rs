@@ -2,83 +2,16 @@
 //! decimals. See docs/log.md for every line type.
 
 use std::collections::HashMap;
-use std::fmt::Write;
 
-use nekosim_actors::world::geometry::Point;
 use nekosim_actors::world::motion::StepKind;
 use nekosim_actors::world::observation::{Observation, Record};
-use nekosim_actors::world::sensor::{SensorQuery, SensorValue};
-use nekosim_actors::world::{MotionOutcome, Obstacle, RobotId};
+use nekosim_actors::world::sensor::SensorQuery;
+use nekosim_actors::world::{MotionOutcome, RobotId};
 use nekosim_protocols::payload::type_word;
 use nekosim_protocols::Payload;
 
-/// Three decimals, as `format!("{v:.3}")` writes them, with no negative zero.
-///
-/// The log writes hundreds of thousands of these, so finite values up to 2^60 are rounded in
-/// integers: `v = m 2^e` exactly, and `1000 m 2^e` is rounded to the nearest integer, ties to
-/// even, which is what the standard formatter does with the exact value. The unit test checks
-/// it against `format!` on random values and on every kind of tie.
-pub fn num(v: f64) -> String {
-    match thousandths(v) {
-        Some(0) => "0.000".into(),
-        Some(k) => {
-            let sign = if v < 0.0 { "-" } else { "" };
-            format!("{sign}{}.{:03}", k / 1000, k % 1000)
-        }
-        None => {
-            let s = format!("{v:.3}");
-            if s == "-0.000" {
-                "0.000".into()
-            } else {
-                s
-            }
-        }
-    }
-}
-
-/// `|v|` in thousandths, rounded to nearest with ties to even; `None` when not finite or
-/// beyond 2^60.
-fn thousandths(v: f64) -> Option<u128> {
-    if !v.is_finite() {
-        return None;
-    }
-    let bits = v.to_bits();
-    let exp = ((bits >> 52) & 0x7ff) as i32;
-    let frac = u128::from(bits & ((1 << 52) - 1));
-    let (m, e) = if exp == 0 {
-        (frac, -1074)
-    } else {
-        (frac | 1 << 52, exp - 1075)
-    };
-    let n = m * 1000;
-    if e >= 0 {
-        return (e <= 7).then(|| n << e);
-    }
-    let s = e.unsigned_abs();
-    if s >= 127 {
-        // Below 2^-63: rounds to zero.
-        return Some(0);
-    }
-    let q = n >> s;
-    let r = n - (q << s);
-    let half = 1u128 << (s - 1);
-    Some(if r > half || (r == half && q & 1 == 1) {
-        q + 1
-    } else {
-        q
-    })
-}
-
-fn pt(p: Point) -> String {
-    format!("[{},{}]", num(p.x), num(p.y))
-}
-
-fn obstacle(o: Obstacle) -> String {
-    match o {
-        Obstacle::Robot(id) => format!("p{id}"),
-        Obstacle::Boundary => "boundary".into(),
-    }
-}
+pub use nekosim_actors::world::observation::num;
+use nekosim_actors::world::observation::{obstacle_text as obstacle, point_text as pt};
 
 /// The seed's name of a motion pattern in conditions (`MoveTo`, `Turn`, `Forward`).
 fn pattern(name: &str) -> String {
@@ -90,56 +23,16 @@ fn pattern(name: &str) -> String {
     }
 }
 
-/// The query, as the seed's log says it.
+/// The query, as its sensor writes it in the seed's log.
 pub fn query_text(q: &SensorQuery) -> String {
-    match q {
-        SensorQuery::SelfPosition { error } => {
-            format!("SelfPositioning with errorFactor {error:?}")
-        }
-        SensorQuery::AllPositions { error } => format!("Positioning with errorFactor {error:?}"),
-        SensorQuery::View { range } => format!("View with range {}", num(*range)),
-        SensorQuery::Proximity { range } => format!("Proximity with range {}", num(*range)),
-        SensorQuery::ActivateProximity { range, interval } => {
-            format!(
-                "ActivateProximity with range {} interval {}",
-                num(*range),
-                num(*interval)
-            )
-        }
-        SensorQuery::DeactivateProximity => "DeactivateProximity".into(),
-        SensorQuery::ActivateContact => "ActivateContact".into(),
-        SensorQuery::DeactivateContact => "DeactivateContact".into(),
-        SensorQuery::User { sensor, query } => format!("{sensor} {query}"),
-        SensorQuery::UserOff { sensor } => format!("Deactivate {sensor}"),
+    match &q.query {
+        Some(d) => d
+            .own_text()
+            .unwrap_or_else(|| format!("{} {}", q.sensor, d.ron())),
+        None => format!("Deactivate {}", q.sensor),
     }
 }
 
-fn value_text(v: &SensorValue) -> String {
-    match v {
-        SensorValue::Position(p) => pt(*p),
-        SensorValue::Positions(ps) => {
-            let mut s = String::new();
-            for (i, (id, p)) in ps.iter().enumerate() {
-                let _ = write!(s, "{}p{id}{}", if i > 0 { " " } else { "" }, pt(*p));
-            }
-            s
-        }
-        SensorValue::Distances(ds) => {
-            let mut s = String::new();
-            for (i, (id, d)) in ds.iter().enumerate() {
-                let _ = write!(s, "{}p{id}:{}", if i > 0 { " " } else { "" }, num(*d));
-            }
-            s
-        }
-        SensorValue::Contact(o) => format!("contact {}", obstacle(*o)),
-        SensorValue::Done => "done".into(),
-        SensorValue::Rejected(m) => format!("rejected: {m}"),
-        SensorValue::User(text) => text.clone(),
-    }
-}
-
-/// A message as the log and trace show it: its protocol's readable form, payloads inside
-/// rendered as the messages they encode (run under [`nekosim_protocols::payload::with_codecs`]
 /// of the run's stack).
 pub fn wire_text(p: &Payload) -> String {
     p.to_string()
@@ -247,7 +140,7 @@ impl NekoLog {
                 num(*angle),
                 obstacle(*other)
             ),
-            Observation::SensorRequest { robot, query } => {
+            Observation::SensorRequest { robot, query, .. } => {
                 format!("{t} p{robot} SensorRequest: ROBOT# {robot} | {}", query_text(query))
             }
             Observation::Log { robot, text } => format!("{t} p{robot} Info: {text}"),
@@ -279,7 +172,7 @@ impl NekoLog {
                 "{t} p{robot} {}: ROBOT# {robot} | {} | {}",
                 if *interrupt { "SensorInterrupt" } else { "SensorReply" },
                 sensor.name(),
-                value_text(value)
+                value.text()
             ),
         }
     }

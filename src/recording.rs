@@ -35,7 +35,7 @@ use std::collections::{BTreeMap, VecDeque};
 use nekosim_actors::world::geometry::{normalize_deg, Point, Vector};
 use nekosim_actors::world::motion::Kinematics;
 use nekosim_actors::world::observation::{Observation, Record};
-use nekosim_actors::world::sensor::{SensorKind, SensorQuery};
+use nekosim_actors::world::sensor::{Plan, Reach, SensorKind, Trigger};
 use nekosim_actors::world::virtual_world::WorldSize;
 use nekosim_actors::world::{Obstacle, RobotId};
 use nekosim_protocols::payload::type_word;
@@ -231,11 +231,19 @@ struct RobotState {
     crashed: bool,
     /// Where the robot was at its latest kinematic record.
     corner: Point,
-    /// Reach of an active push proximity sensor, centre to border [units].
-    reach: Option<f64>,
+    /// Reach of each armed push sensor that shows one (push proximity), centre to border
+    /// [units].
+    sensors: BTreeMap<SensorKind, f64>,
+    /// The pull sensor whose range is drawn until its reply.
+    querying: Option<SensorKind>,
 }
 
 impl RobotState {
+    /// The widest range among the armed push sensors, drawn around the robot.
+    fn widest_sensor(&self) -> Option<f64> {
+        self.sensors.values().copied().reduce(f64::max)
+    }
+
     fn moving(&self) -> bool {
         !self.crashed && (self.state.vel != Vector::zeros() || self.state.omega != 0.0)
     }
@@ -483,7 +491,8 @@ impl<C: Canvas> Recorder<C> {
                     radius: *radius,
                     crashed: false,
                     corner: *pos,
-                    reach: None,
+                    sensors: BTreeMap::new(),
+                    querying: None,
                 };
                 if self.robots.len() <= i {
                     // Robots not spawned yet are drawn invisible (radius 0) where this one is.
@@ -520,7 +529,7 @@ impl<C: Canvas> Recorder<C> {
                 self.kinematic(at, *robot, *state);
                 if let Some(r) = self.robots.get_mut(*robot as usize) {
                     r.crashed = true;
-                    if r.reach.take().is_some() {
+                    if !std::mem::take(&mut r.sensors).is_empty() {
                         self.canvas.sensor(*robot, None);
                     }
                 }
@@ -551,40 +560,61 @@ impl<C: Canvas> Recorder<C> {
                     .collision(at, self.metrics.collisions, point, &label);
                 self.metrics.collisions += 1;
             }
-            Observation::SensorRequest { robot, query } => {
+            Observation::SensorRequest { robot, query, plan } => {
                 let Some(r) = self.robots.get_mut(*robot as usize) else {
                     return self.log_line(at, rec);
                 };
                 let (pos, _) = r.at(rec.t);
-                match query {
-                    SensorQuery::ActivateProximity { range, .. } => {
-                        r.reach = Some(r.radius + range);
-                        self.canvas.sensor(*robot, Some(r.radius + range));
+                // A range of centre distances is drawn as is; a range of free distances
+                // (border to border) is wider by the robot's radius.
+                let circle = |reach: Reach| match reach {
+                    Reach::Centres(d) => d,
+                    Reach::Borders(d) => r.radius + d,
+                };
+                match plan {
+                    // A push sensor triggered by entries shows its range while armed.
+                    Some(Plan {
+                        trigger: Trigger::Entry { .. },
+                        reach: Some(reach),
+                    }) => {
+                        let reach = circle(*reach);
+                        r.sensors.insert(query.sensor, reach);
+                        self.canvas.sensor(*robot, r.widest_sensor());
                         self.commit(at, *robot);
                     }
-                    SensorQuery::DeactivateProximity => {
-                        r.reach = None;
-                        self.canvas.sensor(*robot, None);
-                        self.commit(at, *robot);
-                    }
-                    // View compares centre distances; proximity free distances (border to
-                    // border), so its circle is wider by the robot's radius.
-                    SensorQuery::View { range } => {
-                        self.canvas.query(at, *robot, Some((pos, *range)));
-                    }
-                    SensorQuery::Proximity { range } => {
-                        let reach = r.radius + range;
+                    // A pull reading shows its range until the reply.
+                    Some(Plan {
+                        trigger: Trigger::Pull,
+                        reach: Some(reach),
+                    }) => {
+                        let reach = circle(*reach);
                         self.canvas.query(at, *robot, Some((pos, reach)));
+                        r.querying = Some(query.sensor);
+                    }
+                    Some(Plan {
+                        trigger: Trigger::Off,
+                        ..
+                    })
+                    | None
+                        if r.sensors.remove(&query.sensor).is_some() =>
+                    {
+                        self.canvas.sensor(*robot, r.widest_sensor());
+                        self.commit(at, *robot);
                     }
                     _ => {}
                 }
             }
             Observation::SensorReply {
                 robot,
-                sensor: SensorKind::View | SensorKind::Proximity,
+                sensor,
                 interrupt: false,
                 ..
-            } => {
+            } if self
+                .robots
+                .get(*robot as usize)
+                .is_some_and(|r| r.querying == Some(*sensor)) =>
+            {
+                self.robots[*robot as usize].querying = None;
                 self.canvas.query(at, *robot, None);
             }
             Observation::Send {

@@ -3,7 +3,6 @@
 
 use nekosim_actors::world::geometry::{Point, Vector};
 use nekosim_actors::world::observation::{Observation, Record};
-use nekosim_actors::world::sensor::{SensorQuery, SensorValue};
 use nekosim_actors::world::{MotionOutcome, Obstacle};
 use serde_json::{json, Map, Value};
 
@@ -27,43 +26,6 @@ fn obstacle(o: Obstacle) -> Value {
 
 /// Names of the fields every object has; custom motion parameters never take them.
 const RESERVED: [&str; 6] = ["t", "seq", "kind", "robot", "ticket", "motion"];
-
-/// A sensor query as a JSON object: `{"query": name, ...parameters}`.
-pub fn query_json(q: &SensorQuery) -> Value {
-    match q {
-        SensorQuery::SelfPosition { error } => json!({"query": "self_position", "error": error}),
-        SensorQuery::AllPositions { error } => json!({"query": "all_positions", "error": error}),
-        SensorQuery::View { range } => json!({"query": "view", "range": range}),
-        SensorQuery::Proximity { range } => json!({"query": "proximity", "range": range}),
-        SensorQuery::ActivateProximity { range, interval } => {
-            json!({"query": "activate_proximity", "range": range, "interval": interval})
-        }
-        SensorQuery::DeactivateProximity => json!({"query": "deactivate_proximity"}),
-        SensorQuery::ActivateContact => json!({"query": "activate_contact"}),
-        SensorQuery::DeactivateContact => json!({"query": "deactivate_contact"}),
-        SensorQuery::User { query, .. } => json!({"query": "read", "config": query}),
-        SensorQuery::UserOff { .. } => json!({"query": "deactivate"}),
-    }
-}
-
-/// A sensor reply as JSON.
-pub fn value_json(v: &SensorValue) -> Value {
-    match v {
-        SensorValue::Position(p) => pt(*p),
-        SensorValue::Positions(ps) => ps
-            .iter()
-            .map(|(id, p)| json!({"robot": id, "pos": pt(*p)}))
-            .collect(),
-        SensorValue::Distances(ds) => ds
-            .iter()
-            .map(|(id, d)| json!({"robot": id, "distance": d}))
-            .collect(),
-        SensorValue::Contact(o) => json!({"contact": obstacle(*o)}),
-        SensorValue::Done => json!("done"),
-        SensorValue::Rejected(m) => json!({"rejected": m}),
-        SensorValue::User(text) => json!(text),
-    }
-}
 
 /// The trace object of an observation.
 pub fn to_json(r: &Record) -> Value {
@@ -142,11 +104,11 @@ pub fn to_json(r: &Record) -> Value {
             put("angle", json!(angle));
             put("other_pos", pt(*other_pos));
         }
-        Observation::SensorRequest { robot, query } => {
+        Observation::SensorRequest { robot, query, .. } => {
             put("kind", json!("sensor_request"));
             put("robot", json!(robot));
             put("sensor", json!(query.kind().name()));
-            put("value", query_json(query));
+            put("value", json!(query));
         }
         Observation::Log { robot, text } => {
             put("kind", json!("log"));
@@ -260,7 +222,7 @@ pub fn to_json(r: &Record) -> Value {
             put("kind", json!("sensor_reply"));
             put("robot", json!(robot));
             put("sensor", json!(sensor.name()));
-            put("value", value_json(value));
+            put("value", json!(value));
             put("interrupt", json!(interrupt));
         }
     }

@@ -31,9 +31,11 @@ use crate::world::event::{EventClass, FutureEvent, Notice, Outbox, Payload, Targ
 use crate::world::geometry::Point;
 use crate::world::motion::{Kinematics, Motion};
 use crate::world::observation::Observation;
-use crate::world::sensor::{
-    query_text as sensor_query_text, SensorModel, SensorQuery, SensorValue,
+use crate::world::sensor::builtins::{
+    self as sensors, ContactQuery, Fix, GpsQuery, ProximityQuery, PushProximityQuery, Seen,
+    ViewQuery,
 };
+use crate::world::sensor::{SensorModel, SensorQuery, SensorValue};
 use crate::world::virtual_world::WorldSize;
 use crate::world::{MotionOutcome, RobotId};
 use nekosim_protocols::{
@@ -285,50 +287,36 @@ impl Robot {
         v
     }
 
-    /// Reads the registered pull sensor `name` ([`crate::world::sensor::SensorModel`]): its
-    /// reply to `query`, or why the request was refused.
+    /// Reads the pull sensor registered as `name` ([`crate::world::sensor::SensorModel`]):
+    /// its reply to `query`, or why the request was refused.
     pub async fn read<S: SensorModel>(
         &self,
         name: &str,
         query: &S::Query,
     ) -> Result<S::Reply, String> {
-        let query = sensor_query_text(query)?;
-        self.sense(SensorQuery::User {
-            sensor: name.to_string(),
-            query,
-        })
-        .await
-        .decode()
+        self.sense(SensorQuery::new::<S>(name, query.clone()))
+            .await
+            .decode()
     }
 
-    /// Activates the registered push sensor `name` with `query`: from now on it re-senses
-    /// every interval and interrupts the robot ([`Robot::next_notice`]) when its condition
-    /// holds; the interrupt's value decodes as its reply ([`SensorValue::decode`]).
+    /// Activates the push sensor registered as `name` with `query`: from now on it senses
+    /// as its trigger says and interrupts the robot ([`Robot::next_notice`]) when its
+    /// condition holds; the interrupt's value decodes as its reply ([`SensorValue::decode`]).
     pub async fn activate<S: SensorModel>(
         &self,
         name: &str,
         query: &S::Query,
     ) -> Result<(), String> {
-        let query = sensor_query_text(query)?;
-        match self
-            .sense(SensorQuery::User {
-                sensor: name.to_string(),
-                query,
-            })
-            .await
-        {
+        match self.sense(SensorQuery::new::<S>(name, query.clone())).await {
             SensorValue::Done => Ok(()),
             SensorValue::Rejected(e) => Err(e),
             other => Err(format!("{name} is a pull sensor (it answered {other:?})")),
         }
     }
 
-    /// Deactivates the registered push sensor `name`.
+    /// Deactivates the push sensor registered as `name`.
     pub async fn deactivate(&self, name: &str) {
-        self.sense(SensorQuery::UserOff {
-            sensor: name.to_string(),
-        })
-        .await;
+        self.sense(SensorQuery::off(name)).await;
     }
 
     /// Waits for the next push-sensor interrupt, end of a motion started with
@@ -435,40 +423,61 @@ impl Robot {
 
     /// Positions of the other robots whose centres are within `range` (view sensor).
     pub async fn robots_in_view(&self, range: f64) -> Vec<(RobotId, Point)> {
-        match self.sense(SensorQuery::View { range }).await {
-            SensorValue::Positions(v) => v,
-            _ => Vec::new(),
-        }
+        let seen = self
+            .read::<sensors::View>("view", &ViewQuery { range })
+            .await;
+        seen.unwrap_or_default()
+            .into_iter()
+            .map(|s| (s.robot, s.pos))
+            .collect()
     }
 
     /// Free distances (border to border) to the other robots within `range` (proximity
     /// sensor, pull).
     pub async fn proximity(&self, range: f64) -> Vec<(RobotId, f64)> {
-        match self.sense(SensorQuery::Proximity { range }).await {
-            SensorValue::Distances(v) => v,
-            _ => Vec::new(),
-        }
+        let gaps = self
+            .read::<sensors::Proximity>("proximity", &ProximityQuery { range })
+            .await;
+        gaps.unwrap_or_default()
+            .into_iter()
+            .map(|g| (g.robot, g.distance))
+            .collect()
     }
 
-    /// Activates the push proximity sensor; interrupts arrive through [`Robot::next_notice`].
+    /// Activates the push proximity sensor; interrupts (their value a list of [`Gap`]s)
+    /// arrive through [`Robot::next_notice`].
     pub async fn activate_proximity(&self, range: f64, interval: f64) -> SensorValue {
-        self.sense(SensorQuery::ActivateProximity { range, interval })
-            .await
+        let q = PushProximityQuery::ActivateProximity { range, interval };
+        self.sense(SensorQuery::new::<sensors::PushProximity>(
+            "push_proximity",
+            q,
+        ))
+        .await
     }
 
     /// Deactivates the push proximity sensor.
     pub async fn deactivate_proximity(&self) {
-        self.sense(SensorQuery::DeactivateProximity).await;
+        let q = PushProximityQuery::DeactivateProximity;
+        self.sense(SensorQuery::new::<sensors::PushProximity>(
+            "push_proximity",
+            q,
+        ))
+        .await;
     }
 
-    /// Activates the contact sensor; interrupts arrive through [`Robot::next_notice`].
+    /// Activates the contact sensor; interrupts (their value a
+    /// [`crate::world::sensor::builtins::Touch`]) arrive through [`Robot::next_notice`].
     pub async fn activate_contact(&self) {
-        self.sense(SensorQuery::ActivateContact).await;
+        let q = ContactQuery::ActivateContact;
+        self.sense(SensorQuery::new::<sensors::Contact>("contact", q))
+            .await;
     }
 
     /// Deactivates the contact sensor.
     pub async fn deactivate_contact(&self) {
-        self.sense(SensorQuery::DeactivateContact).await;
+        let q = ContactQuery::DeactivateContact;
+        self.sense(SensorQuery::new::<sensors::Contact>("contact", q))
+            .await;
     }
 }
 
@@ -521,16 +530,18 @@ pub struct Gps<'a>(&'a Robot);
 impl Gps<'_> {
     /// The robot's own position, each coordinate perturbed by `error` × N(0, 1).
     pub async fn self_position(&self, error: f64) -> Point {
-        match self.0.sense(SensorQuery::SelfPosition { error }).await {
-            SensorValue::Position(p) => p,
+        let q = GpsQuery::SelfPosition { error };
+        match self.0.read::<sensors::Gps>("gps", &q).await {
+            Ok(Fix::Position(p)) => p,
             _ => Point::new(f64::NAN, f64::NAN),
         }
     }
 
     /// All robots' positions by id, perturbed as above.
     pub async fn all_positions(&self, error: f64) -> Vec<(RobotId, Point)> {
-        match self.0.sense(SensorQuery::AllPositions { error }).await {
-            SensorValue::Positions(v) => v,
+        let q = GpsQuery::AllPositions { error };
+        match self.0.read::<sensors::Gps>("gps", &q).await {
+            Ok(Fix::Positions(v)) => v.into_iter().map(|s: Seen| (s.robot, s.pos)).collect(),
             _ => Vec::new(),
         }
     }

@@ -11,7 +11,7 @@ use crate::world::event::{Notice, Outbox, Payload};
 use crate::world::observation::Observation;
 use std::sync::Arc;
 
-use crate::world::sensor::{cal_reply, SensorKind, SensorQuery, SensorValue, Sensors};
+use crate::world::sensor::{SensorKind, SensorValue, Sensors};
 use crate::world::RobotId;
 
 /// A robot's sensor.
@@ -20,7 +20,7 @@ pub struct Sensor {
     robot: RobotId,
     kind: SensorKind,
     rng: ChaCha8Rng,
-    /// Registered sensors, for the replies of user sensors.
+    /// The sensors, for the reply of this one.
     sensors: Arc<Sensors>,
 }
 
@@ -56,18 +56,16 @@ impl Handler<Deliver> for Sensor {
         } = msg.event.payload
         {
             debug_assert_eq!(robot, self.robot);
-            let value = match (&query, snapshot) {
-                // A registered sensor's reply, from its reading (pull or push).
-                (SensorQuery::User { sensor, query }, SensorValue::User(reading)) => {
-                    match self.sensors.reply(sensor, query, &reading, &mut self.rng) {
-                        Ok(reply) => SensorValue::User(reply),
+            // The sensor's reply from its reading (pull or push); (de)activations and
+            // rejections pass through.
+            let value = match (&query.query, snapshot) {
+                (Some(q), SensorValue::Reply(reading)) => {
+                    match self.sensors.reply(self.kind, q, reading, &mut self.rng) {
+                        Ok(reply) => SensorValue::Reply(reply),
                         Err(e) => SensorValue::Rejected(e),
                     }
                 }
-                (_, snapshot) => match ticket {
-                    Some(_) => cal_reply(&query, snapshot, &mut self.rng),
-                    None => snapshot,
-                },
+                (_, other) => other,
             };
             out.record(Observation::SensorReply {
                 robot,

@@ -10,7 +10,8 @@ use nekosim::algorithm::ScriptStep;
 use nekosim::world::event::Notice;
 use nekosim::world::geometry::Point;
 use nekosim::world::observation::Observation;
-use nekosim::world::sensor::{SensorKind, SensorValue};
+use nekosim::world::sensor::builtins::{Fix, Gap, Seen as Sighting, Touch};
+use nekosim::world::sensor::SensorKind;
 use nekosim::world::Obstacle;
 use nekosim::{Algorithm, AlgorithmFuture, Robot};
 
@@ -82,12 +83,17 @@ fn pull_sensors_report_the_exact_state_at_reply_time() {
     assert!(replies.iter().all(|(t, _, _)| *t == at));
     let p1 = robot1_at(at);
     let close = |a: Point, b: Point| (a - b).norm() < 1e-9;
+    let pairs = |ps: &[Sighting]| ps.iter().map(|s| (s.robot, s.pos)).collect::<Vec<_>>();
     match &replies[0] {
-        (_, SensorKind::Gps, SensorValue::Position(p)) => assert!(close(*p, Point::new(0.0, 0.0))),
+        (_, SensorKind::GPS, v) => match v.get::<Fix>() {
+            Some(Fix::Position(p)) => assert!(close(*p, Point::new(0.0, 0.0))),
+            other => panic!("{other:?}"),
+        },
         other => panic!("{other:?}"),
     }
-    match &replies[1].2 {
-        SensorValue::Positions(ps) => {
+    match replies[1].2.get::<Fix>() {
+        Some(Fix::Positions(ps)) => {
+            let ps = pairs(ps);
             assert_eq!(ps.iter().map(|p| p.0).collect::<Vec<_>>(), vec![0, 1, 2]);
             assert!(close(ps[1].1, p1), "{:?} vs {p1:?}", ps[1].1);
             assert!(close(ps[2].1, Point::new(5.0, 5.0)));
@@ -95,22 +101,29 @@ fn pull_sensors_report_the_exact_state_at_reply_time() {
         other => panic!("{other:?}"),
     }
     match &replies[2] {
-        (_, SensorKind::View, SensorValue::Positions(ps)) => {
+        (_, SensorKind::VIEW, v) if v.get::<Vec<Sighting>>().is_some() => {
+            let ps = pairs(v.get::<Vec<Sighting>>().unwrap());
             assert_eq!(ps.len(), 2);
             assert!(close(ps[0].1, p1) && close(ps[1].1, Point::new(5.0, 5.0)));
         }
         other => panic!("{other:?}"),
     }
     match &replies[3] {
-        (_, SensorKind::Proximity, SensorValue::Distances(ds)) => {
+        (_, SensorKind::PROXIMITY, v) if v.get::<Vec<Gap>>().is_some() => {
+            let ds: Vec<_> = v
+                .get::<Vec<Gap>>()
+                .unwrap()
+                .iter()
+                .map(|g| (g.robot, g.distance))
+                .collect();
             assert_eq!(ds.len(), 1);
             assert_eq!(ds[0].0, 2);
             assert!((ds[0].1 - (50f64.sqrt() - 2.0)).abs() < 1e-9);
         }
         other => panic!("{other:?}"),
     }
-    match &replies[4].2 {
-        SensorValue::Position(p) => {
+    match replies[4].2.get::<Fix>() {
+        Some(Fix::Position(p)) => {
             let e = (p - Point::new(0.0, 0.0)).norm();
             assert!(e > 0.0 && e < 8.0, "noisy GPS off by {e}");
         }
@@ -170,24 +183,30 @@ fn push_proximity_fires_at_entry_and_contact_at_collision() {
     assert!((t - 21.5).abs() < 1e-9, "entry at {t}");
     match n {
         Notice::Interrupt {
-            sensor: SensorKind::PushProximity,
-            value: SensorValue::Distances(d),
-        } => {
+            sensor: SensorKind::PUSH_PROXIMITY,
+            value,
+        } if value.get::<Vec<Gap>>().is_some() => {
+            let d = value.get::<Vec<Gap>>().unwrap();
             assert_eq!(d.len(), 1);
-            assert!((d[0].1 - 5.0).abs() < 1e-9);
+            assert!((d[0].distance - 5.0).abs() < 1e-9);
         }
         other => panic!("{other:?}"),
     }
     // Contact when the centres are 2 apart: 48 units.
     let (t, n) = &seen[1];
     assert!((t - 24.0).abs() < 1e-9, "contact at {t}");
-    assert_eq!(
-        *n,
+    match n {
         Notice::Interrupt {
-            sensor: SensorKind::Contact,
-            value: SensorValue::Contact(Obstacle::Robot(1))
-        }
-    );
+            sensor: SensorKind::CONTACT,
+            value,
+        } => assert_eq!(
+            value.decode::<Option<Touch>>(),
+            Ok(Some(Touch {
+                contact: Obstacle::Robot(1)
+            }))
+        ),
+        other => panic!("{other:?}"),
+    }
     assert_eq!(
         out.records
             .iter()

@@ -6,7 +6,7 @@ use crate::common::*;
 use nekosim::algorithm::ScriptStep;
 use nekosim::world::event::Notice;
 use nekosim::world::observation::Observation;
-use nekosim::world::sensor::{SensorKind, SensorModel, SensorValue, Sensors, WorldView};
+use nekosim::world::sensor::{SensorKind, SensorModel, SensorValue, Sensors, Trigger, WorldView};
 use nekosim::world::RobotId;
 use nekosim::{Algorithm, AlgorithmFuture, Robot, SimConfig};
 use rand::Rng;
@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug)]
 struct Nearest;
 
-#[derive(Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 struct NearestQuery {
     range: f64,
     noise: f64,
@@ -55,7 +55,7 @@ impl SensorModel for Nearest {
 #[derive(Debug)]
 struct Crowd;
 
-#[derive(Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 struct CrowdQuery {
     range: f64,
     at_least: usize,
@@ -75,8 +75,8 @@ impl SensorModel for Crowd {
         n
     }
 
-    fn push_interval(q: &CrowdQuery) -> Option<f64> {
-        Some(q.interval)
+    fn trigger(q: &CrowdQuery) -> Trigger {
+        Trigger::Every(q.interval)
     }
 
     fn fires(q: &CrowdQuery, n: &usize) -> bool {
@@ -102,11 +102,8 @@ impl Algorithm for Lookout {
             };
             robot.activate::<Crowd>("Crowd", &crowd).await.unwrap();
             let n = loop {
-                if let Notice::Interrupt {
-                    sensor: SensorKind::User("Crowd"),
-                    value,
-                } = robot.next_notice().await
-                {
+                if let Notice::Interrupt { sensor, value } = robot.next_notice().await {
+                    assert_eq!(sensor, SensorKind::named("Crowd"));
                     break value.decode::<usize>().unwrap();
                 }
             };
@@ -184,15 +181,17 @@ fn user_pull_and_push_sensors_read_the_exact_world_at_their_trigger() {
         .iter()
         .filter_map(|r| match &r.obs {
             Observation::SensorReply {
-                sensor: SensorKind::User("Crowd"),
+                sensor,
                 value,
                 interrupt: true,
                 ..
-            } => Some((r.t, value)),
+            } if *sensor == SensorKind::named("Crowd") => Some((r.t, value)),
             _ => None,
         })
         .collect();
-    assert_eq!(interrupts, vec![(10.5, &SensorValue::User("1".into()))]);
+    assert_eq!(interrupts.len(), 1, "{interrupts:?}");
+    assert_eq!(interrupts[0].0, 10.5);
+    assert_eq!(interrupts[0].1.decode::<usize>(), Ok(1));
     // Deactivated: no re-sense fires later although the robot stays within range.
     let log: Vec<(f64, &str)> = records
         .iter()

@@ -193,7 +193,8 @@ pub fn predict_contact(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64
 }
 
 /// First instant `>= now` at which the centres of `a` and `b`, within `reach` of each other at
-/// `now`, get farther apart than `reach`; `None` if they never do.
+/// `now` (or on that circle and approaching: entering it), get farther apart than `reach`;
+/// `None` if they never do.
 fn predict_exit(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64> {
     first_in_windows(a, b, now, |s, e, x, y| match (x.shape, y.shape) {
         (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
@@ -204,7 +205,10 @@ fn predict_exit(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64> {
                 2.0 * d0.dot(&dv),
                 d0.norm_squared() - reach * reach,
             );
-            if qc > 0.0 {
+            // Outside at a window's start: out already, unless this is the entry instant
+            // itself (`now`, on the circle and approaching, outside by a rounding error):
+            // then the exit is the later root.
+            if qc > 0.0 && (qb >= 0.0 || s > now) {
                 Some(s)
             } else if qa == 0.0 {
                 None
@@ -229,6 +233,14 @@ pub fn predict_entry(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64> 
     if (a.pos_at(now) - b.pos_at(now)).norm() > reach {
         return predict_contact(a, b, reach, now);
     }
+    predict_reentry(a, b, reach, now)
+}
+
+/// `b` enters the disc of radius `reach` around `a` at `now`: the next entry, after they have
+/// left each other's reach. At the entry instant the computed distance may exceed `reach` by a
+/// rounding error, so this never asks [`predict_contact`] from `now` (which would find `now`
+/// again).
+pub fn predict_reentry(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64> {
     let exit = predict_exit(a, b, reach, now)?;
     predict_contact(a, b, reach, exit)
 }
@@ -418,6 +430,25 @@ mod tests {
                     }
                 }
                 None => prop_assert!(got.is_none(), "engine reported a contact at {got:?} the oracle says never happens"),
+            }
+        }
+
+        /// The next entry after an entry is strictly later, also when rounding puts the pair a
+        /// hair outside reach at the entry instant (a push proximity sensor would otherwise fire
+        /// again and again at the same instant); it is a real entry, at distance `reach`.
+        #[test]
+        fn reentry_is_strictly_after_the_entry(pa in pose(), pb in pose(), ma in seg(), mb in seg(),
+                                               reach in 2.0f64..20.0, t0 in 0.0f64..5.0) {
+            prop_assume!((pa.pos - pb.pos).norm() > reach + 1e-6);
+            let a_m = ma.map(|m| m.begin(t0, pa).unwrap());
+            let b_m = mb.map(|m| m.begin(t0 + 0.5, pb).unwrap());
+            let a = Track { motion: a_m.as_deref(), rest: pa.pos };
+            let b = Track { motion: b_m.as_deref(), rest: pb.pos };
+            let Some(entry) = predict_contact(&a, &b, reach, t0) else { return Ok(()) };
+            if let Some(next) = predict_reentry(&a, &b, reach, entry) {
+                prop_assert!(next > entry, "entry {entry} and again at {next}");
+                let d = (a.pos_at(next) - b.pos_at(next)).norm();
+                prop_assert!((d - reach).abs() < 1e-6, "distance at re-entry {d}");
             }
         }
 

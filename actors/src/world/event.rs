@@ -16,7 +16,7 @@ use std::collections::{BTreeSet, BinaryHeap, HashMap};
 
 use super::motion::Motion;
 use super::observation::Observation;
-use super::sensor::{SensorKind, SensorQuery, SensorValue, Snapshot};
+use super::sensor::{SensorKind, SensorQuery, SensorValue};
 use super::{MotionOutcome, Obstacle, RobotId};
 use crate::world::motion::Kinematics;
 use nekosim_protocols::{Indication, Input, LayerIx};
@@ -113,15 +113,23 @@ pub enum Payload {
     },
     /// The robot leaves its cell of the spatial index towards `offset`.
     CellCrossing { robot: RobotId, offset: [i64; 2] },
-    /// `other` enters the range of `robot`'s push proximity sensor.
-    ProximityEntry { robot: RobotId, other: RobotId },
-    /// `robot`'s push proximity sensor ends its quiet interval.
-    ProximityRearm { robot: RobotId, generation: u64 },
-    /// A registered push sensor re-senses (every `interval` from its activation).
-    UserSense {
+    /// `other` enters the range of `robot`'s entry-triggered push `sensor` (push proximity).
+    ProximityEntry {
+        robot: RobotId,
+        other: RobotId,
+        sensor: SensorKind,
+    },
+    /// `robot`'s entry-triggered push `sensor` ends its quiet interval.
+    ProximityRearm {
         robot: RobotId,
         sensor: SensorKind,
-        interval: super::sensor::Interval,
+        generation: u64,
+    },
+    /// A periodic push sensor re-senses (every `interval` [s] from its activation).
+    PeriodicSense {
+        robot: RobotId,
+        sensor: SensorKind,
+        interval: f64,
         generation: u64,
     },
     /// Robot -> sensor manager: a sensor request.
@@ -141,7 +149,8 @@ pub enum Payload {
         robot: RobotId,
         ticket: Option<u64>,
         query: SensorQuery,
-        snapshot: Snapshot,
+        /// The reading (as [`SensorValue::Reply`]), or the outcome of a (de)activation.
+        snapshot: SensorValue,
     },
     /// To a robot's algorithm.
     Notice(Notice),
@@ -187,7 +196,7 @@ impl Payload {
             Payload::CellCrossing { .. } => "cell_crossing",
             Payload::ProximityEntry { .. } => "proximity_entry",
             Payload::ProximityRearm { .. } => "proximity_rearm",
-            Payload::UserSense { .. } => "user_sense",
+            Payload::PeriodicSense { .. } => "periodic_sense",
             Payload::SensorRequest { .. } => "sensor_request",
             Payload::SensorTrigger { .. } => "sensor_trigger",
             Payload::SensorCompute { .. } => "sensor_compute",

@@ -18,12 +18,39 @@ pub mod virtual_world;
 /// A robot's identity number (seed 3.1).
 pub type RobotId = u32;
 
-/// What a robot touched.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+/// What a robot touched (serialized as the robot's id or `"boundary"`, as the trace shows it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Obstacle {
     Robot(RobotId),
     /// The boundary of a bounded world.
     Boundary,
+}
+
+impl Serialize for Obstacle {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Obstacle::Robot(id) => s.serialize_u32(*id),
+            Obstacle::Boundary => s.serialize_str("boundary"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Obstacle {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Form {
+            Robot(RobotId),
+            Named(String),
+        }
+        match Form::deserialize(d)? {
+            Form::Robot(id) => Ok(Obstacle::Robot(id)),
+            Form::Named(n) if n == "boundary" => Ok(Obstacle::Boundary),
+            Form::Named(n) => Err(serde::de::Error::custom(format!(
+                "expected a robot id or \"boundary\", got {n:?}"
+            ))),
+        }
+    }
 }
 
 /// How a motion ended.

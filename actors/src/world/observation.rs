@@ -1,16 +1,14 @@
 //! What a run shows: the observations the engine records, one per traced event, in
 //! processing order. The scenario layer turns them into the Neko log and the JSONL trace.
 
-use serde::{Deserialize, Serialize};
-
 use super::geometry::Point;
 use super::motion::{Kinematics, Progress, StepKind};
-use super::sensor::{SensorKind, SensorQuery, SensorValue};
+use super::sensor::{Plan, SensorKind, SensorQuery, SensorValue};
 use super::{MotionOutcome, Obstacle, RobotId};
 use nekosim_protocols::{MsgId, Payload};
 
 /// One observation with its instant and sequence number.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Record {
     /// Simulated time [s].
     pub t: f64,
@@ -20,7 +18,7 @@ pub struct Record {
 }
 
 /// A traced event.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Observation {
     /// A robot exists (one per robot at t = 0).
     Spawn {
@@ -60,15 +58,15 @@ pub enum Observation {
         angle: f64,
         other_pos: Point,
     },
+    /// A sensor request; `plan` is what the query asks of its sensor (`None` for a
+    /// deactivation or a query its sensor refuses).
     SensorRequest {
         robot: RobotId,
         query: SensorQuery,
+        plan: Option<Plan>,
     },
     /// The algorithm wrote a line to the log (seed 5.3's `logger.info(..)`).
-    Log {
-        robot: RobotId,
-        text: String,
-    },
+    Log { robot: RobotId, text: String },
     /// The algorithm asked a protocol layer to `op` ("broadcast", "propose", "send") `msg`.
     Request {
         robot: RobotId,
@@ -121,10 +119,7 @@ pub enum Observation {
         process: RobotId,
     },
     /// The robot crashed: it stops moving, sensing and communicating.
-    Crash {
-        robot: RobotId,
-        state: Kinematics,
-    },
+    Crash { robot: RobotId, state: Kinematics },
     /// A sensor's reply; `interrupt` when a push sensor fired on its own.
     SensorReply {
         robot: RobotId,
@@ -132,4 +127,74 @@ pub enum Observation {
         value: SensorValue,
         interrupt: bool,
     },
+}
+
+/// Three decimals, as `format!("{v:.3}")` writes them, with no negative zero.
+///
+/// The log writes hundreds of thousands of these, so finite values up to 2^60 are rounded in
+/// integers: `v = m 2^e` exactly, and `1000 m 2^e` is rounded to the nearest integer, ties to
+/// even, which is what the standard formatter does with the exact value. The unit test checks
+/// it against `format!` on random values and on every kind of tie.
+pub fn num(v: f64) -> String {
+    match thousandths(v) {
+        Some(0) => "0.000".into(),
+        Some(k) => {
+            let sign = if v < 0.0 { "-" } else { "" };
+            format!("{sign}{}.{:03}", k / 1000, k % 1000)
+        }
+        None => {
+            let s = format!("{v:.3}");
+            if s == "-0.000" {
+                "0.000".into()
+            } else {
+                s
+            }
+        }
+    }
+}
+
+/// `|v|` in thousandths, rounded to nearest with ties to even; `None` when not finite or
+/// beyond 2^60.
+fn thousandths(v: f64) -> Option<u128> {
+    if !v.is_finite() {
+        return None;
+    }
+    let bits = v.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i32;
+    let frac = u128::from(bits & ((1 << 52) - 1));
+    let (m, e) = if exp == 0 {
+        (frac, -1074)
+    } else {
+        (frac | 1 << 52, exp - 1075)
+    };
+    let n = m * 1000;
+    if e >= 0 {
+        return (e <= 7).then(|| n << e);
+    }
+    let s = e.unsigned_abs();
+    if s >= 127 {
+        // Below 2^-63: rounds to zero.
+        return Some(0);
+    }
+    let q = n >> s;
+    let r = n - (q << s);
+    let half = 1u128 << (s - 1);
+    Some(if r > half || (r == half && q & 1 == 1) {
+        q + 1
+    } else {
+        q
+    })
+}
+
+/// A point as the Neko log writes it: `[x,y]`, three decimals.
+pub fn point_text(p: Point) -> String {
+    format!("[{},{}]", num(p.x), num(p.y))
+}
+
+/// What a robot touched, as the Neko log writes it: `pK` or `boundary`.
+pub fn obstacle_text(o: Obstacle) -> String {
+    match o {
+        Obstacle::Robot(id) => format!("p{id}"),
+        Obstacle::Boundary => "boundary".into(),
+    }
 }

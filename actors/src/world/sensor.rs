@@ -1,241 +1,346 @@
-//! Sensors (seed 3.1.2, 4.2.2 and 6.3.2): what can be asked, what comes back, and how a
+//! Sensors (seed 3.1.2, 4.2.2 and 6.3.2): what a robot can ask, what comes back, and how a
 //! sensor turns the world's exact data into a reply.
 //!
-//! Pull sensors answer one request: GPS (own position or all positions, with an error factor),
-//! View (positions of robots whose centres are within a range) and Proximity (free distances,
-//! border to border, to robots within a range). Push sensors interrupt the robot after being
-//! activated: Proximity (another robot's border comes within range; the re-sense interval is a
-//! quiet period after each interrupt) and Contact (the robot touches a robot or the boundary).
+//! Every sensor, built-in or a user's, is a [`SensorModel`] registered by name in [`Sensors`]:
+//! [`SensorModel::sense`] gathers exact data from the world at the trigger instant (the seed's
+//! `doSensor`, run by the sensor manager), [`SensorModel::reply`] computes the robot's reply on
+//! the robot's sensor actor with that sensor's own seeded random stream (the seed's
+//! `calReply`). A query either reads once (pull) or arms the sensor ([`Trigger`]): re-sensing
+//! every interval, at the exact instant another robot comes within a range (push proximity),
+//! or whenever the robot touches something (contact). The built-in GPS, view, proximity, push
+//! proximity and contact sensors ([`builtins`]) are registered exactly as a user's sensor is.
 
+use std::any::Any;
 use std::fmt;
+use std::sync::Arc;
 
 use nekosim_protocols::registry::{intern, Named};
 use nekosim_protocols::wire::compact_ron;
 
-use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::StandardNormal;
-use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::geometry::Point;
 use super::{Obstacle, RobotId};
 
-/// Which sensor of a robot (serialized as its name).
+pub mod builtins;
+
+/// Which sensor of a robot: the name it is registered under (serialized as that name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum SensorKind {
-    Gps,
-    View,
-    Proximity,
-    PushProximity,
-    Contact,
-    /// A sensor registered under this name ([`Sensors`]).
-    User(&'static str),
-}
+pub struct SensorKind(&'static str);
 
 impl SensorKind {
+    /// The built-in GPS sensor.
+    pub const GPS: SensorKind = SensorKind("gps");
+    /// The built-in view sensor.
+    pub const VIEW: SensorKind = SensorKind("view");
+    /// The built-in (pull) proximity sensor.
+    pub const PROXIMITY: SensorKind = SensorKind("proximity");
+    /// The built-in push proximity sensor.
+    pub const PUSH_PROXIMITY: SensorKind = SensorKind("push_proximity");
+    /// The built-in contact sensor.
+    pub const CONTACT: SensorKind = SensorKind("contact");
+
+    /// The sensor registered under `name`.
+    pub fn named(name: &str) -> Self {
+        SensorKind(intern(name))
+    }
+
     /// Name used in traces and logs.
     pub fn name(self) -> &'static str {
-        match self {
-            SensorKind::Gps => "gps",
-            SensorKind::View => "view",
-            SensorKind::Proximity => "proximity",
-            SensorKind::PushProximity => "push_proximity",
-            SensorKind::Contact => "contact",
-            SensorKind::User(name) => name,
-        }
+        self.0
     }
 
-    /// The sensor named `name` (a built-in's name, or a registered sensor's).
-    pub fn from_name(name: &str) -> Self {
-        match name {
-            "gps" => SensorKind::Gps,
-            "view" => SensorKind::View,
-            "proximity" => SensorKind::Proximity,
-            "push_proximity" => SensorKind::PushProximity,
-            "contact" => SensorKind::Contact,
-            other => SensorKind::User(intern(other)),
-        }
-    }
-
-    /// The number that derives the sensor's random stream from the run's seed.
+    /// The number that derives the sensor's random stream from the run's seed: the built-ins
+    /// keep 0 to 4, any other name gets a number from its FNV-1a hash, clear of them.
     pub fn stream(self) -> u64 {
-        match self {
-            SensorKind::Gps => 0,
-            SensorKind::View => 1,
-            SensorKind::Proximity => 2,
-            SensorKind::PushProximity => 3,
-            SensorKind::Contact => 4,
-            // FNV-1a of the name, clear of the built-ins' numbers.
-            SensorKind::User(name) => {
-                let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-                for b in name.bytes() {
-                    h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
-                }
-                16 + (h % 240)
-            }
+        let builtins = [Self::GPS, Self::VIEW, Self::PROXIMITY, Self::PUSH_PROXIMITY];
+        if let Some(i) = builtins.iter().position(|&k| k == self) {
+            return i as u64;
         }
+        if self == Self::CONTACT {
+            return 4;
+        }
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in self.0.bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+        16 + (h % 240)
+    }
+}
+
+impl fmt::Display for SensorKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.0)
     }
 }
 
 impl Serialize for SensorKind {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(self.name())
+        s.serialize_str(self.0)
     }
 }
 
-impl<'de> Deserialize<'de> for SensorKind {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        let name = String::deserialize(d)?;
-        Ok(SensorKind::from_name(&name))
+/// What a sensor's data is required to be: a serde type that can be compared and printed.
+pub trait Data: Serialize + fmt::Debug + PartialEq + Send + Sync + 'static {}
+impl<T: Serialize + fmt::Debug + PartialEq + Send + Sync + 'static> Data for T {}
+
+/// How one type of [`Datum`] is shown and compared.
+struct Ops {
+    json: fn(&dyn Any) -> serde_json::Value,
+    ron: fn(&dyn Any) -> String,
+    text: fn(&dyn Any) -> Option<String>,
+    debug: fn(&dyn Any, &mut fmt::Formatter<'_>) -> fmt::Result,
+    eq: fn(&dyn Any, &dyn Any) -> bool,
+}
+
+fn cast<T: 'static>(v: &dyn Any) -> &T {
+    v.downcast_ref::<T>()
+        .expect("a datum's operations are those of its own type")
+}
+
+fn json_of<T: Data>(v: &dyn Any) -> serde_json::Value {
+    serde_json::to_value(cast::<T>(v)).unwrap_or_else(|e| serde_json::json!(e.to_string()))
+}
+
+fn ron_of<T: Data>(v: &dyn Any) -> String {
+    compact_ron(cast::<T>(v)).unwrap_or_else(|e| e.to_string())
+}
+
+fn debug_of<T: Data>(v: &dyn Any, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    fmt::Debug::fmt(cast::<T>(v), f)
+}
+
+fn eq_of<T: Data>(a: &dyn Any, b: &dyn Any) -> bool {
+    b.downcast_ref::<T>().is_some_and(|b| cast::<T>(a) == b)
+}
+
+/// The operations of a sensor's query and of its reply, with the sensor's own log text.
+struct OpsOf<S>(std::marker::PhantomData<S>);
+
+impl<S: SensorModel> OpsOf<S> {
+    const QUERY: Ops = Ops {
+        json: json_of::<S::Query>,
+        ron: ron_of::<S::Query>,
+        text: |v| S::query_text(cast(v)),
+        debug: debug_of::<S::Query>,
+        eq: eq_of::<S::Query>,
+    };
+    const READING: Ops = Ops {
+        json: json_of::<S::Reading>,
+        ron: ron_of::<S::Reading>,
+        text: |_| None,
+        debug: debug_of::<S::Reading>,
+        eq: eq_of::<S::Reading>,
+    };
+    const REPLY: Ops = Ops {
+        json: json_of::<S::Reply>,
+        ron: ron_of::<S::Reply>,
+        text: |v| S::reply_text(cast(v)),
+        debug: debug_of::<S::Reply>,
+        eq: eq_of::<S::Reply>,
+    };
+}
+
+/// A query, reading or reply of some sensor, its type erased: it travels in events and
+/// records without being encoded, is shown in the trace by serde (JSON) and in the log by its
+/// sensor's own text, and is taken back as its own type with [`Datum::get`].
+#[derive(Clone)]
+pub struct Datum {
+    value: Arc<dyn Any + Send + Sync>,
+    ops: &'static Ops,
+}
+
+impl Datum {
+    /// `S`'s query `q`.
+    pub fn query<S: SensorModel>(q: S::Query) -> Self {
+        Self {
+            value: Arc::new(q),
+            ops: &OpsOf::<S>::QUERY,
+        }
+    }
+
+    fn reading<S: SensorModel>(r: S::Reading) -> Self {
+        Self {
+            value: Arc::new(r),
+            ops: &OpsOf::<S>::READING,
+        }
+    }
+
+    fn reply<S: SensorModel>(r: S::Reply) -> Self {
+        Self {
+            value: Arc::new(r),
+            ops: &OpsOf::<S>::REPLY,
+        }
+    }
+
+    /// The value, when it is a `T`.
+    pub fn get<T: 'static>(&self) -> Option<&T> {
+        self.value.downcast_ref::<T>()
+    }
+
+    /// The value as JSON (the trace's form).
+    pub fn json(&self) -> serde_json::Value {
+        (self.ops.json)(&*self.value)
+    }
+
+    /// The value as compact RON.
+    pub fn ron(&self) -> String {
+        (self.ops.ron)(&*self.value)
+    }
+
+    /// The value as its sensor writes it in the Neko log, when the sensor says how
+    /// ([`SensorModel::query_text`], [`SensorModel::reply_text`]).
+    pub fn own_text(&self) -> Option<String> {
+        (self.ops.text)(&*self.value)
+    }
+
+    /// The value as the Neko log writes it: its sensor's own text, or else its RON.
+    pub fn text(&self) -> String {
+        self.own_text().unwrap_or_else(|| self.ron())
     }
 }
 
-/// A sensor request.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub enum SensorQuery {
-    /// GPS: own position, each coordinate perturbed by `error` × N(0, 1) [units].
-    SelfPosition {
-        error: f64,
-    },
-    /// GPS: all robots' positions (including the requester), perturbed as above.
-    AllPositions {
-        error: f64,
-    },
-    /// View: positions of the other robots whose centres are within `range` [units].
-    View {
-        range: f64,
-    },
-    /// Proximity: free distances (border to border) to the other robots within `range`.
-    Proximity {
-        range: f64,
-    },
-    /// Push proximity: interrupt when another robot's border comes within `range`; after an
-    /// interrupt the sensor is quiet for `interval` [s] and re-senses at its end.
-    ActivateProximity {
-        range: f64,
-        interval: f64,
-    },
-    DeactivateProximity,
-    /// Contact: interrupt when the robot touches a robot or the world boundary.
-    ActivateContact,
-    DeactivateContact,
-    /// A registered sensor `sensor`, with its query as RON text: a reading (pull sensor) or an
-    /// activation (push sensor).
-    User {
-        sensor: String,
-        query: String,
-    },
-    /// Deactivates the registered push sensor `sensor`.
-    UserOff {
-        sensor: String,
-    },
+impl fmt::Debug for Datum {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        (self.ops.debug)(&*self.value, f)
+    }
+}
+
+impl PartialEq for Datum {
+    fn eq(&self, other: &Self) -> bool {
+        (self.ops.eq)(&*self.value, &*other.value)
+    }
+}
+
+impl Serialize for Datum {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.json().serialize(s)
+    }
+}
+
+/// A sensor request: a query for the sensor registered as `sensor`, or (`query: None`) its
+/// deactivation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SensorQuery {
+    pub sensor: SensorKind,
+    pub query: Option<Datum>,
 }
 
 impl SensorQuery {
+    /// `S`'s query `q` for the sensor registered as `name`.
+    pub fn new<S: SensorModel>(name: &str, q: S::Query) -> Self {
+        Self {
+            sensor: SensorKind::named(name),
+            query: Some(Datum::query::<S>(q)),
+        }
+    }
+
+    /// Deactivates the push sensor registered as `name`.
+    pub fn off(name: &str) -> Self {
+        Self {
+            sensor: SensorKind::named(name),
+            query: None,
+        }
+    }
+
     /// The sensor that serves the query.
     pub fn kind(&self) -> SensorKind {
-        match self {
-            SensorQuery::SelfPosition { .. } | SensorQuery::AllPositions { .. } => SensorKind::Gps,
-            SensorQuery::View { .. } => SensorKind::View,
-            SensorQuery::Proximity { .. } => SensorKind::Proximity,
-            SensorQuery::ActivateProximity { .. } | SensorQuery::DeactivateProximity => {
-                SensorKind::PushProximity
-            }
-            SensorQuery::ActivateContact | SensorQuery::DeactivateContact => SensorKind::Contact,
-            SensorQuery::User { sensor, .. } | SensorQuery::UserOff { sensor } => {
-                SensorKind::User(intern(sensor))
-            }
-        }
+        self.sensor
     }
+}
 
-    /// Checks the query's parameters; `Err` says what is expected.
-    pub fn validate(&self) -> Result<(), String> {
-        let nonneg = |what: &str, v: f64| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{what} must be a finite number >= 0, got {v}"))
-            }
-        };
-        match *self {
-            SensorQuery::SelfPosition { error } | SensorQuery::AllPositions { error } => {
-                nonneg("error factor", error)
-            }
-            SensorQuery::View { range } | SensorQuery::Proximity { range } => {
-                nonneg("range", range)
-            }
-            SensorQuery::ActivateProximity { range, interval } => {
-                nonneg("range", range)?;
-                nonneg("interval", interval)
-            }
-            _ => Ok(()),
-        }
-    }
-
-    fn error(&self) -> f64 {
-        match self {
-            SensorQuery::SelfPosition { error } | SensorQuery::AllPositions { error } => *error,
-            _ => 0.0,
+impl Serialize for SensorQuery {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match &self.query {
+            Some(q) => q.serialize(s),
+            None => serde_json::json!({"query": "deactivate"}).serialize(s),
         }
     }
 }
 
-/// A sensor's answer (and the exact data a sensor manager hands a sensor).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// A sensor's answer to its robot.
+#[derive(Clone, Debug, PartialEq)]
 pub enum SensorValue {
-    Position(Point),
-    /// `(robot, position)` sorted by robot id.
-    Positions(Vec<(RobotId, Point)>),
-    /// `(robot, free distance)` sorted by robot id.
-    Distances(Vec<(RobotId, f64)>),
-    Contact(Obstacle),
+    /// The sensor's reply (a pull reading, or a push sensor's interrupt).
+    Reply(Datum),
     /// A push sensor was (de)activated.
     Done,
-    /// The request was invalid.
+    /// The request was invalid (or named no registered sensor).
     Rejected(String),
-    /// A registered sensor's reading or reply, as RON text.
-    User(String),
 }
 
 impl SensorValue {
-    /// A registered sensor's reply read as an `R` (its [`SensorModel::Reply`]).
-    pub fn decode<R: DeserializeOwned>(&self) -> Result<R, String> {
+    /// The reply, when it is an `R` (the sensor's [`SensorModel::Reply`]).
+    pub fn get<R: 'static>(&self) -> Option<&R> {
         match self {
-            SensorValue::User(text) => ron::from_str(text).map_err(|e| e.to_string()),
+            SensorValue::Reply(d) => d.get(),
+            _ => None,
+        }
+    }
+
+    /// The reply as an `R`, or why there is none.
+    pub fn decode<R: Clone + 'static>(&self) -> Result<R, String> {
+        match self {
+            SensorValue::Reply(d) => d
+                .get::<R>()
+                .cloned()
+                .ok_or_else(|| format!("the reply {d:?} is not a {}", std::any::type_name::<R>())),
             SensorValue::Rejected(e) => Err(e.clone()),
-            other => Err(format!("not a registered sensor's value: {other:?}")),
+            SensorValue::Done => Err("the sensor answered `done`, not a reply".into()),
+        }
+    }
+
+    /// The Neko log's text of the value.
+    pub fn text(&self) -> String {
+        match self {
+            SensorValue::Reply(d) => d.text(),
+            SensorValue::Done => "done".into(),
+            SensorValue::Rejected(m) => format!("rejected: {m}"),
+        }
+    }
+}
+
+impl Serialize for SensorValue {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            SensorValue::Reply(d) => d.serialize(s),
+            SensorValue::Done => s.serialize_str("done"),
+            SensorValue::Rejected(m) => serde_json::json!({ "rejected": m }).serialize(s),
         }
     }
 }
 
 /// The exact data a sensor manager gives a sensor at trigger time.
-pub type Snapshot = SensorValue;
+pub type Snapshot = Datum;
 
-/// Computes a reply from exact data (the seed's `calReply`): GPS adds Gaussian noise with
-/// standard deviation `error` to each coordinate; other sensors are exact.
-pub fn cal_reply(query: &SensorQuery, snapshot: Snapshot, rng: &mut impl Rng) -> SensorValue {
-    let error = query.error();
-    if error == 0.0 {
-        return snapshot;
-    }
-    let mut jitter = |p: Point| {
-        let dx: f64 = rng.sample(StandardNormal);
-        let dy: f64 = rng.sample(StandardNormal);
-        Point::new(p.x + error * dx, p.y + error * dy)
-    };
-    match snapshot {
-        SensorValue::Position(p) => SensorValue::Position(jitter(p)),
-        SensorValue::Positions(ps) => {
-            SensorValue::Positions(ps.into_iter().map(|(id, p)| (id, jitter(p))).collect())
-        }
-        other => other,
-    }
+/// When a query makes its sensor sense ([`SensorModel::trigger`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Trigger {
+    /// Once, now: a pull reading answered to the robot.
+    Pull,
+    /// Arms a push sensor that re-senses every `interval` [s] from its activation.
+    Every(f64),
+    /// Arms a push sensor that senses at the exact instant another robot's border comes
+    /// within `range` of the robot's border (predicted from the motion formulas, cancelled
+    /// when paths change); after an interrupt it stays quiet for `quiet` [s] and senses again
+    /// at its end if an entry happened meanwhile.
+    Entry { range: f64, quiet: f64 },
+    /// Arms a push sensor that senses whenever the robot touches a robot or the boundary
+    /// ([`WorldView::contact`]).
+    Contact,
+    /// Deactivates the sensor.
+    Off,
 }
 
-/// A push sensor's re-sense interval [s].
+/// How far a query looks, drawn around the robot in recordings ([`SensorModel::reach`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Interval(pub f64);
+pub enum Reach {
+    /// Centre to centre [units].
+    Centres(f64),
+    /// Border to border (free distance) [units].
+    Borders(f64),
+}
 
 /// What a sensor sees of the world at its trigger instant (the seed's `doSensor` runs on the
 /// sensor manager, which alone reaches the world): exact positions from the motion formulas.
@@ -253,20 +358,26 @@ pub trait WorldView {
     /// The other robots whose centres are within `range` of this robot's centre, with their
     /// positions and centre distances, by id (found through the spatial index).
     fn within(&self, range: f64) -> Vec<(RobotId, Point, f64)>;
+    /// The other robots whose borders are within `gap` of this robot's border (to within
+    /// [`crate::world::collision::CONTACT_TOLERANCE`], the precision of predicted entries),
+    /// with the free distance (border to border), by id (found through the spatial index).
+    fn near(&self, gap: f64) -> Vec<(RobotId, f64)>;
+    /// What the robot touches, when the sensing was triggered by a contact ([`Trigger::Contact`]).
+    fn contact(&self) -> Option<Obstacle>;
 }
 
 /// A sensor written against the seed's split (4.2.2): [`SensorModel::sense`] gathers exact
 /// data from the world at the trigger instant, [`SensorModel::reply`] computes the robot's
 /// reply on the robot's sensor actor with that sensor's own seeded random stream (the seed's
-/// `calReply`). A push sensor ([`SensorModel::push_interval`]) re-senses every interval while
-/// active and interrupts its robot whenever [`SensorModel::fires`] holds.
+/// `calReply`). A query's [`SensorModel::trigger`] says whether it reads once or arms the
+/// sensor; an armed (push) sensor interrupts its robot whenever [`SensorModel::fires`] holds.
 pub trait SensorModel: fmt::Debug + Send + Sync + 'static {
-    /// What the robot asks (read from and written to RON).
-    type Query: Serialize + DeserializeOwned;
+    /// What the robot asks (shown in the trace by serde).
+    type Query: Data + Clone;
     /// The exact data gathered at the trigger.
-    type Reading: Serialize + DeserializeOwned;
-    /// What the robot gets.
-    type Reply: Serialize + DeserializeOwned;
+    type Reading: Data + Clone;
+    /// What the robot gets (shown in the trace by serde).
+    type Reply: Data + Clone;
 
     /// Checks a query; `Err` says what is wrong (the robot gets it as a rejection).
     fn check(_query: &Self::Query) -> Result<(), String> {
@@ -279,70 +390,114 @@ pub trait SensorModel: fmt::Debug + Send + Sync + 'static {
     /// The reply from the exact data; `rng` is the sensor's own seeded stream.
     fn reply(query: &Self::Query, reading: Self::Reading, rng: &mut ChaCha8Rng) -> Self::Reply;
 
-    /// `Some(interval)` for a push sensor: activating it re-senses every `interval` seconds
-    /// (from the activation) until it is deactivated. `None` (the default): a pull sensor.
-    fn push_interval(_query: &Self::Query) -> Option<f64> {
-        None
+    /// When the query makes the sensor sense. Default: [`Trigger::Pull`].
+    fn trigger(_query: &Self::Query) -> Trigger {
+        Trigger::Pull
     }
 
-    /// For a push sensor: whether a reading interrupts the robot.
+    /// For a push sensor: whether a reading interrupts the robot. Default: always.
     fn fires(_query: &Self::Query, _reading: &Self::Reading) -> bool {
         true
     }
-}
 
-/// One registered sensor, its types erased behind RON text.
-#[derive(Clone, Copy)]
-struct SensorEntry {
-    sense: fn(&str, &dyn WorldView) -> Result<String, String>,
-    reply: fn(&str, &str, &mut ChaCha8Rng) -> Result<String, String>,
-    push: fn(&str) -> Result<Option<f64>, String>,
-    fires: fn(&str, &str) -> bool,
-}
+    /// The query as the Neko log writes it. Default (`None`): the sensor's name and the
+    /// query's RON.
+    fn query_text(_query: &Self::Query) -> Option<String> {
+        None
+    }
 
-fn ron_text<T: Serialize>(v: &T) -> Result<String, String> {
-    compact_ron(v).map_err(|e| e.to_string())
-}
+    /// The reply as the Neko log writes it. Default (`None`): its RON.
+    fn reply_text(_reply: &Self::Reply) -> Option<String> {
+        None
+    }
 
-fn read<T: DeserializeOwned>(text: &str) -> Result<T, String> {
-    ron::from_str(text).map_err(|e| e.to_string())
-}
-
-fn sense_entry<S: SensorModel>(query: &str, world: &dyn WorldView) -> Result<String, String> {
-    let q: S::Query = read(query)?;
-    S::check(&q)?;
-    ron_text(&S::sense(&q, world))
-}
-
-fn reply_entry<S: SensorModel>(
-    query: &str,
-    reading: &str,
-    rng: &mut ChaCha8Rng,
-) -> Result<String, String> {
-    let q: S::Query = read(query)?;
-    ron_text(&S::reply(&q, read(reading)?, rng))
-}
-
-fn push_entry<S: SensorModel>(query: &str) -> Result<Option<f64>, String> {
-    let q: S::Query = read(query)?;
-    S::check(&q)?;
-    match S::push_interval(&q) {
-        Some(i) if !(i.is_finite() && i > 0.0) => Err(format!(
-            "push interval is {i}; expected a finite number > 0"
-        )),
-        other => Ok(other),
+    /// How far the query looks, drawn in recordings. Default: not drawn.
+    fn reach(_query: &Self::Query) -> Option<Reach> {
+        None
     }
 }
 
-fn fires_entry<S: SensorModel>(query: &str, reading: &str) -> bool {
-    match (read::<S::Query>(query), read::<S::Reading>(reading)) {
-        (Ok(q), Ok(r)) => S::fires(&q, &r),
+/// What the sensor manager does with a checked query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plan {
+    pub trigger: Trigger,
+    pub reach: Option<Reach>,
+}
+
+/// One registered sensor, its types erased behind [`Datum`].
+#[derive(Clone, Copy)]
+struct SensorEntry {
+    plan: fn(&Datum) -> Result<Plan, String>,
+    sense: fn(&Datum, &dyn WorldView) -> Result<Datum, String>,
+    fires: fn(&Datum, &Datum) -> bool,
+    reply: fn(&Datum, Datum, &mut ChaCha8Rng) -> Result<Datum, String>,
+}
+
+fn query_of<S: SensorModel>(query: &Datum) -> Result<&S::Query, String> {
+    query.get::<S::Query>().ok_or_else(|| {
+        format!(
+            "the query {query:?} is not a {}",
+            std::any::type_name::<S::Query>()
+        )
+    })
+}
+
+fn plan_entry<S: SensorModel>(query: &Datum) -> Result<Plan, String> {
+    let q = query_of::<S>(query)?;
+    S::check(q)?;
+    let trigger = S::trigger(q);
+    let positive = |what: &str, v: f64, zero: bool| {
+        if v.is_finite() && (v > 0.0 || zero && v == 0.0) {
+            Ok(())
+        } else {
+            let bound = if zero { ">= 0" } else { "> 0" };
+            Err(format!("{what} is {v}; expected a finite number {bound}"))
+        }
+    };
+    match trigger {
+        Trigger::Every(i) => positive("push interval", i, false)?,
+        Trigger::Entry { range, quiet } => {
+            positive("range", range, true)?;
+            positive("quiet interval", quiet, true)?;
+        }
+        _ => {}
+    }
+    Ok(Plan {
+        trigger,
+        reach: S::reach(q),
+    })
+}
+
+fn sense_entry<S: SensorModel>(query: &Datum, world: &dyn WorldView) -> Result<Datum, String> {
+    Ok(Datum::reading::<S>(S::sense(query_of::<S>(query)?, world)))
+}
+
+fn fires_entry<S: SensorModel>(query: &Datum, reading: &Datum) -> bool {
+    match (query.get::<S::Query>(), reading.get::<S::Reading>()) {
+        (Some(q), Some(r)) => S::fires(q, r),
         _ => false,
     }
 }
 
-/// Sensors registered by name, beside the built-in GPS, view, proximity, push proximity and
-/// contact sensors: `robot.read::<S>("Name", &query)` reads one.
+fn reply_entry<S: SensorModel>(
+    query: &Datum,
+    reading: Datum,
+    rng: &mut ChaCha8Rng,
+) -> Result<Datum, String> {
+    let q = query_of::<S>(query)?;
+    let r = reading.value.downcast::<S::Reading>().map_err(|_| {
+        format!(
+            "the reading is not a {}",
+            std::any::type_name::<S::Reading>()
+        )
+    })?;
+    // The reading travels alone to the sensor actor, so this takes it without a copy.
+    let r = Arc::try_unwrap(r).unwrap_or_else(|shared| (*shared).clone());
+    Ok(Datum::reply::<S>(S::reply(q, r, rng)))
+}
+
+/// Sensors by the name robots use for them. A new (or default) registry holds the built-in
+/// GPS, view, proximity, push proximity and contact sensors; [`Sensors::empty`] holds none.
 #[derive(Clone, Debug)]
 pub struct Sensors {
     entries: Named<SensorEntry>,
@@ -350,95 +505,81 @@ pub struct Sensors {
 
 impl Default for Sensors {
     fn default() -> Self {
-        Self::new()
+        Self::with_builtins()
     }
 }
 
 impl Sensors {
-    /// No registered sensor.
-    pub fn new() -> Self {
+    /// No sensor at all.
+    pub fn empty() -> Self {
         Self {
             entries: Named::new("sensor"),
         }
     }
 
-    /// Registers the sensor `S` under `name`.
+    /// The built-in sensors.
+    pub fn with_builtins() -> Self {
+        let mut s = Self::empty();
+        builtins::register(&mut s);
+        s
+    }
+
+    /// The built-in sensors (as [`Sensors::with_builtins`]).
+    pub fn new() -> Self {
+        Self::with_builtins()
+    }
+
+    /// Registers the sensor `S` under `name` (replacing an earlier one).
     pub fn sensor<S: SensorModel>(&mut self, name: &str) -> &mut Self {
         self.entries.insert(
             name,
             SensorEntry {
+                plan: plan_entry::<S>,
                 sense: sense_entry::<S>,
-                reply: reply_entry::<S>,
-                push: push_entry::<S>,
                 fires: fires_entry::<S>,
+                reply: reply_entry::<S>,
             },
         );
         self
     }
 
-    fn entry(&self, name: &str) -> Result<&SensorEntry, String> {
-        self.entries.by_name(name)
+    /// Registered names, sorted.
+    pub fn names(&self) -> impl Iterator<Item = &str> {
+        self.entries.names()
     }
 
-    /// The exact reading of `name` for `query` (RON), as RON.
-    pub fn sense(&self, name: &str, query: &str, world: &dyn WorldView) -> Result<String, String> {
-        (self.entry(name)?.sense)(query, world)
+    fn entry(&self, kind: SensorKind) -> Result<&SensorEntry, String> {
+        self.entries.by_name(kind.name())
     }
 
-    /// The reply of `name` from a reading, as RON.
-    pub fn reply(
+    /// Checks `query` for `kind` and says what it asks for.
+    pub fn plan(&self, kind: SensorKind, query: &Datum) -> Result<Plan, String> {
+        (self.entry(kind)?.plan)(query)
+    }
+
+    /// The exact reading of `kind` for `query`.
+    pub fn sense(
         &self,
-        name: &str,
-        query: &str,
-        reading: &str,
-        rng: &mut ChaCha8Rng,
-    ) -> Result<String, String> {
-        (self.entry(name)?.reply)(query, reading, rng)
-    }
-
-    /// `Some(interval)` when `name` is a push sensor for `query`.
-    pub fn push_interval(&self, name: &str, query: &str) -> Result<Option<f64>, String> {
-        (self.entry(name)?.push)(query)
+        kind: SensorKind,
+        query: &Datum,
+        world: &dyn WorldView,
+    ) -> Result<Datum, String> {
+        (self.entry(kind)?.sense)(query, world)
     }
 
     /// Whether a push reading interrupts.
-    pub fn fires(&self, name: &str, query: &str, reading: &str) -> bool {
-        self.entry(name).is_ok_and(|e| (e.fires)(query, reading))
+    pub fn fires(&self, kind: SensorKind, query: &Datum, reading: &Datum) -> bool {
+        self.entry(kind).is_ok_and(|e| (e.fires)(query, reading))
     }
-}
 
-/// A query as RON text, for [`SensorQuery::User`].
-pub fn query_text<Q: Serialize>(query: &Q) -> Result<String, String> {
-    ron_text(query)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use rand::SeedableRng;
-
-    #[test]
-    fn gps_noise_has_the_requested_spread_and_is_seeded() {
-        let q = SensorQuery::SelfPosition { error: 2.0 };
-        let sample = |seed| {
-            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-            (0..4000)
-                .map(|_| {
-                    match cal_reply(&q, SensorValue::Position(Point::new(10.0, 0.0)), &mut rng) {
-                        SensorValue::Position(p) => p.x - 10.0,
-                        _ => unreachable!(),
-                    }
-                })
-                .collect::<Vec<_>>()
-        };
-        let xs = sample(1);
-        assert_eq!(xs, sample(1));
-        assert_ne!(xs, sample(2));
-        let mean = xs.iter().sum::<f64>() / xs.len() as f64;
-        let sd = (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / xs.len() as f64).sqrt();
-        assert!(
-            mean.abs() < 0.15 && (sd - 2.0).abs() < 0.15,
-            "mean {mean} sd {sd}"
-        );
+    /// The reply of `kind` from a reading.
+    pub fn reply(
+        &self,
+        kind: SensorKind,
+        query: &Datum,
+        reading: Datum,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<Datum, String> {
+        (self.entry(kind)?.reply)(query, reading, rng)
     }
 }

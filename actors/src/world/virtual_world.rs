@@ -17,13 +17,16 @@
 
 use std::collections::BTreeMap;
 
-use super::collision::{predict_cell_exit, predict_contact, predict_entry, predict_wall, Track};
+use super::collision::{
+    predict_cell_exit, predict_contact, predict_entry, predict_reentry, predict_wall, Track,
+    CONTACT_TOLERANCE,
+};
 use super::event::{EventClass, EventId, Notice, Outbox, Payload, Target};
 use super::geometry::Point;
 use super::grid::{Cell, Grid};
 use super::motion::{Kinematics, Motion, MotionPattern, MotionStep, Pose};
 use super::observation::Observation;
-use super::sensor::{SensorKind, SensorQuery, SensorValue, Sensors, WorldView};
+use super::sensor::{Datum, SensorKind, SensorQuery, SensorValue, Sensors, Trigger, WorldView};
 use super::{MotionOutcome, Obstacle, RobotId};
 
 mod motion_logic;
@@ -103,12 +106,17 @@ pub struct RobotSpec {
     pub pose: Pose,
 }
 
-#[derive(Clone, Copy, Debug)]
-struct PushProximity {
+/// An armed push sensor whose trigger is another robot's entry into its range
+/// ([`super::sensor::Trigger::Entry`]).
+#[derive(Clone, Debug)]
+struct EntryWatch {
+    sensor: SensorKind,
+    /// The activation query.
+    query: Datum,
     /// Free distance that triggers [units].
     range: f64,
     /// Quiet period after an interrupt [s].
-    interval: f64,
+    quiet: f64,
     quiet_until: f64,
     generation: u64,
     pending: bool,
@@ -129,10 +137,12 @@ struct RobotState {
     /// Partner -> pair events predicted under the current motions of both.
     pairs: BTreeMap<RobotId, Vec<EventId>>,
     cell: Cell,
-    push: Option<PushProximity>,
-    contact: bool,
-    /// Active registered push sensors: query (RON) and activation generation.
-    user_push: BTreeMap<&'static str, (String, u64)>,
+    /// Armed push sensors triggered by entries into their range.
+    entry: Vec<EntryWatch>,
+    /// Armed push sensors triggered by contacts, with their activation queries.
+    contact: Vec<(SensorKind, Datum)>,
+    /// Armed push sensors that re-sense periodically: activation query and generation.
+    periodic: BTreeMap<SensorKind, (Datum, u64)>,
     crashed: bool,
 }
 
@@ -140,10 +150,10 @@ struct RobotState {
 #[derive(Debug)]
 pub struct VirtualWorld {
     cfg: WorldConfig,
-    /// Registered sensors (beside the built-in ones).
+    /// The sensors robots can use, built-in and registered alike.
     sensors: std::sync::Arc<Sensors>,
-    /// Activations of registered push sensors so far (tells a stale re-sense apart).
-    user_generation: u64,
+    /// Activations of periodic push sensors so far (tells a stale re-sense apart).
+    periodic_generation: u64,
     robots: Vec<RobotState>,
     grid: Grid,
     max_radius: f64,
@@ -196,7 +206,7 @@ impl VirtualWorld {
         let mut world = Self {
             cfg,
             sensors: Default::default(),
-            user_generation: 0,
+            periodic_generation: 0,
             robots: Vec::with_capacity(specs.len()),
             grid: Grid::new(size),
             max_radius,
@@ -224,9 +234,9 @@ impl VirtualWorld {
                 own: Vec::new(),
                 pairs: BTreeMap::new(),
                 cell,
-                push: None,
-                contact: false,
-                user_push: BTreeMap::new(),
+                entry: Vec::new(),
+                contact: Vec::new(),
+                periodic: BTreeMap::new(),
                 crashed: false,
             });
         }
@@ -362,14 +372,18 @@ impl VirtualWorld {
             }
         }
         for (s, o, ts, to) in [(a, b, &ta, &tb), (b, a, &tb, &ta)] {
-            if let Some(push) = self.robots[s as usize].push {
-                if let Some(t) = predict_entry(ts, to, push.range + ra + rb, now) {
+            for w in &self.robots[s as usize].entry {
+                if let Some(t) = predict_entry(ts, to, w.range + ra + rb, now) {
                     ids.push(out.schedule(
                         t,
                         Target::SensorManager,
                         EventClass::Conditional,
                         [Some(s), Some(o)],
-                        Payload::ProximityEntry { robot: s, other: o },
+                        Payload::ProximityEntry {
+                            robot: s,
+                            other: o,
+                            sensor: w.sensor,
+                        },
                     ));
                 }
             }

@@ -46,8 +46,10 @@ impl VirtualWorld {
                 self.end_motion(robot, MotionOutcome::Crashed, out);
                 self.invalidate(robot, out);
                 self.robots[robot as usize].crashed = true;
-                self.robots[robot as usize].push = None;
-                self.robots[robot as usize].contact = false;
+                let r = &mut self.robots[robot as usize];
+                r.entry.clear();
+                r.contact.clear();
+                r.periodic.clear();
                 out.record(Observation::Crash {
                     robot,
                     state: self.state_at(robot, now),
@@ -279,9 +281,7 @@ impl VirtualWorld {
                 sides.push((y, Obstacle::Robot(x)));
             }
             for (r, with) in sides {
-                if self.robots[r as usize].contact {
-                    self.push_interrupt(r, SensorKind::Contact, SensorValue::Contact(with), out);
-                }
+                self.touched(r, with, out);
             }
         }
     }

@@ -1,28 +1,26 @@
 //! The sensor manager's logic (seed 4.2.2-4.2.4, fig. 4.5): sensor requests become sensor
-//! events; at trigger time the manager gathers the world's exact data for the robot's sensor
-//! (built-in sensors, and registered ones through [`WorldView`]) and keeps push sensors armed:
-//! exact entry prediction for push proximity, periodic re-sensing for registered push sensors.
+//! events; at trigger time the manager asks the robot's sensor ([`Sensors`]) for the world's
+//! exact data through a [`WorldView`] and keeps push sensors armed as their [`Trigger`] says:
+//! exact entry prediction (push proximity), periodic re-sensing, or contacts. It knows no
+//! sensor by name: the built-in sensors are registered like a user's.
 
 use super::*;
 
 impl VirtualWorld {
-    pub(super) fn push_interrupt(
-        &self,
-        robot: RobotId,
-        sensor: SensorKind,
-        value: SensorValue,
-        out: &mut Outbox,
-    ) {
-        self.push_interrupt_of(robot, sensor, SensorQuery::DeactivateContact, value, out)
+    /// Uses the sensors `sensors` (the built-in ones and any registered beside them).
+    pub fn with_sensors(mut self, sensors: std::sync::Arc<Sensors>) -> Self {
+        self.sensors = sensors;
+        self
     }
 
-    /// An interrupt of `sensor`, whose reply the sensor computes for `query`.
-    fn push_interrupt_of(
+    /// Hands `reading` to the robot's `sensor`, which computes the reply to `query` and
+    /// interrupts the robot with it.
+    fn interrupt(
         &self,
         robot: RobotId,
         sensor: SensorKind,
-        query: SensorQuery,
-        value: SensorValue,
+        query: &Datum,
+        reading: Datum,
         out: &mut Outbox,
     ) {
         out.schedule(
@@ -33,26 +31,45 @@ impl VirtualWorld {
             Payload::SensorCompute {
                 robot,
                 ticket: None,
-                query,
-                snapshot: value,
+                query: SensorQuery {
+                    sensor,
+                    query: Some(query.clone()),
+                },
+                snapshot: SensorValue::Reply(reading),
             },
         );
     }
 
-    /// Uses the registered sensors `sensors` (beside the built-in ones).
-    pub fn with_sensors(mut self, sensors: std::sync::Arc<Sensors>) -> Self {
-        self.sensors = sensors;
-        self
+    /// Senses `query` of `sensor` for `robot` now and interrupts it when the reading fires.
+    fn sense_push(
+        &self,
+        robot: RobotId,
+        sensor: SensorKind,
+        query: &Datum,
+        contact: Option<Obstacle>,
+        out: &mut Outbox,
+    ) -> bool {
+        let view = View::new(self, robot, out.now(), contact);
+        match self.sensors.sense(sensor, query, &view) {
+            Ok(reading) => {
+                let fires = self.sensors.fires(sensor, query, &reading);
+                if fires {
+                    self.interrupt(robot, sensor, query, reading, out);
+                }
+                fires
+            }
+            Err(e) => {
+                tracing::warn!(robot, %sensor, "push sensor: {e}");
+                false
+            }
+        }
     }
 
-    fn free_distances(&self, robot: RobotId, range: f64, t: f64) -> Vec<(RobotId, f64)> {
-        let me = self.state_at(robot, t).pos;
-        let r = self.radius(robot);
-        self.within(robot, me, range + r + self.max_radius, t)
-            .into_iter()
-            .map(|(id, _, d)| (id, d - r - self.radius(id)))
-            .filter(|&(_, gap)| gap <= range)
-            .collect()
+    /// `robot` touched `with`: its armed contact sensors sense.
+    pub(super) fn touched(&self, robot: RobotId, with: Obstacle, out: &mut Outbox) {
+        for (sensor, query) in &self.robots[robot as usize].contact {
+            self.sense_push(robot, *sensor, query, Some(with), out);
+        }
     }
 
     /// Handles an event addressed to the sensor manager (seed fig. 4.5 and 4.7).
@@ -68,6 +85,10 @@ impl VirtualWorld {
                 out.record(Observation::SensorRequest {
                     robot,
                     query: query.clone(),
+                    plan: query
+                        .query
+                        .as_ref()
+                        .and_then(|q| self.sensors.plan(query.sensor, q).ok()),
                 });
                 out.schedule(
                     now,
@@ -86,13 +107,10 @@ impl VirtualWorld {
                 ticket,
                 query,
             } => {
-                let snapshot = match query.validate() {
-                    Err(e) => SensorValue::Rejected(e),
-                    Ok(()) => self.sense(robot, &query, out),
-                };
+                let snapshot = self.trigger(robot, &query, out);
                 out.schedule(
                     now,
-                    Target::Sensor(robot, query.kind()),
+                    Target::Sensor(robot, query.sensor),
                     EventClass::Eventual,
                     [Some(robot), None],
                     Payload::SensorCompute {
@@ -103,71 +121,74 @@ impl VirtualWorld {
                     },
                 );
             }
-            Payload::ProximityEntry { robot, other } => {
-                let Some(push) = self.robots[robot as usize].push else {
+            Payload::ProximityEntry {
+                robot,
+                other,
+                sensor,
+            } => {
+                let Some(w) = self.watch(robot, sensor) else {
                     return;
                 };
+                let (range, quiet_until) = (w.range, w.quiet_until);
                 // Look for this pair's next entry, after the robots have left each other's range.
-                let reach = push.range + self.radius(robot) + self.radius(other);
-                if let Some(t) = predict_entry(&self.track(robot), &self.track(other), reach, now) {
+                let reach = range + self.radius(robot) + self.radius(other);
+                if let Some(t) = predict_reentry(&self.track(robot), &self.track(other), reach, now)
+                {
                     let e = out.schedule(
                         t,
                         Target::SensorManager,
                         EventClass::Conditional,
                         [Some(robot), Some(other)],
-                        Payload::ProximityEntry { robot, other },
+                        Payload::ProximityEntry {
+                            robot,
+                            other,
+                            sensor,
+                        },
                     );
                     for (x, y) in [(robot, other), (other, robot)] {
                         self.robots[x as usize].pairs.entry(y).or_default().push(e);
                     }
                 }
-                if now < push.quiet_until {
-                    if let Some(p) = self.robots[robot as usize].push.as_mut() {
-                        p.pending = true;
+                if now < quiet_until {
+                    if let Some(w) = self.watch_mut(robot, sensor) {
+                        w.pending = true;
                     }
                 } else {
-                    self.fire_proximity(robot, out);
+                    self.fire_entry(robot, sensor, out);
                 }
             }
-            Payload::UserSense {
+            Payload::ProximityRearm {
+                robot,
+                sensor,
+                generation,
+            } => {
+                if self
+                    .watch(robot, sensor)
+                    .is_some_and(|w| w.generation == generation && w.pending)
+                {
+                    self.fire_entry(robot, sensor, out);
+                }
+            }
+            Payload::PeriodicSense {
                 robot,
                 sensor,
                 interval,
                 generation,
             } => {
-                let SensorKind::User(name) = sensor else {
-                    return;
-                };
                 let r = &self.robots[robot as usize];
-                let Some((q, g)) = r.user_push.get(name).cloned() else {
+                let Some((query, g)) = r.periodic.get(&sensor) else {
                     return;
                 };
-                if g != generation || r.crashed {
+                if *g != generation || r.crashed {
                     return;
                 }
-                match self.sensors.sense(name, &q, &View::new(self, robot, now)) {
-                    Ok(reading) => {
-                        if self.sensors.fires(name, &q, &reading) {
-                            self.push_interrupt_of(
-                                robot,
-                                sensor,
-                                SensorQuery::User {
-                                    sensor: name.to_string(),
-                                    query: q,
-                                },
-                                SensorValue::User(reading),
-                                out,
-                            );
-                        }
-                    }
-                    Err(e) => tracing::warn!(robot, sensor = name, "push sensor: {e}"),
-                }
+                self.sense_push(robot, sensor, &query.clone(), None, out);
                 out.schedule(
-                    now + interval.0,
+                    now + interval,
                     Target::SensorManager,
                     EventClass::Eventual,
                     [Some(robot), None],
-                    Payload::UserSense {
+                    Payload::PeriodicSense {
                         robot,
                         sensor,
                         interval,
@@ -175,149 +196,156 @@ impl VirtualWorld {
                     },
                 );
             }
-            Payload::ProximityRearm { robot, generation } => {
-                let Some(push) = self.robots[robot as usize].push else {
-                    return;
-                };
-                if push.generation == generation && push.pending {
-                    self.fire_proximity(robot, out);
-                }
-            }
             other => tracing::warn!(?other, "sensor manager ignores an event it does not serve"),
         }
     }
 
-    /// Reports the robots in range now, then starts the quiet interval.
-    fn fire_proximity(&mut self, robot: RobotId, out: &mut Outbox) {
+    fn watch(&self, robot: RobotId, sensor: SensorKind) -> Option<&EntryWatch> {
+        self.robots[robot as usize]
+            .entry
+            .iter()
+            .find(|w| w.sensor == sensor)
+    }
+
+    fn watch_mut(&mut self, robot: RobotId, sensor: SensorKind) -> Option<&mut EntryWatch> {
+        self.robots[robot as usize]
+            .entry
+            .iter_mut()
+            .find(|w| w.sensor == sensor)
+    }
+
+    /// An entry sensor senses now; when it fires, its quiet interval starts.
+    fn fire_entry(&mut self, robot: RobotId, sensor: SensorKind, out: &mut Outbox) {
         let now = out.now();
-        let Some(mut push) = self.robots[robot as usize].push else {
+        let Some(w) = self.watch(robot, sensor) else {
             return;
         };
-        let near = self.free_distances(robot, push.range, now);
-        push.pending = false;
-        if !near.is_empty() {
-            self.push_interrupt(
-                robot,
-                SensorKind::PushProximity,
-                SensorValue::Distances(near),
-                out,
+        let query = w.query.clone();
+        let fired = self.sense_push(robot, sensor, &query, None, out);
+        let Some(w) = self.watch_mut(robot, sensor) else {
+            return;
+        };
+        w.pending = false;
+        if fired && w.quiet > 0.0 {
+            w.quiet_until = now + w.quiet;
+            w.generation += 1;
+            let generation = w.generation;
+            out.schedule(
+                now + w.quiet,
+                Target::SensorManager,
+                EventClass::Eventual,
+                [Some(robot), None],
+                Payload::ProximityRearm {
+                    robot,
+                    sensor,
+                    generation,
+                },
             );
-            if push.interval > 0.0 {
-                push.quiet_until = now + push.interval;
-                push.generation += 1;
+        }
+    }
+
+    /// Disarms `sensor` of `robot`, whatever its trigger.
+    fn disarm(&mut self, robot: RobotId, sensor: SensorKind, out: &mut Outbox) {
+        let r = &mut self.robots[robot as usize];
+        r.periodic.remove(&sensor);
+        r.contact.retain(|(s, _)| *s != sensor);
+        let before = r.entry.len();
+        r.entry.retain(|w| w.sensor != sensor);
+        if r.entry.len() != before {
+            self.cancel_pairs(robot, out);
+            self.predict_neighbours(robot, out);
+        }
+    }
+
+    /// A request at its trigger time: the reading of a pull query, or the (de)activation of a
+    /// push sensor.
+    fn trigger(&mut self, robot: RobotId, query: &SensorQuery, out: &mut Outbox) -> SensorValue {
+        let now = out.now();
+        let sensor = query.sensor;
+        let Some(q) = &query.query else {
+            self.disarm(robot, sensor, out);
+            return SensorValue::Done;
+        };
+        let plan = match self.sensors.plan(sensor, q) {
+            Ok(plan) => plan,
+            Err(e) => return SensorValue::Rejected(e),
+        };
+        match plan.trigger {
+            Trigger::Pull => {
+                match self
+                    .sensors
+                    .sense(sensor, q, &View::new(self, robot, now, None))
+                {
+                    Ok(reading) => return SensorValue::Reply(reading),
+                    Err(e) => return SensorValue::Rejected(e),
+                }
+            }
+            Trigger::Off => self.disarm(robot, sensor, out),
+            Trigger::Every(interval) => {
+                self.periodic_generation += 1;
+                let generation = self.periodic_generation;
+                self.robots[robot as usize]
+                    .periodic
+                    .insert(sensor, (q.clone(), generation));
                 out.schedule(
-                    push.quiet_until,
+                    now,
                     Target::SensorManager,
                     EventClass::Eventual,
                     [Some(robot), None],
-                    Payload::ProximityRearm {
+                    Payload::PeriodicSense {
                         robot,
-                        generation: push.generation,
+                        sensor,
+                        interval,
+                        generation,
                     },
                 );
             }
-        }
-        self.robots[robot as usize].push = Some(push);
-    }
-
-    /// The exact data for a request at its trigger time (and (de)activation of push sensors).
-    fn sense(&mut self, robot: RobotId, query: &SensorQuery, out: &mut Outbox) -> SensorValue {
-        let now = out.now();
-        let me = self.state_at(robot, now).pos;
-        match *query {
-            SensorQuery::User {
-                ref sensor,
-                query: ref q,
-            } => match self.sensors.push_interval(sensor, q) {
-                Err(e) => SensorValue::Rejected(e),
-                Ok(None) => match self.sensors.sense(sensor, q, &View::new(self, robot, now)) {
-                    Ok(reading) => SensorValue::User(reading),
-                    Err(e) => SensorValue::Rejected(e),
-                },
-                Ok(Some(interval)) => {
-                    let SensorKind::User(name) = query.kind() else {
-                        unreachable!("a user query names a user sensor")
-                    };
-                    self.user_generation += 1;
-                    let generation = self.user_generation;
-                    self.robots[robot as usize]
-                        .user_push
-                        .insert(name, (q.clone(), generation));
-                    out.schedule(
-                        now,
-                        Target::SensorManager,
-                        EventClass::Eventual,
-                        [Some(robot), None],
-                        Payload::UserSense {
-                            robot,
-                            sensor: query.kind(),
-                            interval: crate::world::sensor::Interval(interval),
-                            generation,
-                        },
-                    );
-                    SensorValue::Done
-                }
-            },
-            SensorQuery::UserOff { .. } => {
-                if let SensorKind::User(name) = query.kind() {
-                    self.robots[robot as usize].user_push.remove(name);
-                }
-                SensorValue::Done
+            Trigger::Contact => {
+                let contact = &mut self.robots[robot as usize].contact;
+                contact.retain(|(s, _)| *s != sensor);
+                contact.push((sensor, q.clone()));
             }
-            SensorQuery::SelfPosition { .. } => SensorValue::Position(me),
-            SensorQuery::AllPositions { .. } => SensorValue::Positions(self.positions_at(now)),
-            SensorQuery::View { range } => SensorValue::Positions(
-                self.within(robot, me, range, now)
-                    .into_iter()
-                    .map(|(id, p, _)| (id, p))
-                    .collect(),
-            ),
-            SensorQuery::Proximity { range } => {
-                SensorValue::Distances(self.free_distances(robot, range, now))
-            }
-            SensorQuery::ActivateProximity { range, interval } => {
-                self.robots[robot as usize].push = Some(PushProximity {
+            Trigger::Entry { range, quiet } => {
+                let watch = EntryWatch {
+                    sensor,
+                    query: q.clone(),
                     range,
-                    interval,
+                    quiet,
                     quiet_until: now,
                     generation: 0,
                     pending: false,
-                });
+                };
+                let entry = &mut self.robots[robot as usize].entry;
+                match entry.iter_mut().find(|w| w.sensor == sensor) {
+                    Some(w) => *w = watch,
+                    None => entry.push(watch),
+                }
                 self.ensure_cell_size(range + 2.0 * self.max_radius, out);
                 self.cancel_pairs(robot, out);
                 self.predict_neighbours(robot, out);
-                self.fire_proximity(robot, out);
-                SensorValue::Done
-            }
-            SensorQuery::DeactivateProximity => {
-                if self.robots[robot as usize].push.take().is_some() {
-                    self.cancel_pairs(robot, out);
-                    self.predict_neighbours(robot, out);
-                }
-                SensorValue::Done
-            }
-            SensorQuery::ActivateContact => {
-                self.robots[robot as usize].contact = true;
-                SensorValue::Done
-            }
-            SensorQuery::DeactivateContact => {
-                self.robots[robot as usize].contact = false;
-                SensorValue::Done
+                self.fire_entry(robot, sensor, out);
             }
         }
+        SensorValue::Done
     }
 }
 
-/// A robot's view of the world at an instant, for registered sensors.
+/// A robot's view of the world at an instant, for its sensors.
 struct View<'a> {
     world: &'a VirtualWorld,
     robot: RobotId,
     now: f64,
+    contact: Option<Obstacle>,
 }
 
 impl<'a> View<'a> {
-    fn new(world: &'a VirtualWorld, robot: RobotId, now: f64) -> Self {
-        Self { world, robot, now }
+    fn new(world: &'a VirtualWorld, robot: RobotId, now: f64, contact: Option<Obstacle>) -> Self {
+        Self {
+            world,
+            robot,
+            now,
+            contact,
+        }
     }
 }
 
@@ -340,5 +368,21 @@ impl WorldView for View<'_> {
     fn within(&self, range: f64) -> Vec<(RobotId, Point, f64)> {
         let me = self.position(self.robot);
         self.world.within(self.robot, me, range, self.now)
+    }
+    fn near(&self, gap: f64) -> Vec<(RobotId, f64)> {
+        let w = self.world;
+        let me = self.position(self.robot);
+        let r = w.radius(self.robot);
+        let reach = gap + r + w.max_radius + CONTACT_TOLERANCE;
+        w.within(self.robot, me, reach, self.now)
+            .into_iter()
+            .map(|(id, _, d)| (id, d - r - w.radius(id)))
+            // To within the precision of predicted contacts: at an entry instant the entering
+            // robot is on the range's edge, and rounding must not hide it.
+            .filter(|&(_, free)| free <= gap + CONTACT_TOLERANCE)
+            .collect()
+    }
+    fn contact(&self) -> Option<Obstacle> {
+        self.contact
     }
 }
