@@ -341,7 +341,7 @@ pub fn trace_lines(model: &CheckModel, steps: &[Step]) -> Vec<String> {
     path_items(model, steps)
         .into_iter()
         .map(|item| match item {
-            Item::Obs(r) => crate::trace::to_json(&r).to_string(),
+            Item::Obs(r) => crate::trace::to_line(&r),
             Item::Extra(v) => v.to_string(),
         })
         .collect()

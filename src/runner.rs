@@ -18,7 +18,7 @@ use crate::log::NekoLog;
 use crate::output::AtomicFile;
 use crate::recording::{RecordingError, Target};
 use crate::scenario::Built;
-use crate::trace::to_json;
+use crate::trace::to_line;
 
 /// Where a run writes and who watches it.
 #[derive(Default)]
@@ -200,7 +200,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
                 f.line(&neko.line(r));
             }
             if let Some(f) = trace.as_mut() {
-                f.line(&to_json(r).to_string());
+                f.line(&to_line(r));
             }
         })
     };

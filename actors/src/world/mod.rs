@@ -53,8 +53,9 @@ impl<'de> Deserialize<'de> for Obstacle {
     }
 }
 
-/// How a motion ended.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+/// How a motion ended (serialized as the trace shows it: `outcome`, with `other` for a
+/// collision and `reason` for a rejection).
+#[derive(Clone, Debug, PartialEq)]
 pub enum MotionOutcome {
     /// It ran to its end.
     Arrived,
@@ -66,6 +67,20 @@ pub enum MotionOutcome {
     Rejected(String),
     /// The robot crashed.
     Crashed,
+}
+
+impl Serialize for MotionOutcome {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = s.serialize_map(None)?;
+        m.serialize_entry("outcome", self.name())?;
+        match self {
+            MotionOutcome::Collided { with } => m.serialize_entry("other", with)?,
+            MotionOutcome::Rejected(reason) => m.serialize_entry("reason", reason)?,
+            _ => {}
+        }
+        m.end()
+    }
 }
 
 impl MotionOutcome {

@@ -1,6 +1,8 @@
 //! What a run shows: the observations the engine records, one per traced event, in
 //! processing order. The scenario layer turns them into the Neko log and the JSONL trace.
 
+use serde::Serialize;
+
 use super::geometry::Point;
 use super::motion::{Kinematics, Progress, StepKind};
 use super::sensor::{Plan, SensorKind, SensorQuery, SensorValue};
@@ -17,8 +19,11 @@ pub struct Record {
     pub obs: Observation,
 }
 
-/// A traced event.
-#[derive(Clone, Debug, PartialEq)]
+/// A traced event: one definition of what a run records. The JSON Lines trace is this enum
+/// projected by serde (`kind` is the tag; docs/trace.md lists every field); the Neko log and
+/// the Rerun recording read the same records.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Observation {
     /// A robot exists (one per robot at t = 0).
     Spawn {
@@ -33,19 +38,16 @@ pub enum Observation {
         /// The request's number among the robot's requests (the seed log's "Task ID").
         ticket: u64,
         motion: String,
+        /// The pattern's parameters, each its own trace field.
+        #[serde(flatten, serialize_with = "ser::params")]
         params: Vec<(String, f64)>,
-    },
-    /// A motion event; `state` is the exact kinematic state from this instant on.
-    MotionStep {
-        robot: RobotId,
-        step: StepKind,
-        state: Kinematics,
-        progress: Progress,
     },
     /// A motion ended.
     MotionFinish {
         robot: RobotId,
+        #[serde(flatten, serialize_with = "ser::pose")]
         state: Kinematics,
+        #[serde(flatten)]
         outcome: MotionOutcome,
     },
     /// `robot` touched `other` at `pos`; `other_pos` is the other robot's centre or the contact
@@ -58,11 +60,13 @@ pub enum Observation {
         angle: f64,
         other_pos: Point,
     },
-    /// A sensor request; `plan` is what the query asks of its sensor (`None` for a
-    /// deactivation or a query its sensor refuses).
+    /// A sensor request (`sensor` and `value` in the trace); `plan` is what the query asks of
+    /// its sensor (`None` for a deactivation or a query its sensor refuses).
     SensorRequest {
         robot: RobotId,
+        #[serde(flatten)]
         query: SensorQuery,
+        #[serde(skip)]
         plan: Option<Plan>,
     },
     /// The algorithm wrote a line to the log (seed 5.3's `logger.info(..)`).
@@ -72,6 +76,7 @@ pub enum Observation {
         robot: RobotId,
         layer: String,
         op: String,
+        #[serde(serialize_with = "ser::rendered")]
         msg: Payload,
     },
     /// A message handed to the network by `layer` ("app" for the algorithm).
@@ -79,6 +84,7 @@ pub enum Observation {
         robot: RobotId,
         to: Vec<RobotId>,
         layer: String,
+        #[serde(flatten, serialize_with = "ser::msg_and_type")]
         msg: Payload,
     },
     /// A message arrived from the network at `layer` of `robot`.
@@ -86,20 +92,25 @@ pub enum Observation {
         robot: RobotId,
         from: RobotId,
         layer: String,
+        #[serde(flatten, serialize_with = "ser::msg_and_type")]
         msg: Payload,
     },
     /// A broadcast layer delivered message `id` to the algorithm.
     Deliver {
         robot: RobotId,
         layer: String,
+        #[serde(flatten, serialize_with = "ser::msg_id")]
         id: MsgId,
+        #[serde(rename = "content", serialize_with = "ser::rendered")]
         msg: Payload,
     },
     /// A consensus layer decided `value` for instance `k`.
     Decide {
         robot: RobotId,
         layer: String,
+        #[serde(rename = "instance")]
         k: u64,
+        #[serde(serialize_with = "ser::rendered")]
         value: Payload,
     },
     /// A failure detector (or Omega) told the algorithm something about `process`.
@@ -119,7 +130,11 @@ pub enum Observation {
         process: RobotId,
     },
     /// The robot crashed: it stops moving, sensing and communicating.
-    Crash { robot: RobotId, state: Kinematics },
+    Crash {
+        robot: RobotId,
+        #[serde(flatten, serialize_with = "ser::pose")]
+        state: Kinematics,
+    },
     /// A sensor's reply; `interrupt` when a push sensor fired on its own.
     SensorReply {
         robot: RobotId,
@@ -127,6 +142,92 @@ pub enum Observation {
         value: SensorValue,
         interrupt: bool,
     },
+    /// A motion event; `state` is the exact kinematic state from this instant on. Its trace
+    /// `kind` is the step's name (`start_turn`, ..., or a custom pattern's).
+    #[serde(untagged)]
+    MotionStep {
+        #[serde(rename = "kind", serialize_with = "ser::step")]
+        step: StepKind,
+        robot: RobotId,
+        #[serde(flatten)]
+        state: Kinematics,
+        #[serde(skip)]
+        progress: Progress,
+    },
+}
+
+/// How the fields that are not plain data reach the trace.
+mod ser {
+    use serde::ser::{SerializeMap, Serializer};
+
+    use super::*;
+    use nekosim_protocols::payload::type_word;
+
+    /// Names of the fields every trace object has; custom motion parameters never take them.
+    const RESERVED: [&str; 6] = ["t", "seq", "kind", "robot", "ticket", "motion"];
+
+    pub fn params<S: Serializer>(params: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(None)?;
+        for (k, v) in params {
+            if !RESERVED.contains(&k.as_str()) {
+                m.serialize_entry(k, v)?;
+            }
+        }
+        m.end()
+    }
+
+    /// Only the pose of a kinematic state: `pos` and `angle`.
+    pub fn pose<S: Serializer>(state: &Kinematics, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(Some(2))?;
+        m.serialize_entry("pos", &state.pos)?;
+        m.serialize_entry("angle", &state.angle)?;
+        m.end()
+    }
+
+    /// A message rendered through the stack's codecs.
+    pub fn rendered<S: Serializer>(msg: &Payload, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(msg)
+    }
+
+    /// A message rendered (`msg`) and its type, the rendering's first word (`type`).
+    pub fn msg_and_type<S: Serializer>(msg: &Payload, s: S) -> Result<S::Ok, S::Error> {
+        let text = msg.to_string();
+        let mut m = s.serialize_map(Some(2))?;
+        m.serialize_entry("msg", &text)?;
+        m.serialize_entry("type", type_word(&text))?;
+        m.end()
+    }
+
+    /// A broadcast message's id (`msg`, as `origin:n`) and its `origin`.
+    pub fn msg_id<S: Serializer>(id: &MsgId, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(Some(2))?;
+        m.serialize_entry("msg", &id.to_string())?;
+        m.serialize_entry("origin", &id.origin)?;
+        m.end()
+    }
+
+    pub fn step<S: Serializer>(step: &StepKind, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(step.name())
+    }
+}
+
+/// A record as one trace object: `t`, `seq`, then the observation's fields (`kind` first).
+impl Serialize for Record {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        #[derive(Serialize)]
+        struct Line<'a> {
+            t: f64,
+            seq: u64,
+            #[serde(flatten)]
+            obs: &'a Observation,
+        }
+        Line {
+            t: self.t,
+            seq: self.seq,
+            obs: &self.obs,
+        }
+        .serialize(s)
+    }
 }
 
 /// Three decimals, as `format!("{v:.3}")` writes them, with no negative zero.

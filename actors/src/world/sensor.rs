@@ -54,12 +54,15 @@ impl SensorKind {
     /// The number that derives the sensor's random stream from the run's seed: the built-ins
     /// keep 0 to 4, any other name gets a number from its FNV-1a hash, clear of them.
     pub fn stream(self) -> u64 {
-        let builtins = [Self::GPS, Self::VIEW, Self::PROXIMITY, Self::PUSH_PROXIMITY];
+        let builtins = [
+            Self::GPS,
+            Self::VIEW,
+            Self::PROXIMITY,
+            Self::PUSH_PROXIMITY,
+            Self::CONTACT,
+        ];
         if let Some(i) = builtins.iter().position(|&k| k == self) {
             return i as u64;
-        }
-        if self == Self::CONTACT {
-            return 4;
         }
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
         for b in self.0.bytes() {
@@ -250,12 +253,18 @@ impl SensorQuery {
     }
 }
 
+/// As the trace shows a request: `sensor` (its name) and `value` (the query, or
+/// `{"query": "deactivate"}`).
 impl Serialize for SensorQuery {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut m = s.serialize_map(Some(2))?;
+        m.serialize_entry("sensor", &self.sensor)?;
         match &self.query {
-            Some(q) => q.serialize(s),
-            None => serde_json::json!({"query": "deactivate"}).serialize(s),
+            Some(q) => m.serialize_entry("value", q)?,
+            None => m.serialize_entry("value", &serde_json::json!({"query": "deactivate"}))?,
         }
+        m.end()
     }
 }
 
