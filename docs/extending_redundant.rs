@@ -1,6 +1,6 @@
 // The `Redundant` protocol of docs/extending.md, section 1 (kept identical to it by a test).
 use nekosim_protocols::{
-    ConfigError, Ctx, Indication, LayerIx, Microprotocol, MsgId, Out, Payload, Pid, Request,
+    FieldError, Ctx, Indication, LayerIx, Microprotocol, MsgId, Out, Payload, Pid, Request,
     Service, Shape,
 };
 use serde::{Deserialize, Serialize};
@@ -46,12 +46,13 @@ impl Microprotocol for Redundant {
         Shape::on_links(Service::BROADCAST)
     }
 
-    fn new(c: RedundantConfig) -> Result<Self, ConfigError> {
+    fn new(c: RedundantConfig) -> Result<Self, FieldError> {
         if !(1..=10).contains(&c.copies) {
-            return Err(ConfigError::field(
-                "copies",
-                format!("copies is {}; expected 1 to 10", c.copies),
-            ));
+            return Err(FieldError::new(
+"copies",
+format!("copies is {}", c.copies),
+"1 to 10",
+));
         }
         Ok(Self { copies: c.copies, count: 0, delivered: BTreeSet::new() })
     }

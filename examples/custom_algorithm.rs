@@ -13,7 +13,7 @@ use nekosim::runner::{self, RunOptions};
 use nekosim::scenario::{Overrides, Registry, Source};
 use nekosim::world::geometry::Point;
 use nekosim::{Algorithm, AlgorithmFuture, Robot};
-use nekosim_protocols::ConfigError;
+use nekosim_protocols::FieldError;
 use serde::Deserialize;
 
 /// Drives around a square of `side` units, `laps` times, anticlockwise from the born point.
@@ -49,11 +49,12 @@ fn five() -> f64 {
 impl Configured for Patrol {
     type Config = PatrolConfig;
 
-    fn configure(c: PatrolConfig, _: &Setting) -> Result<Self, ConfigError> {
+    fn configure(c: PatrolConfig, _: &Setting) -> Result<Self, FieldError> {
         if !(c.side.is_finite() && c.side > 0.0) {
-            return Err(ConfigError::field(
+            return Err(FieldError::new(
                 "side",
-                format!("patrol side is {}; expected a number > 0", c.side),
+                format!("patrol side is {}", c.side),
+                "a number > 0",
             ));
         }
         Ok(Patrol {

@@ -18,7 +18,7 @@ use std::process::ExitCode;
 
 use nekosim::scenario::Registry;
 use nekosim_protocols::{
-    ConfigError, Ctx, Indication, LayerIx, Microprotocol, MsgId, Out, Payload, Pid, Request,
+    Ctx, FieldError, Indication, LayerIx, Microprotocol, MsgId, Out, Payload, Pid, Request,
     Service, Shape,
 };
 use serde::{Deserialize, Serialize};
@@ -88,11 +88,12 @@ impl Microprotocol for RingGossip {
         Shape::on_links(GOSSIP)
     }
 
-    fn new(c: RingConfig) -> Result<Self, ConfigError> {
+    fn new(c: RingConfig) -> Result<Self, FieldError> {
         if c.fanout == 0 {
-            return Err(ConfigError::field(
+            return Err(FieldError::new(
                 "fanout",
-                "fanout is 0; expected a whole number >= 1",
+                "fanout is 0",
+                "a whole number >= 1",
             ));
         }
         Ok(Self {

@@ -20,7 +20,7 @@ use nekosim::world::sensor::{SensorModel, WorldView};
 use nekosim::world::RobotId;
 use nekosim::{Algorithm, AlgorithmFuture, Robot};
 use nekosim_protocols::{
-    ConfigError, Ctx, Indication, LayerIx, Microprotocol, MsgId, NoConfig, Out, Payload, Pid,
+    Ctx, FieldError, Indication, LayerIx, Microprotocol, MsgId, NoConfig, Out, Payload, Pid,
     Request, Service, Shape,
 };
 use rand_chacha::ChaCha8Rng;
@@ -48,7 +48,7 @@ impl Microprotocol for Flood {
         Shape::on_links(Service::BROADCAST)
     }
 
-    fn new(_: NoConfig) -> Result<Self, ConfigError> {
+    fn new(_: NoConfig) -> Result<Self, FieldError> {
         Ok(Self::default())
     }
 
@@ -127,9 +127,9 @@ impl NetworkModel for DistanceDelay {
 
 impl ConfiguredNetwork for DistanceDelay {
     type Config = DistanceDelay;
-    fn configure(c: DistanceDelay, _: &Networks) -> Result<Self, ConfigError> {
+    fn configure(c: DistanceDelay, _: &Networks) -> Result<Self, FieldError> {
         if !(c.speed.is_finite() && c.speed > 0.0) {
-            return Err(ConfigError::field("speed", "speed must be > 0"));
+            return Err(FieldError::value("speed", "speed", c.speed, "a number > 0"));
         }
         Ok(c)
     }
@@ -183,18 +183,24 @@ impl Algorithm for Beacon {
 
 impl Configured for Beacon {
     type Config = Beacon;
-    fn configure(c: Beacon, setting: &Setting) -> Result<Self, ConfigError> {
+    fn configure(c: Beacon, setting: &Setting) -> Result<Self, FieldError> {
         if !setting
             .layer(&c.layer)
             .is_some_and(|s| s.serves(Service::BROADCAST))
         {
-            return Err(ConfigError::field(
+            return Err(FieldError::new(
                 "layer",
                 format!("{:?} is not a broadcast layer of the stack", c.layer),
+                "the id of one",
             ));
         }
         if !(c.period.is_finite() && c.period > 0.0) {
-            return Err(ConfigError::field("period", "period must be > 0"));
+            return Err(FieldError::value(
+                "period",
+                "period",
+                c.period,
+                "a number > 0",
+            ));
         }
         Ok(c)
     }

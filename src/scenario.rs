@@ -20,7 +20,7 @@ use nekosim_actors::world::sensor::{SensorModel, Sensors};
 use nekosim_actors::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldSize};
 use nekosim_actors::{Algorithm, Comms, Fault};
 use nekosim_protocols::payload::Codecs;
-use nekosim_protocols::{LayerSpec, Protocols, Spec, SpecError, StackError, Wiring};
+use nekosim_protocols::{FieldError, LayerSpec, Protocols, Spec, SpecError, StackError, Wiring};
 use rand::{Rng, SeedableRng};
 use serde::Deserialize;
 
@@ -303,7 +303,13 @@ impl Source {
         })
     }
 
-    fn err(&self, path: &str, message: impl Into<String>) -> ScenarioError {
+    /// A validation's error, placed at its path.
+    fn err(&self, e: FieldError) -> ScenarioError {
+        self.place(&e.path, e.message())
+    }
+
+    /// `message` at the value at `path`.
+    fn place(&self, path: &str, message: impl Into<String>) -> ScenarioError {
         // Fall back to the closest enclosing value that has a position.
         let mut p = path.to_string();
         let pos = loop {
@@ -326,7 +332,11 @@ impl Source {
         if v.is_finite() {
             Ok(v)
         } else {
-            Err(self.err(path, format!("{what} is {v}; expected a finite number")))
+            Err(self.err(FieldError::new(
+                path,
+                format!("{what} is {v}"),
+                "a finite number",
+            )))
         }
     }
 
@@ -335,7 +345,11 @@ impl Source {
         if v > 0.0 {
             Ok(v)
         } else {
-            Err(self.err(path, format!("{what} is {v}; expected a number > 0")))
+            Err(self.err(FieldError::new(
+                path,
+                format!("{what} is {v}"),
+                "a number > 0",
+            )))
         }
     }
 
@@ -361,13 +375,14 @@ impl Source {
             None => s.until,
         };
         if until.is_nan() || until < 0.0 {
-            return Err(self.err(
+            return Err(self.err(FieldError::new(
                 "until",
-                format!("until is {until}; expected a time >= 0 in seconds"),
-            ));
+                format!("until is {until}"),
+                "a time >= 0 in seconds",
+            )));
         }
         if s.arbiters == 0 {
-            return Err(self.err("arbiters", "arbiters is 0; expected at least 1"));
+            return Err(self.err(FieldError::new("arbiters", "arbiters is 0", "at least 1")));
         }
         let seed = overrides.seed.unwrap_or(s.seed);
         let size = match s.world.size {
@@ -411,16 +426,21 @@ impl Source {
             if let RobotEntry::Robot { id, .. } = r {
                 let path = format!("robots[{i}].id");
                 let slot = taken.get_mut(*id as usize).ok_or_else(|| {
-                    self.err(
+                    self.err(FieldError::new(
                         &path,
+                        format!("robot id {id} is out of range"),
                         format!(
-                            "robot id {id} is out of range; with {total} robots ids are 0..={}",
+                            "an id in 0..={} (there are {total} robots)",
                             total.saturating_sub(1)
                         ),
-                    )
+                    ))
                 })?;
                 if let Some(first) = *slot {
-                    return Err(self.err(&path, format!("duplicate robot id {id} (also used by robots[{first}]); expected unique ids")));
+                    return Err(self.err(FieldError::new(
+                        &path,
+                        format!("duplicate robot id {id} (also used by robots[{first}])"),
+                        "unique ids",
+                    )));
                 }
                 *slot = Some(i);
             }
@@ -442,19 +462,20 @@ impl Source {
             let (p, r) = (spec.pose.pos, spec.radius);
             if let WorldSize::Bounded { min, max } = size {
                 if p.x < min.x + r || p.y < min.y + r || p.x > max.x - r || p.y > max.y - r {
-                    return Err(self.err(
-                        path,
-                        format!(
-                            "robot {id} at ({}, {}) with radius {r} is not inside the world [{}, {}] x [{}, {}]; expected a born point at least one radius inside",
-                            p.x, p.y, min.x, max.x, min.y, max.y
-                        ),
-                    ));
+                    return Err(self.err(FieldError::new(path, format!("robot {id} at ({}, {}) with radius {r} is not inside the world [{}, {}] x [{}, {}]", p.x, p.y, min.x, max.x, min.y, max.y), "a born point at least one radius inside")));
                 }
             }
             for (other, o) in placed.iter().enumerate() {
                 if let Some(o) = o {
                     if (o.pose.pos - p).norm() < o.radius + r {
-                        return Err(self.err(path, format!("robot {id} at ({}, {}) overlaps robot {other} at ({}, {}); expected born points at least the sum of the radii apart", p.x, p.y, o.pose.pos.x, o.pose.pos.y)));
+                        return Err(self.err(FieldError::new(
+                            path,
+                            format!(
+                                "robot {id} at ({}, {}) overlaps robot {other} at ({}, {})",
+                                p.x, p.y, o.pose.pos.x, o.pose.pos.y
+                            ),
+                            "born points at least the sum of the radii apart",
+                        )));
                     }
                 }
             }
@@ -512,13 +533,11 @@ impl Source {
                     Born::Points(ps) => ps,
                 };
                 if listed.len() > *count {
-                    return Err(self.err(
+                    return Err(self.err(FieldError::new(
                         &format!("{path}.born"),
-                        format!(
-                            "{} born points for a group of {count}; expected at most {count}",
-                            listed.len()
-                        ),
-                    ));
+                        format!("{} born points for a group of {count}", listed.len()),
+                        format!("at most {count}"),
+                    )));
                 }
                 for (k, &(x, y)) in listed.iter().enumerate() {
                     let pp = format!("{path}.born[0][{k}]");
@@ -550,7 +569,7 @@ impl Source {
                         &occupied,
                         &mut rng,
                     )
-                    .map_err(|e| self.err(&format!("{path}.count"), e.to_string()))?;
+                    .map_err(|e| self.place(&format!("{path}.count"), e.to_string()))?;
                     for (k, p) in drawn.into_iter().enumerate() {
                         let id = ids[listed.len() + k];
                         let pos = p + lo.coords;
@@ -589,19 +608,20 @@ impl Source {
             .collect();
         // The kernel's own checks, as a second net.
         let specs: Vec<RobotSpec> = robots.iter().map(|r| r.0).collect();
-        VirtualWorld::new(world, &specs).map_err(|e| self.err("robots", e.to_string()))?;
+        VirtualWorld::new(world, &specs).map_err(|e| self.place("robots", e.to_string()))?;
         let framerate = match &s.animation {
             None => crate::recording::DEFAULT_FRAMERATE,
             Some(a) => {
                 if !(0.0..=crate::recording::MAX_FRAMERATE).contains(&a.framerate) {
-                    return Err(self.err(
+                    return Err(self.err(FieldError::value(
                         "animation.framerate",
+                        "animation framerate",
+                        a.framerate,
                         format!(
-                            "animation framerate is {}; expected frames per simulated second from 0 to {}",
-                            a.framerate,
+                            "frames per simulated second from 0 to {}",
                             crate::recording::MAX_FRAMERATE
                         ),
-                    ));
+                    )));
                 }
                 a.framerate
             }
@@ -649,13 +669,11 @@ impl Source {
             if (r as usize) < n {
                 Ok(r)
             } else {
-                Err(self.err(
+                Err(self.err(FieldError::new(
                     &path,
-                    format!(
-                        "robot {r} does not exist; expected an id in 0..={}",
-                        n.saturating_sub(1)
-                    ),
-                ))
+                    format!("robot {r} does not exist"),
+                    format!("an id in 0..={}", n.saturating_sub(1)),
+                )))
             }
         };
         for (i, f) in s.faults.iter().enumerate() {
@@ -665,10 +683,11 @@ impl Source {
                     let robot = robot_ok(format!("{p}.robot"), *robot)?;
                     self.finite(&format!("{p}.at"), "crash time", *at)?;
                     if *at < 0.0 {
-                        return Err(self.err(
+                        return Err(self.err(FieldError::new(
                             &format!("{p}.at"),
-                            format!("crash time is {at}; expected a time >= 0"),
-                        ));
+                            format!("crash time is {at}"),
+                            "a time >= 0",
+                        )));
                     }
                     faults.push(Fault::Crash { robot, at: *at });
                 }
@@ -681,7 +700,11 @@ impl Source {
                     self.finite(&format!("{p}.from"), "partition start", *from)?;
                     self.finite(&format!("{p}.to"), "partition end", *to)?;
                     if to < from {
-                        return Err(self.err(&format!("{p}.to"), format!("partition ends at {to} before it starts at {from}; expected from <= to")));
+                        return Err(self.err(FieldError::new(
+                            &format!("{p}.to"),
+                            format!("partition ends at {to} before it starts at {from}"),
+                            "from <= to",
+                        )));
                     }
                     faults.push(Fault::Partition(Partition {
                         groups: groups.clone(),
@@ -717,8 +740,8 @@ impl Source {
         let path = format!("stack[{}].protocol", e.layer);
         match (e.at, e.field.strip_prefix("protocol")) {
             (Some(at), _) => self.err_in(&path, at, &e.message),
-            (None, Some(rest)) => self.err(&format!("{path}{rest}"), e.message.clone()),
-            (None, None) => self.err(
+            (None, Some(rest)) => self.place(&format!("{path}{rest}"), e.message.clone()),
+            (None, None) => self.place(
                 &format!("stack[{}].{}", e.layer, e.field),
                 e.message.clone(),
             ),
@@ -732,17 +755,17 @@ impl Source {
             (Some(at), None) => self.err_in(path, at, &e.message),
             (Some(at), Some(f)) => self.err_in(&format!("{path}.{f}"), at, &e.message),
             (None, Some(f)) if f.starts_with('[') => {
-                self.err(&format!("{path}{f}"), e.message.clone())
+                self.place(&format!("{path}{f}"), e.message.clone())
             }
-            (None, Some(f)) => self.err(&format!("{path}.{f}"), e.message.clone()),
-            (None, None) => self.err(path, e.message.clone()),
+            (None, Some(f)) => self.place(&format!("{path}.{f}"), e.message.clone()),
+            (None, None) => self.place(path, e.message.clone()),
         }
     }
 
     /// An error at `(line, col)` of the value at `path` (1-based, within the value's text).
     fn err_in(&self, path: &str, (line, col): (usize, usize), message: &str) -> ScenarioError {
         let Some(base) = self.spans.get(path) else {
-            return self.err(path, message);
+            return self.place(path, message);
         };
         ScenarioError {
             file: self.file.clone(),

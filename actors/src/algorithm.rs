@@ -547,18 +547,18 @@ impl Algorithm for PathReservation {
 // same registry a user's algorithm is registered in (crate::registry).
 
 use crate::registry::{finite, positive, Configured, Setting};
-use nekosim_protocols::{ConfigError, NoConfig, Service};
+use nekosim_protocols::{FieldError, NoConfig, Service};
 
 impl Configured for Idle {
     type Config = NoConfig;
-    fn configure(_: NoConfig, _: &Setting) -> Result<Self, ConfigError> {
+    fn configure(_: NoConfig, _: &Setting) -> Result<Self, FieldError> {
         Ok(Idle)
     }
 }
 
 impl Configured for AskForHelp {
     type Config = NoConfig;
-    fn configure(_: NoConfig, _: &Setting) -> Result<Self, ConfigError> {
+    fn configure(_: NoConfig, _: &Setting) -> Result<Self, FieldError> {
         Ok(AskForHelp)
     }
 }
@@ -569,7 +569,7 @@ pub struct ScriptConfig(pub Vec<ScriptStep>);
 
 impl Configured for Script {
     type Config = ScriptConfig;
-    fn configure(ScriptConfig(steps): ScriptConfig, _: &Setting) -> Result<Self, ConfigError> {
+    fn configure(ScriptConfig(steps): ScriptConfig, _: &Setting) -> Result<Self, FieldError> {
         for (k, step) in steps.iter().enumerate() {
             let p = |f: &str| format!("[0][{k}]{f}");
             match *step {
@@ -583,9 +583,10 @@ impl Configured for Script {
                 } => {
                     finite(&p(".distance"), "distance", distance)?;
                     if distance < 0.0 {
-                        return Err(ConfigError::field(
+                        return Err(FieldError::new(
                             &p(".distance"),
-                            format!("distance is {distance}; expected a number >= 0"),
+                            format!("distance is {distance}"),
+                            "a number >= 0",
                         ));
                     }
                     positive(&p(".move_speed"), "move speed", move_speed)?;
@@ -604,9 +605,10 @@ impl Configured for Script {
                 ScriptStep::Wait(d) => {
                     finite(&p("[0]"), "wait", d)?;
                     if d < 0.0 {
-                        return Err(ConfigError::field(
+                        return Err(FieldError::new(
                             &p("[0]"),
-                            format!("wait is {d}; expected a duration >= 0"),
+                            format!("wait is {d}"),
+                            "a duration >= 0",
                         ));
                     }
                 }
@@ -617,18 +619,15 @@ impl Configured for Script {
 }
 
 /// A `(min, max)` range read from a scenario, checked and turned into a [`SpeedRange`].
-fn range(
-    field: &str,
-    what: &str,
-    r: Option<(f64, f64)>,
-) -> Result<Option<SpeedRange>, ConfigError> {
+fn range(field: &str, what: &str, r: Option<(f64, f64)>) -> Result<Option<SpeedRange>, FieldError> {
     let Some((lo, hi)) = r else { return Ok(None) };
     positive(&format!("{field}[0]"), what, lo)?;
     positive(&format!("{field}[1]"), what, hi)?;
     if hi < lo {
-        return Err(ConfigError::field(
+        return Err(FieldError::new(
             field,
-            format!("{what} range ({lo}, {hi}) is reversed; expected (min, max) with min <= max"),
+            format!("{what} range ({lo}, {hi}) is reversed"),
+            "(min, max) with min <= max",
         ));
     }
     Ok(Some(SpeedRange {
@@ -653,7 +652,7 @@ pub struct RandomMovementConfig {
 
 impl Configured for RandomMovement {
     type Config = RandomMovementConfig;
-    fn configure(c: RandomMovementConfig, _: &Setting) -> Result<Self, ConfigError> {
+    fn configure(c: RandomMovementConfig, _: &Setting) -> Result<Self, FieldError> {
         let d = RandomMovement::default();
         Ok(RandomMovement {
             move_speed: range("move_speed", "move speed", c.move_speed)?.unwrap_or(d.move_speed),
@@ -685,13 +684,14 @@ pub struct GatheringConfig {
 
 impl Configured for Gathering {
     type Config = GatheringConfig;
-    fn configure(c: GatheringConfig, _: &Setting) -> Result<Self, ConfigError> {
+    fn configure(c: GatheringConfig, _: &Setting) -> Result<Self, FieldError> {
         let d = Gathering::default();
         finite("error", "error factor", c.error)?;
         if c.error < 0.0 {
-            return Err(ConfigError::field(
+            return Err(FieldError::new(
                 "error",
-                format!("error factor is {}; expected a number >= 0", c.error),
+                format!("error factor is {}", c.error),
+                "a number >= 0",
             ));
         }
         Ok(Gathering {
@@ -728,16 +728,14 @@ pub struct LayerMoveConfig {
 
 impl Configured for MeetingPoint {
     type Config = LayerMoveConfig;
-    fn configure(c: LayerMoveConfig, setting: &Setting) -> Result<Self, ConfigError> {
+    fn configure(c: LayerMoveConfig, setting: &Setting) -> Result<Self, FieldError> {
         positive("move_speed", "move speed", c.move_speed)?;
         positive("turn_speed", "turn speed", c.turn_speed)?;
         if setting.layer(&c.layer).is_none() {
-            return Err(ConfigError::field(
+            return Err(FieldError::new(
                 "layer",
-                format!(
-                    "no layer {:?} in the stack; expected the id of a consensus layer",
-                    c.layer
-                ),
+                format!("no layer {:?} in the stack", c.layer),
+                "the id of a consensus layer",
             ));
         }
         Ok(MeetingPoint {
@@ -750,19 +748,20 @@ impl Configured for MeetingPoint {
 
 impl Configured for PathReservation {
     type Config = LayerMoveConfig;
-    fn configure(c: LayerMoveConfig, setting: &Setting) -> Result<Self, ConfigError> {
+    fn configure(c: LayerMoveConfig, setting: &Setting) -> Result<Self, FieldError> {
         positive("move_speed", "move speed", c.move_speed)?;
         positive("turn_speed", "turn speed", c.turn_speed)?;
         if !setting
             .layer(&c.layer)
             .is_some_and(|s| s.serves(Service::TOTAL_ORDER))
         {
-            return Err(ConfigError::field(
+            return Err(FieldError::new(
                 "layer",
                 format!(
-                    "{:?} is not a total-order broadcast layer of the stack; expected the id of one",
+                    "{:?} is not a total-order broadcast layer of the stack",
                     c.layer
                 ),
+                "the id of one",
             ));
         }
         Ok(PathReservation {
@@ -784,15 +783,13 @@ pub struct BroadcastLoadConfig {
 
 impl Configured for BroadcastLoad {
     type Config = BroadcastLoadConfig;
-    fn configure(c: BroadcastLoadConfig, setting: &Setting) -> Result<Self, ConfigError> {
+    fn configure(c: BroadcastLoadConfig, setting: &Setting) -> Result<Self, FieldError> {
         positive("mean_interval", "mean interval", c.mean_interval)?;
         if setting.layer(&c.layer).is_none() {
-            return Err(ConfigError::field(
+            return Err(FieldError::new(
                 "layer",
-                format!(
-                    "no layer {:?} in the stack; expected the id of a broadcast layer",
-                    c.layer
-                ),
+                format!("no layer {:?} in the stack", c.layer),
+                "the id of a broadcast layer",
             ));
         }
         Ok(BroadcastLoad {

@@ -5,7 +5,7 @@
 //! [`Algorithms::algorithm`]).
 
 use nekosim_protocols::registry::Named;
-use nekosim_protocols::{ConfigError, Service, Spec, SpecError};
+use nekosim_protocols::{FieldError, Service, Spec, SpecError};
 use serde::de::DeserializeOwned;
 
 use crate::robot::Algorithm;
@@ -30,10 +30,10 @@ pub trait Configured: Algorithm + Sized + 'static {
     /// `#[serde(deny_unknown_fields)]`).
     type Config: DeserializeOwned;
 
-    /// The algorithm, or why the configuration is refused (a [`ConfigError::field`] is
+    /// The algorithm, or why the configuration is refused (a [`FieldError::field`] is
     /// reported at that field in the scenario file; a field path starting with `[` is joined
     /// without a dot, as in `[0][2].angle` for a tuple's element).
-    fn configure(config: Self::Config, setting: &Setting) -> Result<Self, ConfigError>;
+    fn configure(config: Self::Config, setting: &Setting) -> Result<Self, FieldError>;
 }
 
 /// Reads a spec's configuration and builds the algorithm.
@@ -103,31 +103,34 @@ impl Algorithms {
 }
 
 /// `field`'s value `v` must be a finite number > 0; `what` names it in the message.
-pub fn positive(field: &str, what: &str, v: f64) -> Result<f64, ConfigError> {
+pub fn positive(field: &str, what: &str, v: f64) -> Result<f64, FieldError> {
     if !v.is_finite() {
-        return Err(ConfigError::field(
+        return Err(FieldError::new(
             field,
-            format!("{what} is {v}; expected a finite number"),
+            format!("{what} is {v}"),
+            "a finite number",
         ));
     }
     if v > 0.0 {
         Ok(v)
     } else {
-        Err(ConfigError::field(
+        Err(FieldError::new(
             field,
-            format!("{what} is {v}; expected a number > 0"),
+            format!("{what} is {v}"),
+            "a number > 0",
         ))
     }
 }
 
 /// `field`'s value `v` must be a finite number.
-pub fn finite(field: &str, what: &str, v: f64) -> Result<f64, ConfigError> {
+pub fn finite(field: &str, what: &str, v: f64) -> Result<f64, FieldError> {
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(ConfigError::field(
+        Err(FieldError::new(
             field,
-            format!("{what} is {v}; expected a finite number"),
+            format!("{what} is {v}"),
+            "a finite number",
         ))
     }
 }

@@ -12,7 +12,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::payload::Payload;
-use crate::protocol::{ConfigError, Microprotocol, NoConfig, Out};
+use crate::protocol::{FieldError, Microprotocol, NoConfig, Out};
 use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
 use crate::wire::Pid;
 
@@ -42,7 +42,7 @@ impl Microprotocol for Fifo {
         Shape::on_links(Service::FIFO_P2P)
     }
 
-    fn new(_: NoConfig) -> Result<Self, ConfigError> {
+    fn new(_: NoConfig) -> Result<Self, FieldError> {
         Ok(Self::default())
     }
 

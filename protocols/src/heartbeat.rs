@@ -13,7 +13,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
-use crate::protocol::{ConfigError, Microprotocol, Out};
+use crate::protocol::{FieldError, Microprotocol, Out};
 use crate::service::{Ctx, Indication, Service, Shape};
 use crate::wire::{Pid, Real};
 
@@ -76,16 +76,17 @@ impl Microprotocol for Heartbeat {
         Shape::on_links(Service::FAILURE_DETECTOR)
     }
 
-    fn new(c: HeartbeatConfig) -> Result<Self, ConfigError> {
-        ConfigError::positive_seconds("period", c.period)?;
-        ConfigError::positive_seconds("timeout", c.timeout)?;
+    fn new(c: HeartbeatConfig) -> Result<Self, FieldError> {
+        FieldError::positive_seconds("period", c.period)?;
+        FieldError::positive_seconds("timeout", c.timeout)?;
         if c.timeout < c.period {
-            return Err(ConfigError::field(
+            return Err(FieldError::new(
                 "timeout",
                 format!(
-                    "timeout {} is shorter than the period {}; expected timeout >= period",
+                    "timeout {} is shorter than the period {}",
                     c.timeout, c.period
                 ),
+                "timeout >= period",
             ));
         }
         Ok(Self::with_timing(c.period, c.timeout))

@@ -31,7 +31,7 @@ pub mod stack;
 pub mod wire;
 
 pub use payload::{Payload, WireError};
-pub use protocol::{ConfigError, Layer, Message, Microprotocol, NoConfig, NoMsg, Out};
+pub use protocol::{FieldError, Layer, Message, Microprotocol, NoConfig, NoMsg, Out};
 pub use registry::{ProtocolSpec, Protocols, Spec, SpecError};
 pub use service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, Shape, APP, NET};
 pub use stack::{LayerSpec, Routed, Stack, StackError, Wiring};

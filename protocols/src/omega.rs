@@ -7,7 +7,7 @@
 
 use std::collections::BTreeSet;
 
-use crate::protocol::{ConfigError, Microprotocol, NoConfig, NoMsg, Out};
+use crate::protocol::{FieldError, Microprotocol, NoConfig, NoMsg, Out};
 use crate::service::{Ctx, Indication, LayerIx, Service, Shape};
 use crate::wire::Pid;
 
@@ -44,7 +44,7 @@ impl Microprotocol for Omega {
         }
     }
 
-    fn new(_: NoConfig) -> Result<Self, ConfigError> {
+    fn new(_: NoConfig) -> Result<Self, FieldError> {
         Ok(Self::default())
     }
 

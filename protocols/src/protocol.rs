@@ -41,30 +41,73 @@ pub enum NoMsg {}
 #[serde(deny_unknown_fields)]
 pub struct NoConfig {}
 
-/// Why a configuration was refused: the offending field (when there is one, so the error can
-/// point at it in the scenario file) and what is wrong.
+/// Why a value was refused: the one error every validation reports (the configurations of
+/// protocols, algorithms, network models and sensors, and the scenario itself). `path` says
+/// where the value is (a field, `over.lambda`, `[0]`, `robots[2].radius`; empty for the
+/// configuration as a whole), `got` what was found there and `expected` what would be
+/// accepted. The scenario loader places it in the file: `FILE:LINE:COL: got; expected ...`.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("{message}")]
-pub struct ConfigError {
-    pub field: Option<String>,
-    pub message: String,
+#[error("{}", self.message())]
+pub struct FieldError {
+    pub path: String,
+    /// What was found, as a phrase (`period is -1`, `timeout 1 is shorter than the period 2`).
+    pub got: String,
+    /// What would be accepted (`a finite number > 0`); empty when there is nothing to add.
+    pub expected: String,
 }
 
-impl ConfigError {
-    /// `field` is wrong: `message` says how.
-    pub fn field(field: &str, message: impl Into<String>) -> Self {
+impl FieldError {
+    /// The value at `path` is wrong: `got` says what was found, `expected` what is accepted.
+    pub fn new(path: &str, got: impl Into<String>, expected: impl Into<String>) -> Self {
         Self {
-            field: Some(field.to_string()),
-            message: message.into(),
+            path: path.to_string(),
+            got: got.into(),
+            expected: expected.into(),
         }
     }
 
+    /// The value `value` at `path`, named `what` in the message, is not what was `expected`:
+    /// `{what} is {value}; expected {expected}`.
+    pub fn value(
+        path: &str,
+        what: &str,
+        value: impl fmt::Display,
+        expected: impl Into<String>,
+    ) -> Self {
+        Self::new(path, format!("{what} is {value}"), expected)
+    }
+
     /// The configuration as a whole is wrong.
-    pub fn new(message: impl Into<String>) -> Self {
-        Self {
-            field: None,
-            message: message.into(),
+    pub fn whole(got: impl Into<String>, expected: impl Into<String>) -> Self {
+        Self::new("", got, expected)
+    }
+
+    /// The message: `{got}; expected {expected}` (or `got` alone when nothing is expected).
+    pub fn message(&self) -> String {
+        if self.expected.is_empty() {
+            self.got.clone()
+        } else {
+            format!("{}; expected {}", self.got, self.expected)
         }
+    }
+
+    /// The same error seen from the value holding this one at `outer` (`over` + `lambda` is
+    /// `over.lambda`; an index such as `[0]` joins without a dot).
+    pub fn inside(mut self, outer: &str) -> Self {
+        self.path = match (outer.is_empty(), self.path.is_empty()) {
+            (true, _) => self.path,
+            (false, true) => outer.to_string(),
+            (false, false) if self.path.starts_with('[') => format!("{outer}{}", self.path),
+            (false, false) => format!("{outer}.{}", self.path),
+        };
+        self
+    }
+
+    /// The same error with `prefix: ` before what was found (the name of the configured
+    /// protocol, algorithm or model).
+    pub fn prefixed(mut self, prefix: &str) -> Self {
+        self.got = format!("{prefix}: {}", self.got);
+        self
     }
 
     /// Checks that `field`'s value `v` is a finite number > 0 (seconds).
@@ -72,9 +115,11 @@ impl ConfigError {
         if v.is_finite() && v > 0.0 {
             Ok(())
         } else {
-            Err(Self::field(
+            Err(Self::value(
                 field,
-                format!("{field} is {v}; expected a finite number > 0 (seconds)"),
+                field,
+                v,
+                "a finite number > 0 (seconds)",
             ))
         }
     }
@@ -100,7 +145,7 @@ pub trait Microprotocol: Clone + Debug + Eq + Hash + Send + Sync + 'static {
     fn shape(config: &Self::Config) -> Shape;
 
     /// A fresh instance, or why the configuration is refused.
-    fn new(config: Self::Config) -> Result<Self, ConfigError>;
+    fn new(config: Self::Config) -> Result<Self, FieldError>;
 
     /// The process starts.
     fn on_start(&mut self, _ctx: &Ctx, _out: &mut Out<Self>) {}
@@ -336,5 +381,36 @@ impl Eq for Layer {}
 impl Hash for Layer {
     fn hash<H: Hasher>(&self, state: &mut H) {
         self.0.hash_dyn(state)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FieldError;
+
+    #[test]
+    fn a_field_error_says_where_what_was_found_and_what_is_expected() {
+        let e = FieldError::value("lambda", "lambda", -2.0, "a finite number >= 0");
+        assert_eq!(
+            (e.path.as_str(), e.got.as_str(), e.expected.as_str()),
+            ("lambda", "lambda is -2", "a finite number >= 0")
+        );
+        assert_eq!(e.to_string(), "lambda is -2; expected a finite number >= 0");
+        // Seen from the model holding it, under its name.
+        let outer = e.clone().prefixed("RandomDelay").inside("over");
+        assert_eq!(outer.path, "over.lambda");
+        assert_eq!(
+            outer.to_string(),
+            "RandomDelay: lambda is -2; expected a finite number >= 0"
+        );
+        assert_eq!(e.clone().inside("steps").inside("").path, "steps.lambda");
+        assert_eq!(
+            FieldError::new("[0]", "wait is -1", "")
+                .inside("steps")
+                .path,
+            "steps[0]"
+        );
+        assert_eq!(FieldError::whole("no layer", "").inside("net").path, "net");
+        assert_eq!(FieldError::whole("no layer", "").to_string(), "no layer");
     }
 }

@@ -11,7 +11,7 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::payload::{decode_bytes, Codec, WireError};
-use crate::protocol::{ConfigError, Layer, Microprotocol};
+use crate::protocol::{FieldError, Layer, Microprotocol};
 use crate::service::Shape;
 
 /// A protocol (or algorithm) and its configuration as a scenario writes it, kept as RON text
@@ -54,13 +54,13 @@ impl Spec {
     /// spec and prefixed with its name (a refusal by `build` points at its field).
     pub fn configure<C: DeserializeOwned, T>(
         &self,
-        build: impl FnOnce(C) -> Result<T, ConfigError>,
+        build: impl FnOnce(C) -> Result<T, FieldError>,
     ) -> Result<T, SpecError> {
-        build(self.read_config()?).map_err(|ConfigError { field, message }| {
+        build(self.read_config()?).map_err(|e| {
             self.locate(SpecError {
                 at: None,
-                field,
-                message,
+                field: (!e.path.is_empty()).then(|| e.path.clone()),
+                message: e.message(),
             })
         })
     }

@@ -10,7 +10,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::payload::Payload;
-use crate::protocol::{ConfigError, Microprotocol, Out};
+use crate::protocol::{FieldError, Microprotocol, Out};
 use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
 use crate::wire::{Pid, Real};
 
@@ -76,8 +76,8 @@ impl Microprotocol for Retransmit {
         Shape::on_links(Service::P2P)
     }
 
-    fn new(c: RetransmitConfig) -> Result<Self, ConfigError> {
-        ConfigError::positive_seconds("period", c.period)?;
+    fn new(c: RetransmitConfig) -> Result<Self, FieldError> {
+        FieldError::positive_seconds("period", c.period)?;
         Ok(Self::with_period(c.period))
     }
 

@@ -11,7 +11,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::payload::Payload;
-use crate::protocol::{ConfigError, Microprotocol, Out};
+use crate::protocol::{FieldError, Microprotocol, Out};
 use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
 use crate::wire::{MsgId, Pid};
 
@@ -104,7 +104,7 @@ impl Microprotocol for FixedSequencer {
         Shape::on_links(Service::TOTAL_ORDER)
     }
 
-    fn new(c: SequencerConfig) -> Result<Self, ConfigError> {
+    fn new(c: SequencerConfig) -> Result<Self, FieldError> {
         Ok(Self::with_sequencer(c.sequencer))
     }
 

@@ -7,7 +7,7 @@ use std::fmt;
 use std::hash::{DefaultHasher, Hash, Hasher};
 
 use nekosim_protocols::{
-    AppMsg, ConfigError, Content, Ctx, Indication, Input, LayerIx, LayerSpec, Microprotocol, MsgId,
+    AppMsg, Content, Ctx, FieldError, Indication, Input, LayerIx, LayerSpec, Microprotocol, MsgId,
     NoConfig, NoMsg, Out, Payload, Pid, ProtocolSpec, Protocols, Request, Routed, Service, Shape,
     Stack, StackError, Wiring, APP, NET,
 };
@@ -61,11 +61,12 @@ impl Microprotocol for RingGossip {
         Shape::on_links(GOSSIP)
     }
 
-    fn new(c: RingGossipConfig) -> Result<Self, ConfigError> {
+    fn new(c: RingGossipConfig) -> Result<Self, FieldError> {
         if c.fanout == 0 {
-            return Err(ConfigError::field(
+            return Err(FieldError::new(
                 "fanout",
-                "fanout is 0; expected at least 1 successor",
+                "fanout is 0",
+                "at least 1 successor",
             ));
         }
         Ok(Self {
@@ -123,7 +124,7 @@ impl Microprotocol for Tally {
         }
     }
 
-    fn new(_: NoConfig) -> Result<Self, ConfigError> {
+    fn new(_: NoConfig) -> Result<Self, FieldError> {
         Ok(Self::default())
     }
 

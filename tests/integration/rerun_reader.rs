@@ -237,7 +237,7 @@ impl nekosim::registry::Configured for Sentry {
     fn configure(
         config: Sentry,
         _: &nekosim::registry::Setting,
-    ) -> Result<Self, nekosim_protocols::ConfigError> {
+    ) -> Result<Self, nekosim_protocols::FieldError> {
         Ok(config)
     }
 }

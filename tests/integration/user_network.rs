@@ -7,7 +7,7 @@ use nekosim::scenario::{Overrides, Registry, Source};
 use nekosim::world::network::{ConfiguredNetwork, NetworkModel, Networks, Send};
 use nekosim::world::RobotId;
 use nekosim::{Algorithm, AlgorithmFuture, Robot};
-use nekosim_protocols::ConfigError;
+use nekosim_protocols::FieldError;
 use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
 use serde_json::Value;
@@ -35,9 +35,9 @@ impl NetworkModel for DistanceDelay {
 
 impl ConfiguredNetwork for DistanceDelay {
     type Config = DistanceDelay;
-    fn configure(c: DistanceDelay, _: &Networks) -> Result<Self, ConfigError> {
+    fn configure(c: DistanceDelay, _: &Networks) -> Result<Self, FieldError> {
         if !(c.speed.is_finite() && c.speed > 0.0) {
-            return Err(ConfigError::field("speed", "speed must be > 0"));
+            return Err(FieldError::value("speed", "speed", c.speed, "a number > 0"));
         }
         Ok(c)
     }
@@ -74,7 +74,7 @@ impl Algorithm for Hello {
 
 impl Configured for Hello {
     type Config = Hello;
-    fn configure(c: Hello, _: &Setting) -> Result<Self, ConfigError> {
+    fn configure(c: Hello, _: &Setting) -> Result<Self, FieldError> {
         Ok(c)
     }
 }
@@ -156,7 +156,7 @@ fn its_configuration_errors_point_into_the_scenario_file() {
     assert_eq!(
         build(&text, &registry()).unwrap_err(),
         format!(
-            "net.ron:{line}:{}: DistanceDelay: speed must be > 0",
+            "net.ron:{line}:{}: DistanceDelay: speed is 0; expected a number > 0",
             col(&text, "0.0)")
         )
     );

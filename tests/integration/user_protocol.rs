@@ -8,7 +8,7 @@ use std::fmt;
 use nekosim::runner::{self, RunOptions};
 use nekosim::scenario::{Overrides, Registry, Source};
 use nekosim_protocols::{
-    ConfigError, Ctx, Indication, LayerIx, Microprotocol, MsgId, Out, Payload, Pid, Request,
+    Ctx, FieldError, Indication, LayerIx, Microprotocol, MsgId, Out, Payload, Pid, Request,
     Service, Shape,
 };
 use serde::{Deserialize, Serialize};
@@ -46,9 +46,9 @@ impl Microprotocol for Relay {
         Shape::on_links(Service::BROADCAST)
     }
 
-    fn new(c: RelayConfig) -> Result<Self, ConfigError> {
+    fn new(c: RelayConfig) -> Result<Self, FieldError> {
         if c.hops == 0 {
-            return Err(ConfigError::field("hops", "hops is 0; expected at least 1"));
+            return Err(FieldError::new("hops", "hops is 0", "at least 1"));
         }
         Ok(Self {
             hops: c.hops,

@@ -20,7 +20,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 
 use nekosim_protocols::registry::Named;
-use nekosim_protocols::{ConfigError, Spec, SpecError};
+use nekosim_protocols::{FieldError, Spec, SpecError};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::de::DeserializeOwned;
@@ -54,7 +54,7 @@ pub trait ConfiguredNetwork: NetworkModel + Sized + 'static {
 
     /// The model, or why the configuration is refused; `networks` builds the models a
     /// configuration names in turn (`Lossy(p: 0.1, over: RandomDelay(lambda: 1.0))`).
-    fn configure(config: Self::Config, networks: &Networks) -> Result<Self, ConfigError>;
+    fn configure(config: Self::Config, networks: &Networks) -> Result<Self, FieldError>;
 }
 
 type BuildFn = fn(&Spec, &Networks) -> Result<Box<dyn NetworkModel>, SpecError>;
@@ -125,26 +125,23 @@ impl Networks {
 
     /// Builds the model `spec` held in field `field` of another model's configuration: an
     /// error is reported at that field.
-    pub fn build_in(&self, field: &str, spec: &Spec) -> Result<Box<dyn NetworkModel>, ConfigError> {
+    pub fn build_in(&self, field: &str, spec: &Spec) -> Result<Box<dyn NetworkModel>, FieldError> {
         // An error inside the nested model's text is reported at the field holding it.
-        self.build(spec).map_err(|e| ConfigError {
-            field: Some(match &e.field {
-                Some(f) => format!("{field}.{f}"),
-                None => field.to_string(),
-            }),
-            message: e.message,
+        self.build(spec).map_err(|e| {
+            FieldError::new(e.field.as_deref().unwrap_or(""), e.message, "").inside(field)
         })
     }
 }
 
 /// `field`'s value must be a finite number >= 0.
-fn nonneg(field: &str, v: f64) -> Result<f64, ConfigError> {
+fn nonneg(field: &str, v: f64) -> Result<f64, FieldError> {
     if v.is_finite() && v >= 0.0 {
         Ok(v)
     } else {
-        Err(ConfigError::field(
+        Err(FieldError::new(
             field,
-            format!("{field} is {v}; expected a finite number >= 0"),
+            format!("{field} is {v}"),
+            "a finite number >= 0",
         ))
     }
 }
@@ -166,7 +163,7 @@ impl NetworkModel for Reliable {
 
 impl ConfiguredNetwork for Reliable {
     type Config = Reliable;
-    fn configure(c: Reliable, _: &Networks) -> Result<Self, ConfigError> {
+    fn configure(c: Reliable, _: &Networks) -> Result<Self, FieldError> {
         nonneg("delay", c.delay)?;
         Ok(c)
     }
@@ -192,7 +189,7 @@ impl NetworkModel for RandomDelay {
 
 impl ConfiguredNetwork for RandomDelay {
     type Config = RandomDelay;
-    fn configure(c: RandomDelay, _: &Networks) -> Result<Self, ConfigError> {
+    fn configure(c: RandomDelay, _: &Networks) -> Result<Self, FieldError> {
         nonneg("lambda", c.lambda)?;
         Ok(c)
     }
@@ -235,7 +232,7 @@ impl NetworkModel for Metric {
 
 impl ConfiguredNetwork for Metric {
     type Config = MetricConfig;
-    fn configure(c: MetricConfig, _: &Networks) -> Result<Self, ConfigError> {
+    fn configure(c: MetricConfig, _: &Networks) -> Result<Self, FieldError> {
         Ok(Self {
             lambda: nonneg("lambda", c.lambda)?,
             send_cpu: BTreeMap::new(),
@@ -275,11 +272,12 @@ impl NetworkModel for Lossy {
 
 impl ConfiguredNetwork for Lossy {
     type Config = LossyConfig;
-    fn configure(c: LossyConfig, networks: &Networks) -> Result<Self, ConfigError> {
+    fn configure(c: LossyConfig, networks: &Networks) -> Result<Self, FieldError> {
         if !(c.p.is_finite() && (0.0..=1.0).contains(&c.p)) {
-            return Err(ConfigError::field(
+            return Err(FieldError::new(
                 "p",
-                format!("p is {}; expected a probability in [0, 1]", c.p),
+                format!("p is {}", c.p),
+                "a probability in [0, 1]",
             ));
         }
         Ok(Self {
@@ -320,7 +318,7 @@ impl NetworkModel for Radio {
 
 impl ConfiguredNetwork for Radio {
     type Config = RadioConfig;
-    fn configure(c: RadioConfig, networks: &Networks) -> Result<Self, ConfigError> {
+    fn configure(c: RadioConfig, networks: &Networks) -> Result<Self, FieldError> {
         Ok(Self {
             range: nonneg("range", c.range)?,
             over: networks.build_in("over", &c.over)?,
