@@ -1,5 +1,7 @@
 //! The sensor manager actor (seed 4.2.3, fig. 4.5): turns sensor requests into sensor events,
 //! gathers the world's exact data for each sensor at trigger time and re-arms push sensors.
+//! It owns its state (the sensors and every robot's armed push sensors, [`Sensing`]) and
+//! reads the world it shares with the motion manager.
 
 use std::sync::{Arc, Mutex};
 
@@ -7,18 +9,19 @@ use actix::prelude::*;
 
 use crate::scheduler::Deliver;
 use crate::world::event::Outbox;
-use crate::world::virtual_world::VirtualWorld;
+use crate::world::virtual_world::{Sensing, VirtualWorld};
 
 /// The sensor manager.
 #[derive(Debug)]
 pub struct SensorManager {
     world: Arc<Mutex<VirtualWorld>>,
+    sensing: Sensing,
 }
 
 impl SensorManager {
-    /// A sensor manager over `world`.
-    pub fn new(world: Arc<Mutex<VirtualWorld>>) -> Self {
-        Self { world }
+    /// A sensor manager over `world`, with its own state `sensing`.
+    pub fn new(world: Arc<Mutex<VirtualWorld>>, sensing: Sensing) -> Self {
+        Self { world, sensing }
     }
 }
 
@@ -32,7 +35,7 @@ impl Handler<Deliver> for SensorManager {
     fn handle(&mut self, msg: Deliver, _: &mut Context<Self>) -> Self::Result {
         let mut out = Outbox::new(msg.now, msg.seq);
         let mut world = self.world.lock().expect("world lock");
-        world.handle_sensor(msg.event.payload, &mut out);
+        self.sensing.handle(&mut world, msg.event.payload, &mut out);
         MessageResult(out.into_effects())
     }
 }

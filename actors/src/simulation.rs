@@ -17,7 +17,7 @@ use crate::world::event::Outbox;
 use crate::world::event::{EventClass, Payload, Target};
 use crate::world::network::{Network, Networks, Partition};
 use crate::world::sensor::Sensors;
-use crate::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldError};
+use crate::world::virtual_world::{RobotSpec, Sensing, VirtualWorld, WorldConfig, WorldError};
 use crate::world::RobotId;
 use nekosim_protocols::{Input, LayerSpec, Protocols, Spec, Wiring};
 use rand::SeedableRng;
@@ -132,7 +132,8 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     }
     let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
     let sensors = Arc::new(cfg.sensors);
-    let world = VirtualWorld::new(cfg.world, &specs)?.with_sensors(sensors.clone());
+    let world = VirtualWorld::new(cfg.world, &specs)?;
+    let sensing = Sensing::new(sensors.clone(), specs.len());
     let (wiring, template) = Wiring::check(&cfg.comms.stack, &cfg.comms.protocols)?;
     let wiring = std::sync::Arc::new(wiring);
     let mut setup = Outbox::new(0.0, 0);
@@ -199,7 +200,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
         let network = NetworkActor::new(network, world.clone(), wiring.clone())
             .start()
             .recipient();
-        let sensor_manager = SensorManager::new(world).start().recipient();
+        let sensor_manager = SensorManager::new(world, sensing).start().recipient();
         let arbiter_of = {
             let handles = handles.clone();
             move |id: RobotId| handles[id as usize % handles.len()].clone()

@@ -125,6 +125,12 @@ pub enum Payload {
         sensor: SensorKind,
         generation: u64,
     },
+    /// Motion manager -> sensor manager: `robot` touched `with`; its contact `sensor` senses.
+    Touched {
+        robot: RobotId,
+        sensor: SensorKind,
+        with: Obstacle,
+    },
     /// A periodic push sensor re-senses (every `interval` [s] from its activation).
     PeriodicSense {
         robot: RobotId,
@@ -197,6 +203,7 @@ impl Payload {
             Payload::ProximityEntry { .. } => "proximity_entry",
             Payload::ProximityRearm { .. } => "proximity_rearm",
             Payload::PeriodicSense { .. } => "periodic_sense",
+            Payload::Touched { .. } => "touched",
             Payload::SensorRequest { .. } => "sensor_request",
             Payload::SensorTrigger { .. } => "sensor_trigger",
             Payload::SensorCompute { .. } => "sensor_compute",

@@ -1,8 +1,10 @@
 //! The virtual world (seed 3.2 and 4.2.4): every robot's state, the spatial index, the queries
 //! over them and the cheap invalidation of predictions. The motion manager's logic over it is
-//! `motion_logic` (seed 4.2.3, fig. 4.4), the sensor manager's is `sensing` (seed 4.2.2-4.2.3,
-//! fig. 4.5): a registered sensor touches neither, and a new built-in sensor kind touches only
-//! `sensing` and the sensor module (`super::sensor`).
+//! `motion_logic` (seed 4.2.3, fig. 4.4); the sensor manager's logic and its own state
+//! ([`Sensing`], owned by the sensor manager actor) are `sensing` (seed 4.2.2-4.2.3, fig.
+//! 4.5). Of the armed push sensors the world holds only what its predictions need: each entry
+//! sensor's range and which sensors a contact triggers. A sensor, built-in or a user's, is a
+//! [`super::sensor::SensorModel`] and touches none of these modules.
 //!
 //! The virtual world knows every robot's current motion, so any robot's exact state at any
 //! instant comes from the motion formulas. It is reached only through the managers: the motion
@@ -31,6 +33,8 @@ use super::{MotionOutcome, Obstacle, RobotId};
 
 mod motion_logic;
 mod sensing;
+
+pub use sensing::Sensing;
 
 /// The world's extent (seed 3.2).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -106,22 +110,6 @@ pub struct RobotSpec {
     pub pose: Pose,
 }
 
-/// An armed push sensor whose trigger is another robot's entry into its range
-/// ([`super::sensor::Trigger::Entry`]).
-#[derive(Clone, Debug)]
-struct EntryWatch {
-    sensor: SensorKind,
-    /// The activation query.
-    query: Datum,
-    /// Free distance that triggers [units].
-    range: f64,
-    /// Quiet period after an interrupt [s].
-    quiet: f64,
-    quiet_until: f64,
-    generation: u64,
-    pending: bool,
-}
-
 #[derive(Debug)]
 struct RobotState {
     radius: f64,
@@ -137,12 +125,12 @@ struct RobotState {
     /// Partner -> pair events predicted under the current motions of both.
     pairs: BTreeMap<RobotId, Vec<EventId>>,
     cell: Cell,
-    /// Armed push sensors triggered by entries into their range.
-    entry: Vec<EntryWatch>,
-    /// Armed push sensors triggered by contacts, with their activation queries.
-    contact: Vec<(SensorKind, Datum)>,
-    /// Armed push sensors that re-sense periodically: activation query and generation.
-    periodic: BTreeMap<SensorKind, (Datum, u64)>,
+    /// What the world shows of the robot's armed push sensors (the sensor manager owns the
+    /// rest): the free distance at which another robot's entry triggers each entry sensor, so
+    /// that entries are predicted and invalidated with the other pair events,
+    entry: Vec<(SensorKind, f64)>,
+    /// and the sensors a contact triggers.
+    contact: Vec<SensorKind>,
     crashed: bool,
 }
 
@@ -150,10 +138,6 @@ struct RobotState {
 #[derive(Debug)]
 pub struct VirtualWorld {
     cfg: WorldConfig,
-    /// The sensors robots can use, built-in and registered alike.
-    sensors: std::sync::Arc<Sensors>,
-    /// Activations of periodic push sensors so far (tells a stale re-sense apart).
-    periodic_generation: u64,
     robots: Vec<RobotState>,
     grid: Grid,
     max_radius: f64,
@@ -205,8 +189,6 @@ impl VirtualWorld {
             .max(1e-9);
         let mut world = Self {
             cfg,
-            sensors: Default::default(),
-            periodic_generation: 0,
             robots: Vec::with_capacity(specs.len()),
             grid: Grid::new(size),
             max_radius,
@@ -236,7 +218,6 @@ impl VirtualWorld {
                 cell,
                 entry: Vec::new(),
                 contact: Vec::new(),
-                periodic: BTreeMap::new(),
                 crashed: false,
             });
         }
@@ -372,8 +353,8 @@ impl VirtualWorld {
             }
         }
         for (s, o, ts, to) in [(a, b, &ta, &tb), (b, a, &tb, &ta)] {
-            for w in &self.robots[s as usize].entry {
-                if let Some(t) = predict_entry(ts, to, w.range + ra + rb, now) {
+            for &(sensor, range) in &self.robots[s as usize].entry {
+                if let Some(t) = predict_entry(ts, to, range + ra + rb, now) {
                     ids.push(out.schedule(
                         t,
                         Target::SensorManager,
@@ -382,7 +363,7 @@ impl VirtualWorld {
                         Payload::ProximityEntry {
                             robot: s,
                             other: o,
-                            sensor: w.sensor,
+                            sensor,
                         },
                     ));
                 }

@@ -49,7 +49,6 @@ impl VirtualWorld {
                 let r = &mut self.robots[robot as usize];
                 r.entry.clear();
                 r.contact.clear();
-                r.periodic.clear();
                 out.record(Observation::Crash {
                     robot,
                     state: self.state_at(robot, now),
@@ -280,8 +279,22 @@ impl VirtualWorld {
             if let Obstacle::Robot(y) = y {
                 sides.push((y, Obstacle::Robot(x)));
             }
-            for (r, with) in sides {
-                self.touched(r, with, out);
+            // Each contact sensor of a robot that touched something senses now, on the
+            // sensor manager.
+            for (robot, with) in sides {
+                for &sensor in &self.robots[robot as usize].contact {
+                    out.schedule(
+                        out.now(),
+                        Target::SensorManager,
+                        EventClass::Eventual,
+                        [Some(robot), None],
+                        Payload::Touched {
+                            robot,
+                            sensor,
+                            with,
+                        },
+                    );
+                }
             }
         }
     }

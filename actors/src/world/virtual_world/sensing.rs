@@ -1,22 +1,64 @@
-//! The sensor manager's logic (seed 4.2.2-4.2.4, fig. 4.5): sensor requests become sensor
-//! events; at trigger time the manager asks the robot's sensor ([`Sensors`]) for the world's
-//! exact data through a [`WorldView`] and keeps push sensors armed as their [`Trigger`] says:
-//! exact entry prediction (push proximity), periodic re-sensing, or contacts. It knows no
-//! sensor by name: the built-in sensors are registered like a user's.
+//! The sensor manager's logic and state (seed 4.2.2-4.2.4, fig. 4.5), owned by the sensor
+//! manager actor: sensor requests become sensor events; at trigger time the manager asks the
+//! robot's sensor ([`Sensors`]) for the world's exact data through a [`WorldView`] and keeps
+//! push sensors armed as their [`Trigger`] says: exact entry prediction (push proximity),
+//! periodic re-sensing, or contacts. It knows no sensor by name: the built-in sensors are
+//! registered like a user's. Of its armed sensors the world sees only what physics needs (the
+//! entry ranges its pair predictions use, and which sensors a contact triggers).
 
 use super::*;
 
-impl VirtualWorld {
-    /// Uses the sensors `sensors` (the built-in ones and any registered beside them).
-    pub fn with_sensors(mut self, sensors: std::sync::Arc<Sensors>) -> Self {
-        self.sensors = sensors;
-        self
+/// An armed push sensor whose trigger is another robot's entry into its range
+/// ([`Trigger::Entry`]).
+#[derive(Clone, Debug)]
+struct EntryWatch {
+    sensor: SensorKind,
+    /// The activation query.
+    query: Datum,
+    /// Free distance that triggers [units].
+    range: f64,
+    /// Quiet period after an interrupt [s].
+    quiet: f64,
+    quiet_until: f64,
+    generation: u64,
+    pending: bool,
+}
+
+/// A robot's armed push sensors.
+#[derive(Clone, Debug, Default)]
+struct Armed {
+    /// Triggered by entries into their range.
+    entry: Vec<EntryWatch>,
+    /// Triggered by contacts, with their activation queries.
+    contact: BTreeMap<SensorKind, Datum>,
+    /// Re-sensing periodically: activation query and generation.
+    periodic: BTreeMap<SensorKind, (Datum, u64)>,
+}
+
+/// The sensor manager's state: the sensors robots can use and every robot's armed push
+/// sensors.
+#[derive(Debug)]
+pub struct Sensing {
+    sensors: std::sync::Arc<Sensors>,
+    armed: Vec<Armed>,
+    /// Activations of periodic push sensors so far (tells a stale re-sense apart).
+    periodic_generation: u64,
+}
+
+impl Sensing {
+    /// The sensor manager of `robots` robots using `sensors` (the built-in ones and any
+    /// registered beside them).
+    pub fn new(sensors: std::sync::Arc<Sensors>, robots: usize) -> Self {
+        Self {
+            sensors,
+            armed: vec![Armed::default(); robots],
+            periodic_generation: 0,
+        }
     }
 
     /// Hands `reading` to the robot's `sensor`, which computes the reply to `query` and
     /// interrupts the robot with it.
     fn interrupt(
-        &self,
         robot: RobotId,
         sensor: SensorKind,
         query: &Datum,
@@ -43,18 +85,19 @@ impl VirtualWorld {
     /// Senses `query` of `sensor` for `robot` now and interrupts it when the reading fires.
     fn sense_push(
         &self,
+        world: &VirtualWorld,
         robot: RobotId,
         sensor: SensorKind,
         query: &Datum,
         contact: Option<Obstacle>,
         out: &mut Outbox,
     ) -> bool {
-        let view = View::new(self, robot, out.now(), contact);
+        let view = View::new(world, robot, out.now(), contact);
         match self.sensors.sense(sensor, query, &view) {
             Ok(reading) => {
                 let fires = self.sensors.fires(sensor, query, &reading);
                 if fires {
-                    self.interrupt(robot, sensor, query, reading, out);
+                    Self::interrupt(robot, sensor, query, reading, out);
                 }
                 fires
             }
@@ -65,18 +108,11 @@ impl VirtualWorld {
         }
     }
 
-    /// `robot` touched `with`: its armed contact sensors sense.
-    pub(super) fn touched(&self, robot: RobotId, with: Obstacle, out: &mut Outbox) {
-        for (sensor, query) in &self.robots[robot as usize].contact {
-            self.sense_push(robot, *sensor, query, Some(with), out);
-        }
-    }
-
     /// Handles an event addressed to the sensor manager (seed fig. 4.5 and 4.7).
-    pub fn handle_sensor(&mut self, payload: Payload, out: &mut Outbox) {
+    pub fn handle(&mut self, world: &mut VirtualWorld, payload: Payload, out: &mut Outbox) {
         let now = out.now();
         match payload {
-            Payload::SensorRequest { robot, .. } if self.robots[robot as usize].crashed => {}
+            Payload::SensorRequest { robot, .. } if world.robots[robot as usize].crashed => {}
             Payload::SensorRequest {
                 robot,
                 ticket,
@@ -107,7 +143,7 @@ impl VirtualWorld {
                 ticket,
                 query,
             } => {
-                let snapshot = self.trigger(robot, &query, out);
+                let snapshot = self.trigger(world, robot, &query, out);
                 out.schedule(
                     now,
                     Target::Sensor(robot, query.sensor),
@@ -131,8 +167,9 @@ impl VirtualWorld {
                 };
                 let (range, quiet_until) = (w.range, w.quiet_until);
                 // Look for this pair's next entry, after the robots have left each other's range.
-                let reach = range + self.radius(robot) + self.radius(other);
-                if let Some(t) = predict_reentry(&self.track(robot), &self.track(other), reach, now)
+                let reach = range + world.radius(robot) + world.radius(other);
+                if let Some(t) =
+                    predict_reentry(&world.track(robot), &world.track(other), reach, now)
                 {
                     let e = out.schedule(
                         t,
@@ -146,7 +183,7 @@ impl VirtualWorld {
                         },
                     );
                     for (x, y) in [(robot, other), (other, robot)] {
-                        self.robots[x as usize].pairs.entry(y).or_default().push(e);
+                        world.robots[x as usize].pairs.entry(y).or_default().push(e);
                     }
                 }
                 if now < quiet_until {
@@ -154,7 +191,7 @@ impl VirtualWorld {
                         w.pending = true;
                     }
                 } else {
-                    self.fire_entry(robot, sensor, out);
+                    self.fire_entry(world, robot, sensor, out);
                 }
             }
             Payload::ProximityRearm {
@@ -166,7 +203,16 @@ impl VirtualWorld {
                     .watch(robot, sensor)
                     .is_some_and(|w| w.generation == generation && w.pending)
                 {
-                    self.fire_entry(robot, sensor, out);
+                    self.fire_entry(world, robot, sensor, out);
+                }
+            }
+            Payload::Touched {
+                robot,
+                sensor,
+                with,
+            } => {
+                if let Some(query) = self.armed[robot as usize].contact.get(&sensor) {
+                    self.sense_push(world, robot, sensor, query, Some(with), out);
                 }
             }
             Payload::PeriodicSense {
@@ -175,14 +221,13 @@ impl VirtualWorld {
                 interval,
                 generation,
             } => {
-                let r = &self.robots[robot as usize];
-                let Some((query, g)) = r.periodic.get(&sensor) else {
+                let Some((query, g)) = self.armed[robot as usize].periodic.get(&sensor) else {
                     return;
                 };
-                if *g != generation || r.crashed {
+                if *g != generation || world.robots[robot as usize].crashed {
                     return;
                 }
-                self.sense_push(robot, sensor, &query.clone(), None, out);
+                self.sense_push(world, robot, sensor, query, None, out);
                 out.schedule(
                     now + interval,
                     Target::SensorManager,
@@ -201,27 +246,32 @@ impl VirtualWorld {
     }
 
     fn watch(&self, robot: RobotId, sensor: SensorKind) -> Option<&EntryWatch> {
-        self.robots[robot as usize]
+        self.armed[robot as usize]
             .entry
             .iter()
             .find(|w| w.sensor == sensor)
     }
 
     fn watch_mut(&mut self, robot: RobotId, sensor: SensorKind) -> Option<&mut EntryWatch> {
-        self.robots[robot as usize]
+        self.armed[robot as usize]
             .entry
             .iter_mut()
             .find(|w| w.sensor == sensor)
     }
 
     /// An entry sensor senses now; when it fires, its quiet interval starts.
-    fn fire_entry(&mut self, robot: RobotId, sensor: SensorKind, out: &mut Outbox) {
+    fn fire_entry(
+        &mut self,
+        world: &VirtualWorld,
+        robot: RobotId,
+        sensor: SensorKind,
+        out: &mut Outbox,
+    ) {
         let now = out.now();
         let Some(w) = self.watch(robot, sensor) else {
             return;
         };
-        let query = w.query.clone();
-        let fired = self.sense_push(robot, sensor, &query, None, out);
+        let fired = self.sense_push(world, robot, sensor, &w.query, None, out);
         let Some(w) = self.watch_mut(robot, sensor) else {
             return;
         };
@@ -245,25 +295,40 @@ impl VirtualWorld {
     }
 
     /// Disarms `sensor` of `robot`, whatever its trigger.
-    fn disarm(&mut self, robot: RobotId, sensor: SensorKind, out: &mut Outbox) {
-        let r = &mut self.robots[robot as usize];
-        r.periodic.remove(&sensor);
-        r.contact.retain(|(s, _)| *s != sensor);
+    fn disarm(
+        &mut self,
+        world: &mut VirtualWorld,
+        robot: RobotId,
+        sensor: SensorKind,
+        out: &mut Outbox,
+    ) {
+        let a = &mut self.armed[robot as usize];
+        a.periodic.remove(&sensor);
+        a.contact.remove(&sensor);
+        a.entry.retain(|w| w.sensor != sensor);
+        let r = &mut world.robots[robot as usize];
+        r.contact.retain(|s| *s != sensor);
         let before = r.entry.len();
-        r.entry.retain(|w| w.sensor != sensor);
+        r.entry.retain(|(s, _)| *s != sensor);
         if r.entry.len() != before {
-            self.cancel_pairs(robot, out);
-            self.predict_neighbours(robot, out);
+            world.cancel_pairs(robot, out);
+            world.predict_neighbours(robot, out);
         }
     }
 
     /// A request at its trigger time: the reading of a pull query, or the (de)activation of a
     /// push sensor.
-    fn trigger(&mut self, robot: RobotId, query: &SensorQuery, out: &mut Outbox) -> SensorValue {
+    fn trigger(
+        &mut self,
+        world: &mut VirtualWorld,
+        robot: RobotId,
+        query: &SensorQuery,
+        out: &mut Outbox,
+    ) -> SensorValue {
         let now = out.now();
         let sensor = query.sensor;
         let Some(q) = &query.query else {
-            self.disarm(robot, sensor, out);
+            self.disarm(world, robot, sensor, out);
             return SensorValue::Done;
         };
         let plan = match self.sensors.plan(sensor, q) {
@@ -272,19 +337,17 @@ impl VirtualWorld {
         };
         match plan.trigger {
             Trigger::Pull => {
-                match self
-                    .sensors
-                    .sense(sensor, q, &View::new(self, robot, now, None))
-                {
-                    Ok(reading) => return SensorValue::Reply(reading),
-                    Err(e) => return SensorValue::Rejected(e),
-                }
+                let view = View::new(world, robot, now, None);
+                return match self.sensors.sense(sensor, q, &view) {
+                    Ok(reading) => SensorValue::Reply(reading),
+                    Err(e) => SensorValue::Rejected(e),
+                };
             }
-            Trigger::Off => self.disarm(robot, sensor, out),
+            Trigger::Off => self.disarm(world, robot, sensor, out),
             Trigger::Every(interval) => {
                 self.periodic_generation += 1;
                 let generation = self.periodic_generation;
-                self.robots[robot as usize]
+                self.armed[robot as usize]
                     .periodic
                     .insert(sensor, (q.clone(), generation));
                 out.schedule(
@@ -301,9 +364,11 @@ impl VirtualWorld {
                 );
             }
             Trigger::Contact => {
-                let contact = &mut self.robots[robot as usize].contact;
-                contact.retain(|(s, _)| *s != sensor);
-                contact.push((sensor, q.clone()));
+                self.armed[robot as usize].contact.insert(sensor, q.clone());
+                let listeners = &mut world.robots[robot as usize].contact;
+                if !listeners.contains(&sensor) {
+                    listeners.push(sensor);
+                }
             }
             Trigger::Entry { range, quiet } => {
                 let watch = EntryWatch {
@@ -315,15 +380,20 @@ impl VirtualWorld {
                     generation: 0,
                     pending: false,
                 };
-                let entry = &mut self.robots[robot as usize].entry;
+                let entry = &mut self.armed[robot as usize].entry;
                 match entry.iter_mut().find(|w| w.sensor == sensor) {
                     Some(w) => *w = watch,
                     None => entry.push(watch),
                 }
-                self.ensure_cell_size(range + 2.0 * self.max_radius, out);
-                self.cancel_pairs(robot, out);
-                self.predict_neighbours(robot, out);
-                self.fire_entry(robot, sensor, out);
+                let reaches = &mut world.robots[robot as usize].entry;
+                match reaches.iter_mut().find(|(s, _)| *s == sensor) {
+                    Some(r) => r.1 = range,
+                    None => reaches.push((sensor, range)),
+                }
+                world.ensure_cell_size(range + 2.0 * world.max_radius, out);
+                world.cancel_pairs(robot, out);
+                world.predict_neighbours(robot, out);
+                self.fire_entry(world, robot, sensor, out);
             }
         }
         SensorValue::Done
