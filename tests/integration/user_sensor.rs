@@ -235,3 +235,145 @@ fn user_pull_and_push_sensors_read_the_exact_world_at_their_trigger() {
     assert_eq!(a, b, "same seed, same noise");
     assert_ne!(a, c, "another seed, other noise");
 }
+
+/// Push on entry: interrupts at the exact instant another robot's border comes within
+/// `range`, with the entering robots' free distances (the same trigger push proximity uses).
+#[derive(Debug)]
+struct Approach;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct ApproachQuery {
+    range: f64,
+}
+
+impl SensorModel for Approach {
+    type Query = ApproachQuery;
+    type Reading = Vec<(RobotId, f64)>;
+    type Reply = Vec<(RobotId, f64)>;
+
+    fn trigger(q: &ApproachQuery) -> Trigger {
+        Trigger::Entry {
+            range: q.range,
+            quiet: 0.0,
+        }
+    }
+
+    fn sense(q: &ApproachQuery, world: &dyn WorldView) -> Self::Reading {
+        world.near(q.range)
+    }
+
+    fn fires(_: &ApproachQuery, near: &Self::Reading) -> bool {
+        !near.is_empty()
+    }
+
+    fn reply(_: &ApproachQuery, near: Self::Reading, _: &mut ChaCha8Rng) -> Self::Reply {
+        near
+    }
+}
+
+/// Push on contact: what the robot touched and where the other robot's centre is then.
+#[derive(Debug)]
+struct Bumper;
+
+impl SensorModel for Bumper {
+    type Query = ();
+    type Reading = Option<(nekosim::world::Obstacle, nekosim::world::geometry::Point)>;
+    type Reply = Option<(nekosim::world::Obstacle, nekosim::world::geometry::Point)>;
+
+    fn trigger(_: &()) -> Trigger {
+        Trigger::Contact
+    }
+
+    fn sense(_: &(), world: &dyn WorldView) -> Self::Reading {
+        world.contact().map(|o| match o {
+            nekosim::world::Obstacle::Robot(r) => (o, world.position(r)),
+            nekosim::world::Obstacle::Boundary => (o, world.position(world.robot())),
+        })
+    }
+
+    fn reply(_: &(), r: Self::Reading, _: &mut ChaCha8Rng) -> Self::Reply {
+        r
+    }
+}
+
+/// Arms both and waits.
+#[derive(Debug)]
+struct Guard;
+
+impl Algorithm for Guard {
+    fn name(&self) -> &str {
+        "Guard"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        Box::pin(async move {
+            robot
+                .activate::<Approach>("Approach", &ApproachQuery { range: 4.0 })
+                .await
+                .unwrap();
+            robot.activate::<Bumper>("Bumper", &()).await.unwrap();
+            robot.sleep(100.0).await;
+        })
+    }
+}
+
+#[test]
+fn user_push_sensors_trigger_on_exact_entries_and_contacts() {
+    let mut sensors = Sensors::new();
+    sensors
+        .sensor::<Approach>("Approach")
+        .sensor::<Bumper>("Bumper");
+    let records = nekosim::run(SimConfig {
+        sensors,
+        seed: 1,
+        until: 60.0,
+        world: infinite(),
+        robots: vec![
+            (spec(0.0, 0.0, 0.0, 1.0), Box::new(Guard)),
+            // Towards robot 0 at 2 units/s: free distance 28 - 2t, contact at t = 14.
+            (
+                spec(30.0, 0.0, 180.0, 1.0),
+                script(vec![ScriptStep::Forward {
+                    distance: 40.0,
+                    move_speed: 2.0,
+                }]),
+            ),
+        ],
+        arbiters: 1,
+        record: true,
+        observers: Default::default(),
+        comms: Default::default(),
+    })
+    .expect("run")
+    .records;
+    let interrupts: Vec<(f64, SensorKind, &SensorValue)> = records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::SensorReply {
+                robot: 0,
+                sensor,
+                value,
+                interrupt: true,
+            } => Some((r.t, *sensor, value)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(interrupts.len(), 2, "{interrupts:?}");
+    // Free distance 4 when robot 1 has come 24 units: t = 12.
+    let (t, sensor, value) = interrupts[0];
+    assert_eq!(sensor, SensorKind::named("Approach"));
+    assert!((t - 12.0).abs() < 1e-9, "entry at {t}");
+    let near = value.decode::<Vec<(RobotId, f64)>>().unwrap();
+    assert_eq!(near.len(), 1);
+    assert_eq!(near[0].0, 1);
+    assert!((near[0].1 - 4.0).abs() < 1e-9, "{near:?}");
+    // Contact when the centres are 2 apart: robot 1's centre at (2, 0), t = 14.
+    let (t, sensor, value) = interrupts[1];
+    assert_eq!(sensor, SensorKind::named("Bumper"));
+    assert!((t - 14.0).abs() < 1e-9, "contact at {t}");
+    let (with, at) = value
+        .decode::<Option<(nekosim::world::Obstacle, nekosim::world::geometry::Point)>>()
+        .unwrap()
+        .unwrap();
+    assert_eq!(with, nekosim::world::Obstacle::Robot(1));
+    assert!((at - nekosim::world::geometry::Point::new(2.0, 0.0)).norm() < 1e-9);
+}
