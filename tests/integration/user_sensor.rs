@@ -147,18 +147,29 @@ fn run_lookout(seed: u64) -> Vec<nekosim::world::observation::Record> {
     sensors
         .sensor::<Nearest>("Nearest")
         .sensor::<Crowd>("Crowd");
+    // Drives towards robot 0 at 2 units/s: centre distance 30 - 2t until t = 12.5.
+    watched_approach(sensors, seed, Box::new(Lookout), 25.0)
+}
+
+/// Robot 0 runs `watcher` at the origin; robot 1, born at (30, 0) heading to it, drives
+/// `distance` units at 2 units/s. Radius 1 each, an infinite world, 60 simulated seconds.
+fn watched_approach(
+    sensors: Sensors,
+    seed: u64,
+    watcher: Box<dyn Algorithm>,
+    distance: f64,
+) -> Vec<nekosim::world::observation::Record> {
     nekosim::run(SimConfig {
         sensors,
         seed,
         until: 60.0,
         world: infinite(),
         robots: vec![
-            (spec(0.0, 0.0, 0.0, 1.0), Box::new(Lookout)),
-            // Drives towards robot 0 at 2 units/s: centre distance 30 - 2t until t = 12.5.
+            (spec(0.0, 0.0, 0.0, 1.0), watcher),
             (
                 spec(30.0, 0.0, 180.0, 1.0),
                 script(vec![ScriptStep::Forward {
-                    distance: 25.0,
+                    distance,
                     move_speed: 2.0,
                 }]),
             ),
@@ -322,29 +333,8 @@ fn user_push_sensors_trigger_on_exact_entries_and_contacts() {
     sensors
         .sensor::<Approach>("Approach")
         .sensor::<Bumper>("Bumper");
-    let records = nekosim::run(SimConfig {
-        sensors,
-        seed: 1,
-        until: 60.0,
-        world: infinite(),
-        robots: vec![
-            (spec(0.0, 0.0, 0.0, 1.0), Box::new(Guard)),
-            // Towards robot 0 at 2 units/s: free distance 28 - 2t, contact at t = 14.
-            (
-                spec(30.0, 0.0, 180.0, 1.0),
-                script(vec![ScriptStep::Forward {
-                    distance: 40.0,
-                    move_speed: 2.0,
-                }]),
-            ),
-        ],
-        arbiters: 1,
-        record: true,
-        observers: Default::default(),
-        comms: Default::default(),
-    })
-    .expect("run")
-    .records;
+    // Towards robot 0 at 2 units/s: free distance 28 - 2t, contact at t = 14.
+    let records = watched_approach(sensors, 1, Box::new(Guard), 40.0);
     let interrupts: Vec<(f64, SensorKind, &SensorValue)> = records
         .iter()
         .filter_map(|r| match &r.obs {

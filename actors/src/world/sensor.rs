@@ -246,11 +246,6 @@ impl SensorQuery {
             query: None,
         }
     }
-
-    /// The sensor that serves the query.
-    pub fn kind(&self) -> SensorKind {
-        self.sensor
-    }
 }
 
 /// As the trace shows a request: `sensor` (its name) and `value` (the query, or
@@ -319,9 +314,6 @@ impl Serialize for SensorValue {
         }
     }
 }
-
-/// The exact data a sensor manager gives a sensor at trigger time.
-pub type Snapshot = Datum;
 
 /// When a query makes its sensor sense ([`SensorModel::trigger`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
