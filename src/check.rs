@@ -1,7 +1,10 @@
-//! `nekosim check MODEL`: model-check a protocol stack with stateright (the protocol code the
-//! simulator runs), print the checker's figures and each property's verdict, explain every
-//! counterexample step by step, and optionally write it (or a witness) as a JSONL trace with
-//! `seq` as the step number. Models and properties: docs/model-checking.md.
+//! `nekosim check MODEL|SCENARIO.ron`: model-check a protocol stack with stateright (the
+//! protocol code the simulator runs): a scenario file's own `stack`, built-in and registered
+//! user protocols alike, or one of the shipped scenarios by name. Prints the checker's
+//! figures and each property's verdict, explains every counterexample step by step, and
+//! optionally writes it (or a witness) as a JSONL trace with `seq` as the step number. A
+//! search stopped by its state or memory budget says what it explored (exit 3). Models,
+//! properties and budgets: docs/model-checking.md.
 
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -10,7 +13,8 @@ use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_models::adapter::Happening;
 use nekosim_models::explain::{describe, explain, layer_name, Event, Step};
 use nekosim_models::{
-    build, find, run, CheckModel, Exploration, ModelError, NetworkKind, Options, Outcome, MODELS,
+    available_memory, build_in, run, Budget, CheckModel, Exploration, Family, ModelError,
+    NetworkKind, Options, Outcome, Spent, Strategy, Target,
 };
 use nekosim_protocols::{Indication, Request};
 use serde_json::{json, Map, Value};
@@ -19,25 +23,94 @@ use stateright::Expectation;
 use crate::log::wire_text;
 use crate::output::AtomicFile;
 use crate::recording::RecordingError;
+use crate::scenario::{CheckNetwork, FaultSpec, Overrides, Registry, ScenarioError, Source};
 use nekosim_protocols::payload::{install, type_word};
 
-/// What the command was asked to check.
-#[derive(Clone, Debug, PartialEq)]
+/// The models `nekosim check NAME` knows: each is a scenario file shipped under
+/// `examples/check/` (name, file, what it checks), so `check lamport-abcast` and
+/// `check examples/check/lamport_abcast.ron` are the same search.
+pub const SHORTCUTS: [(&str, &str, &str); 5] = [
+    (
+        "lamport-abcast",
+        "examples/check/lamport_abcast.ron",
+        include_str!("../examples/check/lamport_abcast.ron"),
+    ),
+    (
+        "sequencer-abcast",
+        "examples/check/sequencer_abcast.ron",
+        include_str!("../examples/check/sequencer_abcast.ron"),
+    ),
+    (
+        "consensus-abcast",
+        "examples/check/consensus_abcast.ron",
+        include_str!("../examples/check/consensus_abcast.ron"),
+    ),
+    (
+        "ct-consensus",
+        "examples/check/ct_consensus.ron",
+        include_str!("../examples/check/ct_consensus.ron"),
+    ),
+    (
+        "reliable-broadcast",
+        "examples/check/reliable_broadcast.ron",
+        include_str!("../examples/check/reliable_broadcast.ron"),
+    ),
+];
+
+/// The default memory budget: half of what this process may use, and at most 4 GiB.
+pub const DEFAULT_MEMORY_CAP: u64 = 4 << 30;
+
+/// The default memory budget ([`DEFAULT_MEMORY_CAP`], or half the machine's memory when
+/// that is less); `None` where the machine's memory cannot be read.
+pub fn default_memory_budget() -> Option<u64> {
+    available_memory().map(|m| (m / 2).min(DEFAULT_MEMORY_CAP))
+}
+
+/// What the command was asked to check. A field left `None` comes from the scenario's
+/// `check` section, else from the scenario itself, else the command's default.
+#[derive(Clone, Debug, PartialEq, Default)]
 pub struct CheckArgs {
+    /// A shortcut name or a scenario file.
     pub model: String,
-    pub processes: u32,
-    pub requests: u32,
-    pub crashes: u32,
-    pub network: NetworkKind,
+    pub layer: Option<String>,
+    pub processes: Option<u32>,
+    pub requests: Option<u32>,
+    pub crashes: Option<u32>,
+    pub network: Option<NetworkKind>,
     pub depth: Option<usize>,
     pub threads: usize,
     pub trace: Option<PathBuf>,
     /// Save the counterexample (or witness) as a Rerun recording here.
     pub rrd: Option<PathBuf>,
-    /// Protocol timer firings per process; the model's default when `None`.
+    /// Protocol timer firings per process.
     pub timers: Option<u32>,
     /// Last Chandra-Toueg round explored.
     pub rounds: Option<u64>,
+    pub strategy: Strategy,
+    pub max_states: Option<usize>,
+    /// `None`: [`default_memory_budget`].
+    pub max_memory: Option<u64>,
+}
+
+/// How a check ended, as the command's exit code says it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Conclusion {
+    /// Every property holds on the whole space explored (exit 0).
+    Holds,
+    /// A property fails (exit 1).
+    Fails,
+    /// A budget stopped the search before it was exhaustive and no property failed (exit 3).
+    Unsettled,
+}
+
+impl Conclusion {
+    pub fn exit_code(self) -> u8 {
+        match self {
+            Self::Holds => 0,
+            Self::Fails => 1,
+            Self::Unsettled => 3,
+        }
+    }
 }
 
 /// Why a check could not run.
@@ -45,11 +118,14 @@ pub struct CheckArgs {
 #[non_exhaustive]
 pub enum CheckError {
     /// Bad arguments (exit 2).
-    #[error("unknown model {name:?}; expected one of {known}")]
+    #[error("unknown model {name:?}; expected a scenario file (.ron) or one of {known}")]
     UnknownModel { name: String, known: String },
     /// Bad arguments (exit 2).
     #[error("{0}")]
     Model(#[from] ModelError),
+    /// A bad scenario (exit 2), located in its file.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
     /// The trace file could not be written (exit 2, like any output the user names).
     #[error("cannot write the trace {}: {source}", path.display())]
     Trace { path: PathBuf, source: io::Error },
@@ -60,26 +136,192 @@ pub enum CheckError {
 
 /// The model names, one per line.
 pub fn list() -> String {
-    MODELS.iter().map(|m| format!("{}\n", m.name)).collect()
+    SHORTCUTS.iter().map(|(n, ..)| format!("{n}\n")).collect()
 }
 
-/// Runs a check and prints its report on `out`; `Ok(true)` when every property holds.
-pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> {
-    let def = find(&args.model).ok_or_else(|| CheckError::UnknownModel {
-        name: args.model.clone(),
-        known: MODELS.iter().map(|m| m.name).collect::<Vec<_>>().join(", "),
-    })?;
+/// A check's model, resolved from a scenario and the arguments.
+#[derive(Debug)]
+pub struct Resolved {
+    /// What the report calls the model: the shortcut's name or the file.
+    pub name: String,
+    pub target: Target,
+    pub options: Options,
+}
+
+/// The network semantics of a scenario's network (docs/model-checking.md): a fixed delay
+/// keeps each link's order (`ordered`); random and distance-dependent delays reorder
+/// (`unordered`); a network that can lose messages, or a partition, is `lossy`; a network
+/// the checker does not know is `unordered`.
+pub fn network_kind(network: Option<&str>, partitioned: bool) -> NetworkKind {
+    match network {
+        _ if partitioned => NetworkKind::Lossy,
+        None | Some("Reliable") => NetworkKind::Ordered,
+        Some("Lossy" | "Radio") => NetworkKind::Lossy,
+        Some(_) => NetworkKind::Unordered,
+    }
+}
+
+/// Reads the shortcut or scenario file `args.model` and derives the model to check: the
+/// scenario's stack through `registry`'s protocols, then each parameter from the command
+/// line, else the scenario's `check` section, else the scenario, else the default.
+pub fn resolve(args: &CheckArgs, registry: &Registry) -> Result<Resolved, CheckError> {
+    let source = match SHORTCUTS.iter().find(|(n, ..)| *n == args.model) {
+        Some((_, file, text)) => Source::parse(file, text)?,
+        None if args.model.ends_with(".ron") || Path::new(&args.model).is_file() => {
+            Source::load(Path::new(&args.model))?
+        }
+        None => {
+            return Err(CheckError::UnknownModel {
+                name: args.model.clone(),
+                known: SHORTCUTS.map(|(n, ..)| n).join(", "),
+            })
+        }
+    };
+    // Everything a run would reject is rejected here too, located in the file.
+    let built = source.build(Overrides::default(), registry)?;
+    let s = &source.scenario;
+    if s.stack.is_empty() {
+        return Err(source
+            .place("stack", "the scenario has no stack to check")
+            .into());
+    }
+    let settings = s.check.clone().unwrap_or_default();
+    let layer = args.layer.clone().or(settings.layer.clone());
+    let target = Target::of_stack(s.stack.clone(), layer.as_deref(), &registry.protocols)?;
     let defaults = Options::default();
-    let opts = Options {
-        processes: args.processes,
-        requests: args.requests,
-        crashes: args.crashes,
-        network: args.network,
-        timer_budget: args.timers.unwrap_or(defaults.timer_budget),
-        max_round: args.rounds.unwrap_or(defaults.max_round),
+    let crashes_in_faults = s
+        .faults
+        .iter()
+        .filter(|f| matches!(f, FaultSpec::Crash { .. }))
+        .count() as u32;
+    let partitioned = s
+        .faults
+        .iter()
+        .any(|f| matches!(f, FaultSpec::Partition { .. }));
+    let network = args.network.unwrap_or_else(|| match settings.network {
+        Some(CheckNetwork::Unordered) => NetworkKind::Unordered,
+        Some(CheckNetwork::Ordered) => NetworkKind::Ordered,
+        Some(CheckNetwork::Lossy) => NetworkKind::Lossy,
+        None => network_kind(s.network.as_ref().map(|n| n.name()), partitioned),
+    });
+    let processes = args
+        .processes
+        .or(settings.processes)
+        .unwrap_or(built.robots.len() as u32);
+    if args.processes.is_none() && !(2..=8).contains(&processes) {
+        let at = if settings.processes.is_some() {
+            "check.processes"
+        } else {
+            "robots"
+        };
+        return Err(source
+            .place(
+                at,
+                format!("{processes} processes to check; expected 2 to 8 (or give --processes N)"),
+            )
+            .into());
+    }
+    let options = Options {
+        processes,
+        requests: args
+            .requests
+            .or(settings.requests)
+            .unwrap_or(defaults.requests),
+        crashes: args
+            .crashes
+            .or(settings.crashes)
+            .unwrap_or(crashes_in_faults),
+        network,
+        timer_budget: args
+            .timers
+            .or(settings.timers)
+            .unwrap_or(defaults.timer_budget),
+        max_round: args
+            .rounds
+            .or(settings.rounds)
+            .unwrap_or(defaults.max_round),
         partial_multicasts: defaults.partial_multicasts,
     };
-    let model = build(&def.target(), &opts, |_, _| {})?;
+    Ok(Resolved {
+        name: args.model.clone(),
+        target,
+        options,
+    })
+}
+
+/// The family's name as the report prints it.
+fn family_name(f: Family) -> &'static str {
+    match f {
+        Family::Abcast => "total-order broadcast",
+        Family::Broadcast => "broadcast",
+        Family::Consensus => "consensus",
+    }
+}
+
+/// `bytes` in the largest binary unit that keeps it at least 1.
+pub fn size_text(bytes: u64) -> String {
+    let units = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = bytes as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < units.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{v:.1} {}", units[u])
+    }
+}
+
+/// Parses a memory size: a number of bytes with an optional unit, binary (`KiB`, `MiB`,
+/// `GiB`, `TiB`) or decimal (`kB`, `MB`, `GB`, `TB`), e.g. `512MiB` or `4GiB`.
+pub fn parse_size(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let factor: f64 = match unit.trim() {
+        "" | "B" => 1.0,
+        "KiB" => 1024.0,
+        "MiB" => 1024.0 * 1024.0,
+        "GiB" => 1024.0 * 1024.0 * 1024.0,
+        "TiB" => 1024.0 * 1024.0 * 1024.0 * 1024.0,
+        "kB" | "KB" => 1e3,
+        "MB" => 1e6,
+        "GB" => 1e9,
+        "TB" => 1e12,
+        other => {
+            return Err(format!(
+                "unknown unit {other:?} in {text:?}; expected e.g. 512MiB or 4GiB"
+            ))
+        }
+    };
+    let n: f64 = num
+        .parse()
+        .map_err(|_| format!("{text:?} is not a size; expected e.g. 512MiB or 4GiB"))?;
+    let bytes = n * factor;
+    if !(bytes >= 1.0 && bytes.is_finite()) {
+        return Err(format!(
+            "{text:?} is not a size; expected e.g. 512MiB or 4GiB"
+        ));
+    }
+    Ok(bytes as u64)
+}
+
+/// Runs a check and prints its report on `out`.
+pub fn check(
+    args: &CheckArgs,
+    registry: &Registry,
+    out: &mut dyn Write,
+) -> Result<Conclusion, CheckError> {
+    let Resolved {
+        name,
+        target,
+        options: opts,
+    } = resolve(args, registry)?;
+    let model = build_in(&registry.protocols, &target, &opts, |_, _| {})?;
     // Outputs that can never be written are refused before the search, which may be long.
     let is_dir = || io::Error::new(io::ErrorKind::InvalidInput, "is a directory");
     if let Some(path) = args.trace.as_ref().filter(|p| p.is_dir()) {
@@ -95,31 +337,31 @@ pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> 
         }
         .into());
     }
-    // The command times the checker; the models crate never reads the wall clock.
-    let start = std::time::Instant::now();
-    let outcome = run(
-        model.clone(),
-        Exploration {
-            threads: args.threads,
-            depth: args.depth,
-            first_counterexample: false,
-        },
-    );
-    let seconds = start.elapsed().as_secs_f64();
-    let network = NetworkKind::NAMES[match args.network {
+    let budget = Budget {
+        max_states: args.max_states,
+        max_memory: args.max_memory.or_else(default_memory_budget),
+    };
+    let network = NetworkKind::NAMES[match opts.network {
         NetworkKind::Unordered => 0,
         NetworkKind::Ordered => 1,
         NetworkKind::Lossy => 2,
     }];
+    let strategy = match args.strategy {
+        Strategy::Bfs => "bfs".to_string(),
+        Strategy::Dfs => "dfs".to_string(),
+        Strategy::Simulation { seed } => format!("simulation (seed {seed})"),
+    };
     let w = |out: &mut dyn Write, s: String| {
         let _ = writeln!(out, "{s}");
     };
+    let layers: Vec<&str> = target.stack.iter().map(|l| l.id.as_str()).collect();
     w(
         out,
         format!(
-            "model: {} ({}): {} processes, {} requests, {} crashes, {network} network, timer budget {}, last round {}{}",
-            def.name,
-            def.about,
+            "model: {name}: stack [{}], checking {:?} ({}): {} processes, {} requests, {} crashes, {network} network, timer budget {}, last round {}{}",
+            layers.join(", "),
+            target.entry,
+            family_name(target.family),
             opts.processes,
             opts.requests,
             opts.crashes,
@@ -131,6 +373,32 @@ pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> 
     w(
         out,
         format!(
+            "search: {strategy}, {} thread{}, budget {} states, {} memory",
+            args.threads.max(1),
+            if args.threads > 1 { "s" } else { "" },
+            budget
+                .max_states
+                .map_or("unlimited".into(), |n| n.to_string()),
+            budget.max_memory.map_or("unlimited".into(), size_text),
+        ),
+    );
+    let _ = out.flush();
+    // The command times the checker; the models crate never reads the wall clock.
+    let start = std::time::Instant::now();
+    let outcome = run(
+        model.clone(),
+        Exploration {
+            threads: args.threads,
+            depth: args.depth,
+            first_counterexample: false,
+            strategy: args.strategy,
+            budget,
+        },
+    );
+    let seconds = start.elapsed().as_secs_f64();
+    w(
+        out,
+        format!(
             "states: {}, unique states: {}, depth: {}, seconds: {:.3}, states/s: {:.0}",
             outcome.states,
             outcome.unique_states,
@@ -139,6 +407,24 @@ pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> 
             outcome.states as f64 / seconds.max(1e-9)
         ),
     );
+    if let Some(spent) = outcome.stopped {
+        let what = match spent {
+            Spent::States { limit } => format!("the state budget ({limit} states)"),
+            Spent::Memory { limit, seen } => format!(
+                "the memory budget ({}; resident {})",
+                size_text(limit),
+                size_text(seen)
+            ),
+        };
+        w(
+            out,
+            format!(
+                "stopped by {what} before the search was exhaustive: {} unique states, depth {} reached",
+                outcome.unique_states, outcome.max_depth
+            ),
+        );
+    }
+    let stopped = outcome.stopped.is_some();
     for v in &outcome.verdicts {
         let how = match v.expectation {
             Expectation::Always => "always",
@@ -149,21 +435,25 @@ pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> 
             (Expectation::Sometimes, Some(p)) => {
                 format!(": witness in {} steps", p.clone().into_actions().len())
             }
+            (Expectation::Sometimes, None) if stopped => {
+                ": not reached in what was explored".to_string()
+            }
             (Expectation::Sometimes, None) => ": never reached".to_string(),
             (_, Some(p)) => format!(
                 ": counterexample in {} steps",
                 p.clone().into_actions().len()
             ),
+            (_, None) if stopped => ": no counterexample in what was explored".to_string(),
             (_, None) => String::new(),
         };
-        w(
-            out,
-            format!(
-                "  {} {} ({how}){detail}",
-                if v.holds { "holds " } else { "FAILS " },
-                v.name
-            ),
-        );
+        let mark = if v.path.is_none() && stopped {
+            "open  "
+        } else if v.holds {
+            "holds "
+        } else {
+            "FAILS "
+        };
+        w(out, format!("  {mark} {} ({how}){detail}", v.name));
     }
     for v in outcome.verdicts.iter().filter(|v| !v.holds) {
         if let Some(path) = &v.path {
@@ -187,9 +477,17 @@ pub fn check(args: &CheckArgs, out: &mut dyn Write) -> Result<bool, CheckError> 
         })?;
     }
     if let Some(path) = &args.rrd {
-        write_recording(&args.model, &model, &outcome, path)?;
+        write_recording(&name, &model, &outcome, path)?;
     }
-    Ok(outcome.all_hold())
+    Ok(if outcome.any_fails() {
+        Conclusion::Fails
+    } else if stopped {
+        Conclusion::Unsettled
+    } else if outcome.all_hold() {
+        Conclusion::Holds
+    } else {
+        Conclusion::Fails
+    })
 }
 
 /// Distance between two process lanes in a counterexample recording.

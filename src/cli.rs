@@ -13,8 +13,9 @@
 //! ```
 //!
 //! Exit codes: 0 success, 2 invalid input (the message names FILE:LINE:COL where it can),
-//! 1 internal error, or for `check` a counterexample found; 130 a run ended by Ctrl-C or SIGTERM
-//! (its outputs hold the run up to the virtual time reached).
+//! 1 internal error, or for `check` a counterexample found; 3 a `check` stopped by its state or
+//! memory budget before the search was exhaustive, with no property failed; 130 a run ended by
+//! Ctrl-C or SIGTERM (its outputs hold the run up to the virtual time reached).
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -27,7 +28,7 @@ use crate::recording::{RecordingError, Target};
 use crate::runner::{self, RunError, RunOptions};
 use crate::scenario::{Overrides, Registry, Source};
 use clap::{Parser, Subcommand};
-use nekosim_models::NetworkKind;
+use nekosim_models::{NetworkKind, Strategy};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -73,26 +74,44 @@ enum Command {
         /// The scenario file (RON).
         scenario: PathBuf,
     },
-    /// Model-check a protocol stack with stateright (exit 1 when a property fails).
+    /// Model-check a scenario's protocol stack, or a shipped model, with stateright (exit 1
+    /// when a property fails, 3 when a budget stops the search first).
     Check {
-        /// The model (see --list).
-        #[arg(required_unless_present = "list")]
+        /// A scenario file (.ron) whose stack to check, or a shipped model (see --list).
+        #[arg(required_unless_present = "list", value_name = "MODEL|SCENARIO")]
         model: Option<String>,
         /// Print the model names, one per line.
         #[arg(long, conflicts_with = "model")]
         list: bool,
-        /// Number of processes.
-        #[arg(long, default_value_t = 3)]
-        processes: u32,
-        /// Client requests (broadcasts or proposals), handed out round-robin.
-        #[arg(long, default_value_t = 2)]
-        requests: u32,
-        /// Processes that may crash.
+        /// The layer whose service is checked [default: the stack's top layer].
+        #[arg(long, value_name = "ID")]
+        layer: Option<String>,
+        /// Number of processes [default: the scenario's robots].
+        #[arg(long)]
+        processes: Option<u32>,
+        /// Client requests (broadcasts or proposals), handed out round-robin [default: 2].
+        #[arg(long)]
+        requests: Option<u32>,
+        /// Processes that may crash [default: the scenario's crash faults].
+        #[arg(long)]
+        crashes: Option<u32>,
+        /// Network semantics [default: derived from the scenario's network].
+        #[arg(long, value_enum)]
+        network: Option<NetArg>,
+        /// Search strategy.
+        #[arg(long, value_enum, default_value_t = StrategyArg::Bfs)]
+        strategy: StrategyArg,
+        /// Seed of the random walks of `--strategy simulation`.
         #[arg(long, default_value_t = 0)]
-        crashes: u32,
-        /// Network semantics.
-        #[arg(long, value_enum, default_value_t = NetArg::Unordered)]
-        network: NetArg,
+        seed: u64,
+        /// Stop after this many unique states (states visited, for a simulation) [default:
+        /// unlimited; a simulation visits 1000000].
+        #[arg(long, value_name = "N")]
+        max_states: Option<usize>,
+        /// Stop when the process's resident memory reaches SIZE (e.g. 512MiB, 4GiB)
+        /// [default: half the machine's memory, at most 4GiB].
+        #[arg(long, value_name = "SIZE", value_parser = check::parse_size)]
+        max_memory: Option<u64>,
         /// Explore paths of at most this many steps.
         #[arg(long)]
         depth: Option<usize>,
@@ -112,6 +131,13 @@ enum Command {
         #[arg(long)]
         rounds: Option<u64>,
     },
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum StrategyArg {
+    Bfs,
+    Dfs,
+    Simulation,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -198,10 +224,15 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
         }
         Command::Check {
             model,
+            layer,
             processes,
             requests,
             crashes,
             network,
+            strategy,
+            seed,
+            max_states,
+            max_memory,
             depth,
             threads,
             trace,
@@ -215,14 +246,22 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             }
             let args = CheckArgs {
                 model: model.unwrap_or_default(),
+                layer,
                 processes,
                 requests,
                 crashes,
-                network: match network {
+                network: network.map(|n| match n {
                     NetArg::Unordered => NetworkKind::Unordered,
                     NetArg::Ordered => NetworkKind::Ordered,
                     NetArg::Lossy => NetworkKind::Lossy,
+                }),
+                strategy: match strategy {
+                    StrategyArg::Bfs => Strategy::Bfs,
+                    StrategyArg::Dfs => Strategy::Dfs,
+                    StrategyArg::Simulation => Strategy::Simulation { seed },
                 },
+                max_states,
+                max_memory,
                 depth,
                 threads,
                 trace,
@@ -230,15 +269,16 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 timers,
                 rounds,
             };
-            let holds =
-                check::check(&args, &mut std::io::stdout().lock()).map_err(|e| match e {
+            let conclusion = check::check(&args, registry, &mut std::io::stdout().lock()).map_err(
+                |e| match e {
                     check::CheckError::Recording(r) if !r.is_input_error() => Failure {
                         code: 1,
                         message: r.to_string(),
                     },
                     other => invalid(other),
-                })?;
-            Ok(if holds { 0 } else { 1 })
+                },
+            )?;
+            Ok(conclusion.exit_code())
         }
         Command::Validate { scenario } => {
             let source = Source::load(&scenario).map_err(invalid)?;

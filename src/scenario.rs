@@ -55,6 +55,46 @@ pub struct Scenario {
     /// Animation settings of recordings (seed 6.1); default 25 frames per simulated second.
     #[serde(default)]
     pub animation: Option<Animation>,
+    /// How `nekosim check` explores the stack; the command line overrides each field.
+    #[serde(default)]
+    pub check: Option<CheckSettings>,
+}
+
+/// How `nekosim check SCENARIO` explores the scenario's stack (docs/model-checking.md). A
+/// field left out is derived from the scenario (processes, crashes, network) or takes the
+/// command's default; an option on the command line wins over the field.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CheckSettings {
+    /// The layer whose service is checked; default the stack's top layer.
+    #[serde(default)]
+    pub layer: Option<String>,
+    /// Processes; default the scenario's robot count.
+    #[serde(default)]
+    pub processes: Option<u32>,
+    /// Client requests (broadcasts or proposals); default 2.
+    #[serde(default)]
+    pub requests: Option<u32>,
+    /// Processes that may crash; default the scenario's crash faults.
+    #[serde(default)]
+    pub crashes: Option<u32>,
+    /// Network semantics; default derived from the scenario's network and faults.
+    #[serde(default)]
+    pub network: Option<CheckNetwork>,
+    /// Protocol timer firings per process; default 1.
+    #[serde(default)]
+    pub timers: Option<u32>,
+    /// Last Chandra-Toueg round explored; default 1.
+    #[serde(default)]
+    pub rounds: Option<u64>,
+}
+
+/// The network semantics a check explores.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+pub enum CheckNetwork {
+    Unordered,
+    Ordered,
+    Lossy,
 }
 
 /// How recordings animate robots between events (the seed's animation settings, 6.1).
@@ -309,7 +349,7 @@ impl Source {
     }
 
     /// `message` at the value at `path`.
-    fn place(&self, path: &str, message: impl Into<String>) -> ScenarioError {
+    pub fn place(&self, path: &str, message: impl Into<String>) -> ScenarioError {
         // Fall back to the closest enclosing value that has a position.
         let mut p = path.to_string();
         let pos = loop {

@@ -16,7 +16,8 @@ pub mod property;
 pub mod registry;
 
 pub use model::{
-    build, run, CheckModel, Exploration, ModelError, NetworkKind, Options, Outcome, Target, Verdict,
+    available_memory, build, build_in, resident_memory, run, Budget, CheckModel, Exploration,
+    ModelError, NetworkKind, Options, Outcome, Spent, Strategy, Target, Verdict, SIMULATION_STATES,
 };
 pub use property::Family;
 pub use registry::{find, ModelDef, MODELS};

@@ -1,16 +1,18 @@
 //! Building a stateright model from a stack (the adapter's processes, the network semantics,
 //! the bounds and the family's properties) and running the checker on it.
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
+use std::time::Duration;
 
 use nekosim_protocols::consensus::{ChandraToueg, CtMsg};
 use nekosim_protocols::fifo::{Fifo, FifoMsg};
 use nekosim_protocols::retransmit::{Retransmit, RtMsg};
 use nekosim_protocols::{
-    AppMsg, Content, LayerSpec, Payload, Pid, Protocols, Request, Stack, Wiring,
+    AppMsg, Content, LayerSpec, Payload, Pid, Protocols, Request, Service, Stack, Wiring,
 };
 use stateright::actor::{ActorModel, ActorModelAction, LossyNetwork, Network};
-use stateright::{Checker, Expectation, HasDiscoveries, Model, Path};
+use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChooser};
 
 use crate::adapter::{ClientRequest, ModelTimer, NetMsg, ProcessActor, Shared};
 use crate::property::{properties, Family, State};
@@ -101,6 +103,16 @@ pub enum ModelError {
     Crashes { crashes: u32, processes: u32 },
     #[error("invalid stack: {0}")]
     Stack(String),
+    #[error("no layer {name:?} in the stack; expected one of {known}")]
+    NoLayer { name: String, known: String },
+    #[error("the stack has several top layers ({0}); choose the one to check with --layer")]
+    TopLayers(String),
+    #[error("layer {layer:?} provides {service} ({what}), which has no properties to check; checkable services: total-order broadcast, broadcast, consensus")]
+    Unchecked {
+        layer: String,
+        service: &'static str,
+        what: &'static str,
+    },
 }
 
 /// What the properties and the boundary need to know about a model.
@@ -115,6 +127,9 @@ pub struct ModelCfg {
     pub max_round: Option<u64>,
     /// What each layer's messages are, for looking through headers.
     pub headers: Vec<Header>,
+    /// Set when a budget ran out: from then on no new state is inside the model, so the
+    /// search drains what it holds and ends (see [`Budget`]).
+    pub stop: Arc<AtomicBool>,
 }
 
 /// The layers whose messages the round bound looks into.
@@ -138,6 +153,56 @@ pub struct Target {
     pub timer_fed: Vec<String>,
 }
 
+impl Target {
+    /// The target a scenario's stack defines: the entry layer is `layer`, or else the stack's
+    /// one top layer (the one the application talks to); the family is the service that
+    /// layer provides ([`Family::of`]); layers providing a failure detector are timer-fed.
+    pub fn of_stack(
+        stack: Vec<LayerSpec>,
+        layer: Option<&str>,
+        protocols: &Protocols,
+    ) -> Result<Self, ModelError> {
+        let (wiring, _) =
+            Wiring::check(&stack, protocols).map_err(|e| ModelError::Stack(e.to_string()))?;
+        let entry = match layer {
+            Some(name) => wiring.index(name).ok_or_else(|| ModelError::NoLayer {
+                name: name.to_string(),
+                known: wiring.ids.join(", "),
+            })?,
+            None => {
+                let tops: Vec<usize> = (0..wiring.ids.len())
+                    .filter(|&i| wiring.app_hears[i])
+                    .collect();
+                match tops[..] {
+                    [one] => one as u16,
+                    [] => return Err(ModelError::Stack("the stack is empty".into())),
+                    _ => {
+                        let names: Vec<&str> =
+                            tops.iter().map(|&i| wiring.ids[i].as_str()).collect();
+                        return Err(ModelError::TopLayers(names.join(", ")));
+                    }
+                }
+            }
+        };
+        let provided = wiring.provides[entry as usize];
+        let family = Family::of(provided).ok_or_else(|| ModelError::Unchecked {
+            layer: wiring.ids[entry as usize].clone(),
+            service: provided.name,
+            what: provided.what,
+        })?;
+        let timer_fed = (0..wiring.ids.len())
+            .filter(|&i| wiring.provides[i].serves(Service::FAILURE_DETECTOR))
+            .map(|i| wiring.ids[i].clone())
+            .collect();
+        Ok(Self {
+            entry: wiring.ids[entry as usize].clone(),
+            stack,
+            family,
+            timer_fed,
+        })
+    }
+}
+
 /// The client request `g` of process `p`.
 fn request(family: Family, n: u32, g: u32) -> Request {
     match family {
@@ -154,6 +219,16 @@ fn request(family: Family, n: u32, g: u32) -> Request {
 /// Builds the model of `target` with `opts`; `tweak` may replace layers of each process's
 /// initial stack (for the deliberately broken variants).
 pub fn build(
+    target: &Target,
+    opts: &Options,
+    tweak: impl Fn(Pid, &mut Stack),
+) -> Result<CheckModel, ModelError> {
+    build_in(&Protocols::with_builtins(), target, opts, tweak)
+}
+
+/// [`build`] with the protocols of `protocols` (a user's registry: built-ins and their own).
+pub fn build_in(
+    protocols: &Protocols,
     target: &Target,
     opts: &Options,
     tweak: impl Fn(Pid, &mut Stack),
@@ -178,8 +253,8 @@ pub fn build(
             processes: n,
         });
     }
-    let (wiring, stack) = Wiring::check(&target.stack, &Protocols::with_builtins())
-        .map_err(|e| ModelError::Stack(e.to_string()))?;
+    let (wiring, stack) =
+        Wiring::check(&target.stack, protocols).map_err(|e| ModelError::Stack(e.to_string()))?;
     let entry = wiring
         .index(&target.entry)
         .ok_or_else(|| ModelError::Stack(format!("no layer {:?}", target.entry)))?;
@@ -243,6 +318,7 @@ pub fn build(
         timer_budget: opts.timer_budget,
         max_round: uses_ct.then_some(opts.max_round),
         headers,
+        stop: Arc::new(AtomicBool::new(false)),
     };
     let network = match opts.network {
         NetworkKind::Ordered => Network::new_ordered([]),
@@ -283,17 +359,27 @@ fn round_of(headers: &[Header], p: &Payload) -> Option<u64> {
 /// States inside the model: no recovered process (protocols are crash-stop) and, with
 /// Chandra-Toueg, no message of a round past the bound (in flight or staged).
 fn within_boundary(cfg: &ModelCfg, s: &State) -> bool {
-    if s.actor_states.iter().any(|a| a.zombie) {
+    if cfg.stop.load(Ordering::Relaxed) || s.actor_states.iter().any(|a| a.zombie) {
         return false;
     }
     let Some(max) = cfg.max_round else {
         return true;
     };
     let early = |p: &Payload| round_of(&cfg.headers, p).is_none_or(|r| r <= max);
-    s.network.iter_all().all(|e| early(&e.msg.msg))
+    all_in_flight(&s.network, |m| early(&m.msg))
         && s.actor_states
             .iter()
             .all(|a| a.outbox.iter().all(|(_, m)| early(&m.msg)))
+}
+
+/// Whether `f` holds for every message in flight. (Stateright 0.31's `Network::iter_all`
+/// never ends on a non-empty ordered network: its cursor over a channel does not advance.)
+pub fn all_in_flight(network: &Network<NetMsg>, f: impl Fn(&NetMsg) -> bool) -> bool {
+    match network {
+        Network::UnorderedDuplicating(set, _) => set.iter().all(|e| f(&e.msg)),
+        Network::UnorderedNonDuplicating(multiset) => multiset.keys().all(|e| f(&e.msg)),
+        Network::Ordered(channels) => channels.values().flatten().all(f),
+    }
 }
 
 /// How one property fared.
@@ -314,6 +400,8 @@ pub struct Outcome {
     pub max_depth: usize,
     /// In the model's property order.
     pub verdicts: Vec<Verdict>,
+    /// The budget that ended the search before it was exhaustive, if one did.
+    pub stopped: Option<Spent>,
 }
 
 impl Outcome {
@@ -322,10 +410,49 @@ impl Outcome {
         self.verdicts.iter().all(|v| v.holds)
     }
 
+    /// Whether some `always` property has a counterexample.
+    pub fn any_fails(&self) -> bool {
+        self.verdicts
+            .iter()
+            .any(|v| v.expectation != Expectation::Sometimes && !v.holds)
+    }
+
     /// The verdict of a property.
     pub fn verdict(&self, name: &str) -> Option<&Verdict> {
         self.verdicts.iter().find(|v| v.name == name)
     }
+}
+
+/// The order in which states are explored (stateright's three checkers).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Strategy {
+    /// Breadth-first: exhaustive, and each counterexample is a shortest one (one thread).
+    #[default]
+    Bfs,
+    /// Depth-first: exhaustive, holding only the current path's frontier.
+    Dfs,
+    /// Random walks from the initial states, each seeded from `seed`: never exhaustive, but
+    /// reaches deep configurations (more processes) whose whole space does not fit.
+    Simulation { seed: u64 },
+}
+
+/// Resources a search may use. When one runs out, the search stops cleanly with what it has
+/// settled ([`Outcome::stopped`]); it never grows past the memory budget.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Budget {
+    /// Unique states (states visited, for a simulation).
+    pub max_states: Option<usize>,
+    /// Resident memory of this process, in bytes (Linux: `VmRSS`).
+    pub max_memory: Option<u64>,
+}
+
+/// Which budget ended a search.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Spent {
+    /// The state budget; the unique states (or simulated states) reached.
+    States { limit: usize },
+    /// The memory budget; the resident bytes seen when it ran out.
+    Memory { limit: u64, seen: u64 },
 }
 
 /// How to explore.
@@ -336,6 +463,8 @@ pub struct Exploration {
     pub depth: Option<usize>,
     /// Stop at the first counterexample instead of settling every property.
     pub first_counterexample: bool,
+    pub strategy: Strategy,
+    pub budget: Budget,
 }
 
 impl Default for Exploration {
@@ -344,14 +473,49 @@ impl Default for Exploration {
             threads: 1,
             depth: None,
             first_counterexample: false,
+            strategy: Strategy::Bfs,
+            budget: Budget::default(),
         }
     }
 }
 
-/// Explores `model` breadth-first (so each counterexample is a shortest one when single
-/// threaded).
+/// States a simulation visits when no state budget is given: random walks never finish on
+/// their own while an `always` property holds.
+pub const SIMULATION_STATES: usize = 1_000_000;
+
+/// This process's resident memory in bytes (`VmRSS` of /proc/self/status), where readable.
+pub fn resident_memory() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    kib_field(&status, "VmRSS:")
+}
+
+/// The memory this process may use: the machine's (`MemTotal`), or the cgroup's limit when
+/// lower (a container's `memory.max`).
+pub fn available_memory() -> Option<u64> {
+    let total = kib_field(&std::fs::read_to_string("/proc/meminfo").ok()?, "MemTotal:")?;
+    let cgroup = std::fs::read_to_string("/sys/fs/cgroup/memory.max")
+        .ok()
+        .and_then(|s| s.trim().parse::<u64>().ok());
+    Some(cgroup.map_or(total, |c| c.min(total)))
+}
+
+/// A `KEY: N kB` line of a /proc file, in bytes.
+fn kib_field(text: &str, key: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with(key))?;
+    let kib: u64 = line[key.len()..]
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
+    Some(kib * 1024)
+}
+
+/// Explores `model` with the strategy, threads, depth and budget of `how`. Breadth-first on
+/// one thread, each counterexample is a shortest one.
 pub fn run(model: CheckModel, how: Exploration) -> Outcome {
     let props = model.properties();
+    let stop = Arc::clone(&model.cfg.stop);
     let mut builder = model.checker().threads(how.threads.max(1));
     if let Some(d) = how.depth {
         builder = builder.target_max_depth(d);
@@ -359,7 +523,33 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
     if how.first_counterexample {
         builder = builder.finish_when(HasDiscoveries::AnyFailures);
     }
-    let checker = builder.spawn_bfs().join();
+    match how.strategy {
+        Strategy::Bfs => outcome(supervise(builder.spawn_bfs(), &stop, how.budget), &props),
+        Strategy::Dfs => outcome(supervise(builder.spawn_dfs(), &stop, how.budget), &props),
+        Strategy::Simulation { seed } => {
+            // A walk ends on its own; the search ends at the state budget, which stateright
+            // counts itself (states visited, the same on every run of a seed on one thread).
+            let limit = how.budget.max_states.unwrap_or(SIMULATION_STATES);
+            let budget = Budget {
+                max_states: None,
+                ..how.budget
+            };
+            let checker = builder
+                .target_state_count(limit)
+                .spawn_simulation(seed, UniformChooser);
+            let (checker, spent) = supervise(checker, &stop, budget);
+            let spent =
+                spent.or((checker.state_count() >= limit).then_some(Spent::States { limit }));
+            outcome((checker, spent), &props)
+        }
+    }
+}
+
+/// The figures and verdicts of a finished checker.
+fn outcome<C: Checker<CheckModel>>(
+    (checker, stopped): (C, Option<Spent>),
+    props: &[stateright::Property<CheckModel>],
+) -> Outcome {
     let mut discoveries = checker.discoveries();
     let verdicts = props
         .iter()
@@ -382,5 +572,38 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
         unique_states: checker.unique_state_count(),
         max_depth: checker.max_depth(),
         verdicts,
+        stopped,
     }
+}
+
+/// Waits for `checker`, watching its budget: when the unique states or this process's
+/// resident memory reach theirs, `stop` closes the model's boundary, so the checker settles
+/// the states it holds without making new ones and ends.
+fn supervise<C: Checker<CheckModel>>(
+    checker: C,
+    stop: &AtomicBool,
+    budget: Budget,
+) -> (C, Option<Spent>) {
+    let mut spent = None;
+    if budget != Budget::default() {
+        while !checker.is_done() {
+            if spent.is_none() {
+                if let Some(limit) = budget.max_states {
+                    if checker.unique_state_count() >= limit {
+                        spent = Some(Spent::States { limit });
+                    }
+                }
+                if let (Some(limit), Some(seen)) = (budget.max_memory, resident_memory()) {
+                    if seen >= limit {
+                        spent = Some(Spent::Memory { limit, seen });
+                    }
+                }
+                if spent.is_some() {
+                    stop.store(true, Ordering::Relaxed);
+                }
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+    (checker.join(), spent)
 }

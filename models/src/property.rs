@@ -11,7 +11,7 @@
 use std::borrow::Cow;
 use std::collections::BTreeSet;
 
-use nekosim_protocols::{MsgId, Payload, Pid, Request};
+use nekosim_protocols::{MsgId, Payload, Pid, Request, Service};
 use stateright::actor::{ActorModelState, Network, Out};
 use stateright::Expectation;
 
@@ -30,6 +30,23 @@ pub enum Family {
     Broadcast,
     /// Consensus.
     Consensus,
+}
+
+impl Family {
+    /// The family whose properties a layer providing `service` promises: total order
+    /// before broadcast, since a total-order broadcast is a broadcast (a user's service
+    /// that implies one of these is checked as that one).
+    pub fn of(service: Service) -> Option<Self> {
+        if service.serves(Service::TOTAL_ORDER) {
+            Some(Self::Abcast)
+        } else if service.serves(Service::BROADCAST) {
+            Some(Self::Broadcast)
+        } else if service.serves(Service::CONSENSUS) {
+            Some(Self::Consensus)
+        } else {
+            None
+        }
+    }
 }
 
 /// A property: how it is checked, its name and its condition.
