@@ -9,7 +9,8 @@ use nekosim_protocols::consensus::{ChandraToueg, CtMsg};
 use nekosim_protocols::fifo::{Fifo, FifoMsg};
 use nekosim_protocols::retransmit::{Retransmit, RtMsg};
 use nekosim_protocols::{
-    AppMsg, Content, LayerSpec, Payload, Pid, Protocols, Request, Service, Stack, Wiring,
+    AppMsg, Content, LayerSpec, Payload, Pid, Protocols, Request, Service, Stack, StackProperty,
+    Wiring,
 };
 use stateright::actor::{ActorModel, ActorModelAction, LossyNetwork, Network};
 use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChooser};
@@ -103,6 +104,8 @@ pub enum ModelError {
     Crashes { crashes: u32, processes: u32 },
     #[error("invalid stack: {0}")]
     Stack(String),
+    #[error("{0} properties stated by the stack's protocols; at most 8 are checked")]
+    TooManyProperties(usize),
     #[error("no layer {name:?} in the stack; expected one of {known}")]
     NoLayer { name: String, known: String },
     #[error("the stack has several top layers ({0}); choose the one to check with --layer")]
@@ -130,6 +133,9 @@ pub struct ModelCfg {
     /// Set when a budget ran out: from then on no new state is inside the model, so the
     /// search drains what it holds and ends (see [`Budget`]).
     pub stop: Arc<AtomicBool>,
+    /// The properties the stack's protocols state themselves ([`Protocols::invariant`],
+    /// [`Protocols::reachable`]).
+    pub stated: Vec<StackProperty>,
 }
 
 /// The layers whose messages the round bound looks into.
@@ -274,6 +280,15 @@ pub fn build_in(
         })
         .collect();
     let uses_ct = headers.contains(&Header::ChandraToueg);
+    let stated: Vec<StackProperty> = protocols
+        .properties()
+        .iter()
+        .filter(|p| p.applies_to(&stack))
+        .cloned()
+        .collect();
+    if stated.len() > STATED.len() {
+        return Err(ModelError::TooManyProperties(stated.len()));
+    }
     let requests: Vec<(Pid, Request)> = (0..opts.requests)
         .map(|g| (g % n, request(target.family, n, g)))
         .collect();
@@ -319,6 +334,7 @@ pub fn build_in(
         max_round: uses_ct.then_some(opts.max_round),
         headers,
         stop: Arc::new(AtomicBool::new(false)),
+        stated,
     };
     let network = match opts.network {
         NetworkKind::Ordered => Network::new_ordered([]),
@@ -340,8 +356,34 @@ pub fn build_in(
     {
         model = model.property(expectation, name, condition);
     }
+    for (i, p) in model.cfg.stated.clone().iter().enumerate() {
+        let expectation = if p.always {
+            Expectation::Always
+        } else {
+            Expectation::Sometimes
+        };
+        model = model.property(expectation, p.name, STATED[i]);
+    }
     Ok(model)
 }
+
+/// Property `I` a protocol states ([`ModelCfg::stated`]), of every process's stack.
+fn stated<const I: usize>(m: &CheckModel, s: &State) -> bool {
+    let stacks: Vec<&Stack> = s.actor_states.iter().map(|a| &a.stack).collect();
+    m.cfg.stated[I].holds(&stacks)
+}
+
+/// Stateright takes a property's condition as a function pointer: one per stated property.
+const STATED: [fn(&CheckModel, &State) -> bool; 8] = [
+    stated::<0>,
+    stated::<1>,
+    stated::<2>,
+    stated::<3>,
+    stated::<4>,
+    stated::<5>,
+    stated::<6>,
+    stated::<7>,
+];
 
 /// The Chandra-Toueg round a message belongs to, looking through point-to-point headers.
 fn round_of(headers: &[Header], p: &Payload) -> Option<u64> {

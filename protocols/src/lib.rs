@@ -32,7 +32,7 @@ pub mod wire;
 
 pub use payload::{Payload, WireError};
 pub use protocol::{FieldError, Layer, Message, Microprotocol, NoConfig, NoMsg, Out};
-pub use registry::{ProtocolSpec, Protocols, Spec, SpecError};
+pub use registry::{ProtocolSpec, Protocols, Spec, SpecError, StackProperty};
 pub use service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, Shape, APP, NET};
 pub use stack::{LayerSpec, Routed, Stack, StackError, Wiring};
 pub use wire::{app_decode, app_payload, AppMsg, Content, MsgId, Pid, Real};

@@ -6,6 +6,7 @@
 
 use std::collections::BTreeMap;
 use std::fmt;
+use std::sync::Arc;
 
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
@@ -13,6 +14,7 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use crate::payload::{decode_bytes, Codec, WireError};
 use crate::protocol::{FieldError, Layer, Microprotocol};
 use crate::service::Shape;
+use crate::stack::Stack;
 
 /// A protocol (or algorithm) and its configuration as a scenario writes it, kept as RON text
 /// (`Fifo`, `Retransmit(period: 0.5)`, `RingGossip(fanout: 2)`); a registry reads it into the
@@ -220,6 +222,49 @@ impl<E> Named<E> {
 #[derive(Clone, Debug)]
 pub struct Protocols {
     entries: Named<Entry>,
+    properties: Vec<StackProperty>,
+}
+
+/// A property a protocol's author states over the protocol's state at every process
+/// (crashed ones included), checked by `nekosim check` alongside the properties of the
+/// service the stack provides, whenever the protocol is in the stack checked. Made by
+/// [`Protocols::invariant`] and [`Protocols::reachable`].
+#[derive(Clone)]
+pub struct StackProperty {
+    pub name: &'static str,
+    /// `true`: it holds in every reachable state (an invariant); `false`: it holds in some
+    /// reachable state (a witness that the configuration is reachable at all).
+    pub always: bool,
+    applies: fn(&Stack) -> bool,
+    condition: Arc<Condition>,
+}
+
+/// A condition over every process's stack, in process order.
+type Condition = dyn Fn(&[&Stack]) -> bool + Send + Sync;
+
+impl StackProperty {
+    /// Whether the protocol it is about is in `stack`.
+    pub fn applies_to(&self, stack: &Stack) -> bool {
+        (self.applies)(stack)
+    }
+
+    /// Whether it holds of the processes' stacks, in process order.
+    pub fn holds(&self, stacks: &[&Stack]) -> bool {
+        (self.condition)(stacks)
+    }
+}
+
+impl std::fmt::Debug for StackProperty {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StackProperty")
+            .field("name", &self.name)
+            .field("always", &self.always)
+            .finish_non_exhaustive()
+    }
+}
+
+fn has_layer<P: Microprotocol>(stack: &Stack) -> bool {
+    stack.layers.iter().any(|l| l.downcast_ref::<P>().is_some())
 }
 
 impl PartialEq for Protocols {
@@ -366,6 +411,7 @@ impl Protocols {
     pub fn empty() -> Self {
         Self {
             entries: Named::new("protocol"),
+            properties: Vec::new(),
         }
     }
 
@@ -392,6 +438,54 @@ impl Protocols {
     /// Registered names, sorted.
     pub fn names(&self) -> impl Iterator<Item = &str> {
         self.entries.names()
+    }
+
+    /// States an invariant of protocol `P`: `holds` of `P`'s state at every process (in
+    /// process order, crashed ones included) in every reachable state of a check whose stack
+    /// runs `P`.
+    pub fn invariant<P: Microprotocol>(
+        &mut self,
+        name: &str,
+        holds: impl Fn(&[&P]) -> bool + Send + Sync + 'static,
+    ) -> &mut Self {
+        self.stack_property::<P>(name, true, holds)
+    }
+
+    /// States a reachability claim of protocol `P`: some reachable state satisfies `holds`;
+    /// the check shows a path to one as a witness.
+    pub fn reachable<P: Microprotocol>(
+        &mut self,
+        name: &str,
+        holds: impl Fn(&[&P]) -> bool + Send + Sync + 'static,
+    ) -> &mut Self {
+        self.stack_property::<P>(name, false, holds)
+    }
+
+    fn stack_property<P: Microprotocol>(
+        &mut self,
+        name: &str,
+        always: bool,
+        holds: impl Fn(&[&P]) -> bool + Send + Sync + 'static,
+    ) -> &mut Self {
+        let condition = move |stacks: &[&Stack]| {
+            let states: Vec<&P> = stacks
+                .iter()
+                .filter_map(|s| s.layers.iter().find_map(|l| l.downcast_ref::<P>()))
+                .collect();
+            holds(&states)
+        };
+        self.properties.push(StackProperty {
+            name: intern(name),
+            always,
+            applies: has_layer::<P>,
+            condition: Arc::new(condition),
+        });
+        self
+    }
+
+    /// The properties stated with [`Protocols::invariant`] and [`Protocols::reachable`].
+    pub fn properties(&self) -> &[StackProperty] {
+        &self.properties
     }
 
     fn entry(&self, spec: &ProtocolSpec) -> Result<&Entry, SpecError> {

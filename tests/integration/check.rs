@@ -408,3 +408,35 @@ fn scenario_problems_are_located_in_the_file_with_exit_2() {
     let o = nekosim(&["check", &two_tops, "--layer", "a"]);
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
 }
+
+#[test]
+fn the_shipped_scenario_files_define_the_models_crates_targets() {
+    // The models crate states each named model in Rust for its own tests and benches; the
+    // command reads the scenario files. They must be the same stacks, entry layers, families
+    // and timer-fed layers.
+    use nekosim::check::{resolve, CheckArgs, SHORTCUTS};
+    use nekosim::scenario::Registry;
+    assert_eq!(
+        SHORTCUTS.map(|(n, ..)| n).to_vec(),
+        nekosim_models::MODELS.map(|m| m.name).to_vec()
+    );
+    for (name, ..) in SHORTCUTS {
+        let args = CheckArgs {
+            model: name.to_string(),
+            threads: 1,
+            ..Default::default()
+        };
+        let resolved = resolve(&args, &Registry::with_builtins()).expect(name);
+        let ours = nekosim_models::find(name).unwrap().target();
+        let text = |t: &nekosim_models::Target| {
+            let stack: Vec<String> = t
+                .stack
+                .iter()
+                .map(|l| format!("{} {} {} {:?}", l.id, l.protocol.text(), l.below, l.uses))
+                .collect();
+            format!("{stack:?} {} {:?} {:?}", t.entry, t.family, t.timer_fed)
+        };
+        assert_eq!(text(&resolved.target), text(&ours), "{name}");
+        assert_eq!(resolved.options.processes, 3, "{name}");
+    }
+}

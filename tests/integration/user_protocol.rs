@@ -230,6 +230,10 @@ fn its_configuration_errors_point_into_the_scenario_file() {
 /// `Relay` checked from a scenario file: the model is the file's stack, with this test's
 /// registry.
 fn check_relay(hops: u32) -> (nekosim::check::Conclusion, String) {
+    check_relay_in(hops, &registry())
+}
+
+fn check_relay_in(hops: u32, registry: &Registry) -> (nekosim::check::Conclusion, String) {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("relay.ron");
     let text = format!(
@@ -247,7 +251,7 @@ fn check_relay(hops: u32) -> (nekosim::check::Conclusion, String) {
         ..Default::default()
     };
     let mut out = Vec::new();
-    let conclusion = nekosim::check::check(&args, &registry(), &mut out).expect("checks");
+    let conclusion = nekosim::check::check(&args, registry, &mut out).expect("checks");
     (conclusion, String::from_utf8(out).unwrap())
 }
 
@@ -278,4 +282,37 @@ fn a_protocol_defined_in_a_test_is_model_checked_from_ron() {
         "{out}"
     );
     assert!(out.contains("HOP(0:0, 0 left, M 0)"), "{out}");
+}
+
+#[test]
+fn properties_a_protocol_states_are_checked_alongside_its_services() {
+    use nekosim::check::Conclusion;
+    let mut r = registry();
+    r.protocols
+        // Two requests in all: the processes' counters never exceed them.
+        .invariant::<Relay>("at most two broadcasts", |rs| {
+            rs.iter().map(|r| r.count).sum::<u64>() <= 2
+        })
+        .reachable::<Relay>("p0 and p1 both broadcast", |rs| {
+            rs.len() == 3 && rs[0].count == 1 && rs[1].count == 1
+        });
+    let (c, out) = check_relay_in(2, &r);
+    assert_eq!(c, Conclusion::Holds, "{out}");
+    assert!(
+        out.contains("holds  at most two broadcasts (always)\n"),
+        "{out}"
+    );
+    assert!(
+        out.contains("holds  p0 and p1 both broadcast (sometimes): witness in "),
+        "{out}"
+    );
+    // A stated invariant that does not hold is a counterexample like any other.
+    r.protocols
+        .invariant::<Relay>("nobody broadcasts", |rs| rs.iter().all(|r| r.count == 0));
+    let (c, out) = check_relay_in(2, &r);
+    assert_eq!(c, Conclusion::Fails, "{out}");
+    assert!(
+        out.contains("FAILS  nobody broadcasts (always): counterexample in "),
+        "{out}"
+    );
 }
