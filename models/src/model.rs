@@ -136,7 +136,15 @@ pub struct ModelCfg {
     /// The properties the stack's protocols state themselves ([`Protocols::invariant`],
     /// [`Protocols::reachable`]).
     pub stated: Vec<StackProperty>,
+    /// Every property's expectation and condition, in the model's order; the model's own
+    /// conditions are [`FIRST`], which report only the first discovery of each.
+    pub conditions: Vec<(Expectation, Condition)>,
+    /// Whether property `i` has had its discovery (reset by [`run`]).
+    pub found: Arc<Vec<AtomicBool>>,
 }
+
+/// A property's condition.
+pub type Condition = fn(&CheckModel, &State) -> bool;
 
 /// The layers whose messages the round bound looks into.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -326,7 +334,7 @@ pub fn build_in(
             }
         })
         .collect();
-    let cfg = ModelCfg {
+    let mut cfg = ModelCfg {
         family: target.family,
         n,
         requests,
@@ -335,7 +343,25 @@ pub fn build_in(
         headers,
         stop: Arc::new(AtomicBool::new(false)),
         stated,
+        conditions: Vec::new(),
+        found: Arc::new(Vec::new()),
     };
+    let mut props = properties(target.family, n, opts.crashes, opts.requests.min(n));
+    for (i, p) in cfg.stated.iter().enumerate() {
+        let expectation = if p.always {
+            Expectation::Always
+        } else {
+            Expectation::Sometimes
+        };
+        props.push((expectation, p.name, STATED[i]));
+    }
+    assert!(
+        props.len() <= FIRST.len(),
+        "at most {} properties",
+        FIRST.len()
+    );
+    cfg.conditions = props.iter().map(|(e, _, c)| (e.clone(), *c)).collect();
+    cfg.found = Arc::new(props.iter().map(|_| AtomicBool::new(false)).collect());
     let network = match opts.network {
         NetworkKind::Ordered => Network::new_ordered([]),
         NetworkKind::Unordered | NetworkKind::Lossy => Network::new_unordered_nonduplicating([]),
@@ -351,21 +377,56 @@ pub fn build_in(
         .lossy_network(lossy)
         .max_crashes(opts.crashes as usize)
         .within_boundary(within_boundary);
-    for (expectation, name, condition) in
-        properties(target.family, n, opts.crashes, opts.requests.min(n))
-    {
-        model = model.property(expectation, name, condition);
-    }
-    for (i, p) in model.cfg.stated.clone().iter().enumerate() {
-        let expectation = if p.always {
-            Expectation::Always
-        } else {
-            Expectation::Sometimes
-        };
-        model = model.property(expectation, p.name, STATED[i]);
+    for (i, (expectation, name, _)) in props.into_iter().enumerate() {
+        model = model.property(expectation, name, FIRST[i]);
     }
     Ok(model)
 }
+
+/// Property `I` of the model, reporting only its first discovery: stateright 0.31 keeps the
+/// last path it finds to a counterexample (or witness), so this condition answers "no
+/// discovery" once one was made. Breadth-first on one thread, the path kept is then a
+/// shortest one.
+fn first<const I: usize>(m: &CheckModel, s: &State) -> bool {
+    let (expectation, condition) = &m.cfg.conditions[I];
+    let value = condition(m, s);
+    let discovery = match expectation {
+        Expectation::Always | Expectation::Eventually => !value,
+        Expectation::Sometimes => value,
+    };
+    if discovery && m.cfg.found[I].swap(true, Ordering::Relaxed) {
+        return !value;
+    }
+    value
+}
+
+/// The model's property conditions, by index.
+const FIRST: [Condition; 24] = [
+    first::<0>,
+    first::<1>,
+    first::<2>,
+    first::<3>,
+    first::<4>,
+    first::<5>,
+    first::<6>,
+    first::<7>,
+    first::<8>,
+    first::<9>,
+    first::<10>,
+    first::<11>,
+    first::<12>,
+    first::<13>,
+    first::<14>,
+    first::<15>,
+    first::<16>,
+    first::<17>,
+    first::<18>,
+    first::<19>,
+    first::<20>,
+    first::<21>,
+    first::<22>,
+    first::<23>,
+];
 
 /// Property `I` a protocol states ([`ModelCfg::stated`]), of every process's stack.
 fn stated<const I: usize>(m: &CheckModel, s: &State) -> bool {
@@ -374,7 +435,7 @@ fn stated<const I: usize>(m: &CheckModel, s: &State) -> bool {
 }
 
 /// Stateright takes a property's condition as a function pointer: one per stated property.
-const STATED: [fn(&CheckModel, &State) -> bool; 8] = [
+const STATED: [Condition; 8] = [
     stated::<0>,
     stated::<1>,
     stated::<2>,
@@ -557,6 +618,9 @@ fn kib_field(text: &str, key: &str) -> Option<u64> {
 /// one thread, each counterexample is a shortest one.
 pub fn run(model: CheckModel, how: Exploration) -> Outcome {
     let props = model.properties();
+    for f in model.cfg.found.iter() {
+        f.store(false, Ordering::Relaxed);
+    }
     let stop = Arc::clone(&model.cfg.stop);
     let mut builder = model.checker().threads(how.threads.max(1));
     if let Some(d) = how.depth {

@@ -302,8 +302,9 @@ fn properties_a_protocol_states_are_checked_alongside_its_services() {
         out.contains("holds  at most two broadcasts (always)\n"),
         "{out}"
     );
+    // Shortest paths: the two client requests; one request breaks "nobody broadcasts".
     assert!(
-        out.contains("holds  p0 and p1 both broadcast (sometimes): witness in "),
+        out.contains("holds  p0 and p1 both broadcast (sometimes): witness in 2 steps"),
         "{out}"
     );
     // A stated invariant that does not hold is a counterexample like any other.
@@ -312,7 +313,7 @@ fn properties_a_protocol_states_are_checked_alongside_its_services() {
     let (c, out) = check_relay_in(2, &r);
     assert_eq!(c, Conclusion::Fails, "{out}");
     assert!(
-        out.contains("FAILS  nobody broadcasts (always): counterexample in "),
+        out.contains("FAILS  nobody broadcasts (always): counterexample in 1 steps"),
         "{out}"
     );
 }
