@@ -4,7 +4,9 @@
 //! - [`adapter`]: one process's stack as one stateright actor.
 //! - [`model`]: network semantics, crashes, bounds, and running the checker.
 //! - [`property`]: the properties of each protocol family.
-//! - [`registry`]: the models `nekosim check` knows by name.
+//! - [`registry`]: the shipped models as Rust targets, for this crate's tests and benches
+//!   (`nekosim check NAME` reads the same stacks from `examples/check/*.ron`; a test keeps
+//!   the two equal).
 //! - [`explain`]: a path of the checker as a sequence of messages, deliveries and decisions.
 //!
 //! See docs/model-checking.md for what is checked and under which assumptions.

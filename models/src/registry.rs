@@ -1,5 +1,7 @@
-//! The models `nekosim check` knows, by name: each is a scenario-style stack, the layer the
-//! application talks to and the family of properties it promises.
+//! The shipped models, by name: each is a scenario-style stack, the layer the application
+//! talks to and the family of properties it promises. `nekosim check NAME` reads the same
+//! stacks from `examples/check/*.ron` (a test in the main crate keeps the two equal); this
+//! crate's tests and benches use these.
 
 use nekosim_protocols::LayerSpec;
 
