@@ -545,7 +545,8 @@ pub enum Strategy {
 pub struct Budget {
     /// Unique states (states visited, for a simulation).
     pub max_states: Option<usize>,
-    /// Resident memory of this process, in bytes (Linux: `VmRSS`).
+    /// Resident memory of this process, in bytes (Linux: `VmRSS`); the search stops a little
+    /// below it ([`MEMORY_HEADROOM`]), so the peak stays under it.
     pub max_memory: Option<u64>,
 }
 
@@ -585,6 +586,10 @@ impl Default for Exploration {
 /// States a simulation visits when no state budget is given: random walks never finish on
 /// their own while an `always` property holds.
 pub const SIMULATION_STATES: usize = 1_000_000;
+
+/// A memory budget stops the search at `1 - 1/MEMORY_HEADROOM` of its size (64 MiB below
+/// 4 GiB), so that the peak stays under it.
+pub const MEMORY_HEADROOM: u64 = 64;
 
 /// This process's resident memory in bytes (`VmRSS` of /proc/self/status), where readable.
 pub fn resident_memory() -> Option<u64> {
@@ -700,7 +705,9 @@ fn supervise<C: Checker<CheckModel>>(
                     }
                 }
                 if let (Some(limit), Some(seen)) = (budget.max_memory, resident_memory()) {
-                    if seen >= limit {
+                    // Stop a little early: memory still grows between two looks and while
+                    // the states in hand are settled, and the peak must stay under the limit.
+                    if seen >= limit - limit / MEMORY_HEADROOM {
                         spent = Some(Spent::Memory { limit, seen });
                     }
                 }
