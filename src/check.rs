@@ -13,8 +13,8 @@ use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_models::adapter::Happening;
 use nekosim_models::explain::{describe, explain, layer_name, Event, Step};
 use nekosim_models::{
-    available_memory, build_in, run, Budget, CheckModel, Exploration, Family, ModelError,
-    NetworkKind, Options, Outcome, Spent, Strategy, Target,
+    available_memory, build_in, run, Budget, CheckModel, Exploration, ModelError, NetworkKind,
+    Options, Outcome, Spent, Strategy, Target,
 };
 use nekosim_protocols::{Indication, Request};
 use serde_json::{json, Map, Value};
@@ -249,15 +249,6 @@ pub fn resolve(args: &CheckArgs, registry: &Registry) -> Result<Resolved, CheckE
     })
 }
 
-/// The family's name as the report prints it.
-fn family_name(f: Family) -> &'static str {
-    match f {
-        Family::Abcast => "total-order broadcast",
-        Family::Broadcast => "broadcast",
-        Family::Consensus => "consensus",
-    }
-}
-
 /// `bytes` in the largest binary unit that keeps it at least 1.
 pub fn size_text(bytes: u64) -> String {
     let units = ["B", "KiB", "MiB", "GiB", "TiB"];
@@ -361,7 +352,7 @@ pub fn check(
             "model: {name}: stack [{}], checking {:?} ({}): {} processes, {} requests, {} crashes, {network} network, timer budget {}, last round {}{}",
             layers.join(", "),
             target.entry,
-            family_name(target.family),
+            target.family.name(),
             opts.processes,
             opts.requests,
             opts.crashes,

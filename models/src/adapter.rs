@@ -55,6 +55,13 @@ pub struct ProcessState {
     /// Consensus decisions reaching the application, in order (a repeat is kept, so
     /// integrity can be checked).
     pub decided: Vec<(u64, Payload)>,
+    /// Point-to-point deliveries to the application (sender, message), in order.
+    pub received: Vec<(Pid, Payload)>,
+    /// A failure detector's indications, in order: (process, suspected) for `Suspect`
+    /// (true) and `Trust` (false).
+    pub detections: Vec<(Pid, bool)>,
+    /// The last leader a leader election indicated.
+    pub leader: Option<Pid>,
     /// Messages waiting to leave (destination, message); only with crashes.
     pub outbox: VecDeque<(Pid, NetMsg)>,
     /// Restarted after a crash. Protocols here are crash-stop, so such a process is inert, and
@@ -76,6 +83,9 @@ pub struct Shared {
     /// no timer may fire (a zero budget), so sending them could change nothing but the
     /// number of states.
     pub muted: Vec<LayerIx>,
+    /// The layer checked: what its indications tell the application is recorded in
+    /// [`ProcessState`] for the properties.
+    pub entry: LayerIx,
 }
 
 /// A client request of the model: `req` issued by the application to `layer`.
@@ -160,12 +170,22 @@ impl ProcessActor {
                     log.push(Happening::Send { layer, to, msg });
                 }
                 Routed::App { layer, ind } => {
-                    match &ind {
-                        Indication::BDeliver { id, msg } => {
-                            state.delivered.push((*id, msg.clone()))
+                    if layer == self.shared.entry {
+                        match &ind {
+                            Indication::BDeliver { id, msg } => {
+                                state.delivered.push((*id, msg.clone()))
+                            }
+                            Indication::Decide { k, value } => {
+                                state.decided.push((*k, value.clone()))
+                            }
+                            Indication::Deliver { from, msg } => {
+                                state.received.push((*from, msg.clone()))
+                            }
+                            Indication::Suspect(p) => state.detections.push((*p, true)),
+                            Indication::Trust(p) => state.detections.push((*p, false)),
+                            Indication::Leader(p) => state.leader = Some(*p),
+                            Indication::Custom(_) => {}
                         }
-                        Indication::Decide { k, value } => state.decided.push((*k, value.clone())),
-                        _ => {}
                     }
                     log.push(Happening::App { layer, ind });
                 }
@@ -222,6 +242,9 @@ impl ProcessActor {
             fired: 0,
             delivered: Vec::new(),
             decided: Vec::new(),
+            received: Vec::new(),
+            detections: Vec::new(),
+            leader: None,
             outbox: VecDeque::new(),
             zombie: false,
         };
@@ -335,6 +358,9 @@ impl Actor for ProcessActor {
                 fired: 0,
                 delivered: Vec::new(),
                 decided: Vec::new(),
+                received: Vec::new(),
+                detections: Vec::new(),
+                leader: None,
                 outbox: VecDeque::new(),
                 zombie: true,
             };

@@ -3,6 +3,7 @@
 //!
 //! - [`adapter`]: one process's stack as one stateright actor.
 //! - [`model`]: network semantics, crashes, bounds, and running the checker.
+//! - [`compact`]: the breadth-first search over compact states (collapse compression).
 //! - [`property`]: the properties of each protocol family.
 //! - [`registry`]: the shipped models as Rust targets, for this crate's tests and benches
 //!   (`nekosim check NAME` reads the same stacks from `examples/check/*.ron`; a test keeps
@@ -12,6 +13,7 @@
 //! See docs/model-checking.md for what is checked and under which assumptions.
 
 pub mod adapter;
+pub mod compact;
 pub mod explain;
 pub mod model;
 pub mod property;

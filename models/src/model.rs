@@ -16,6 +16,7 @@ use stateright::actor::{ActorModel, ActorModelAction, LossyNetwork, Network};
 use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChooser};
 
 use crate::adapter::{ClientRequest, ModelTimer, NetMsg, ProcessActor, Shared};
+use crate::compact::{self, CompactBfs};
 use crate::property::{properties, Family, State};
 
 /// A model as stateright checks it.
@@ -110,7 +111,7 @@ pub enum ModelError {
     NoLayer { name: String, known: String },
     #[error("the stack has several top layers ({0}); choose the one to check with --layer")]
     TopLayers(String),
-    #[error("layer {layer:?} provides {service} ({what}), which has no properties to check; checkable services: total-order broadcast, broadcast, consensus")]
+    #[error("layer {layer:?} provides {service} ({what}), which has no properties to check; checkable services: total-order broadcast, broadcast, consensus, point-to-point messages, a failure detector, leader election")]
     Unchecked {
         layer: String,
         service: &'static str,
@@ -217,16 +218,23 @@ impl Target {
     }
 }
 
-/// The client request `g` of process `p`.
+/// The client request `g` (issued by process `g mod n`): a proposal to instance `g / n`, a
+/// broadcast, or a message to every other process, each carrying `g`.
 fn request(family: Family, n: u32, g: u32) -> Request {
+    let msg = |tag| AppMsg::new(tag, Content::Int(i64::from(g))).payload();
     match family {
         Family::Consensus => Request::Propose {
             k: u64::from(g / n),
-            value: AppMsg::new("V", Content::Int(i64::from(g))).payload(),
+            value: msg("V"),
         },
-        Family::Abcast | Family::Broadcast => Request::Broadcast {
-            msg: AppMsg::new("M", Content::Int(i64::from(g))).payload(),
+        Family::Abcast | Family::Broadcast => Request::Broadcast { msg: msg("M") },
+        Family::P2p { .. } => Request::Send {
+            to: (0..n).filter(|&q| q != g % n).collect(),
+            msg: msg("M"),
         },
+        Family::FailureDetector | Family::Leader => {
+            unreachable!("a failure detector or leader election takes no requests")
+        }
     }
 }
 
@@ -251,7 +259,12 @@ pub fn build_in(
     if !(2..=8).contains(&n) {
         return Err(ModelError::Processes(n));
     }
-    if opts.requests == 0 {
+    let requests = if target.family.takes_requests() {
+        opts.requests
+    } else {
+        0
+    };
+    if target.family.takes_requests() && requests == 0 {
         return Err(ModelError::NoRequests(opts.requests));
     }
     if target.family == Family::Consensus && !(n / 2 + 1..=n).contains(&opts.requests) {
@@ -267,11 +280,13 @@ pub fn build_in(
             processes: n,
         });
     }
-    let (wiring, stack) =
+    let (mut wiring, stack) =
         Wiring::check(&target.stack, protocols).map_err(|e| ModelError::Stack(e.to_string()))?;
     let entry = wiring
         .index(&target.entry)
         .ok_or_else(|| ModelError::Stack(format!("no layer {:?}", target.entry)))?;
+    // The checked layer is the application's, whatever sits above it.
+    wiring.app_hears[entry as usize] = true;
     let headers: Vec<Header> = stack
         .layers
         .iter()
@@ -297,7 +312,7 @@ pub fn build_in(
     if stated.len() > STATED.len() {
         return Err(ModelError::TooManyProperties(stated.len()));
     }
-    let requests: Vec<(Pid, Request)> = (0..opts.requests)
+    let requests: Vec<(Pid, Request)> = (0..requests)
         .map(|g| (g % n, request(target.family, n, g)))
         .collect();
     let muted = if opts.timer_budget == 0 {
@@ -315,6 +330,7 @@ pub fn build_in(
         wiring,
         timer_budget: opts.timer_budget,
         staged_sends: opts.crashes > 0 && opts.partial_multicasts,
+        entry,
     });
     let actors: Vec<ProcessActor> = (0..n)
         .map(|p| {
@@ -346,7 +362,8 @@ pub fn build_in(
         conditions: Vec::new(),
         found: Arc::new(Vec::new()),
     };
-    let mut props = properties(target.family, n, opts.crashes, opts.requests.min(n));
+    let proposers = (cfg.requests.len() as u32).min(n);
+    let mut props = properties(target.family, n, opts, proposers);
     for (i, p) in cfg.stated.iter().enumerate() {
         let expectation = if p.always {
             Expectation::Always
@@ -627,6 +644,10 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
         f.store(false, Ordering::Relaxed);
     }
     let stop = Arc::clone(&model.cfg.stop);
+    if how.strategy == Strategy::Bfs && compact::supports(&model) {
+        let checker = CompactBfs::spawn(model, how.threads, how.depth, how.first_counterexample);
+        return outcome(supervise(checker, &stop, how.budget), &props);
+    }
     let mut builder = model.checker().threads(how.threads.max(1));
     if let Some(d) = how.depth {
         builder = builder.target_max_depth(d);

@@ -16,7 +16,7 @@ use stateright::actor::{ActorModelState, Network, Out};
 use stateright::Expectation;
 
 use crate::adapter::{ModelTimer, ProcessActor};
-use crate::model::CheckModel;
+use crate::model::{CheckModel, NetworkKind, Options};
 
 /// A state of a model.
 pub type State = ActorModelState<ProcessActor, ()>;
@@ -30,21 +30,49 @@ pub enum Family {
     Broadcast,
     /// Consensus.
     Consensus,
+    /// Point-to-point messages, with per-link FIFO order when `fifo`.
+    P2p { fifo: bool },
+    /// A failure detector (suspicions and trust).
+    FailureDetector,
+    /// Leader election (Omega).
+    Leader,
 }
 
 impl Family {
-    /// The family whose properties a layer providing `service` promises: total order
-    /// before broadcast, since a total-order broadcast is a broadcast (a user's service
+    /// The family whose properties a layer providing `service` promises: the most specific
+    /// first (a total-order broadcast is a broadcast, FIFO links are links; a user's service
     /// that implies one of these is checked as that one).
     pub fn of(service: Service) -> Option<Self> {
-        if service.serves(Service::TOTAL_ORDER) {
-            Some(Self::Abcast)
-        } else if service.serves(Service::BROADCAST) {
-            Some(Self::Broadcast)
-        } else if service.serves(Service::CONSENSUS) {
-            Some(Self::Consensus)
-        } else {
-            None
+        [
+            (Service::TOTAL_ORDER, Self::Abcast),
+            (Service::BROADCAST, Self::Broadcast),
+            (Service::CONSENSUS, Self::Consensus),
+            (Service::FIFO_P2P, Self::P2p { fifo: true }),
+            (Service::P2P, Self::P2p { fifo: false }),
+            (Service::FAILURE_DETECTOR, Self::FailureDetector),
+            (Service::LEADER, Self::Leader),
+        ]
+        .into_iter()
+        .find(|(s, _)| service.serves(*s))
+        .map(|(_, f)| f)
+    }
+
+    /// Whether the application issues requests to it (a failure detector and a leader
+    /// election only tell).
+    pub fn takes_requests(self) -> bool {
+        !matches!(self, Self::FailureDetector | Self::Leader)
+    }
+
+    /// The service's name as reports print it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Abcast => "total-order broadcast",
+            Self::Broadcast => "broadcast",
+            Self::Consensus => "consensus",
+            Self::P2p { fifo: true } => "FIFO point-to-point messages",
+            Self::P2p { fifo: false } => "point-to-point messages",
+            Self::FailureDetector => "failure detector",
+            Self::Leader => "leader election",
         }
     }
 }
@@ -52,11 +80,40 @@ impl Family {
 /// A property: how it is checked, its name and its condition.
 pub type Prop = (Expectation, &'static str, fn(&CheckModel, &State) -> bool);
 
-/// The properties of a family for a model with `crashes` crashes allowed and the given
-/// proposers (consensus only).
-pub fn properties(family: Family, n: u32, crashes: u32, proposers: u32) -> Vec<Prop> {
+/// The properties of a family for a model with the options `opts` (crashes allowed, the
+/// network, the timer budget) and the given proposers (consensus only).
+pub fn properties(family: Family, n: u32, opts: &Options, proposers: u32) -> Vec<Prop> {
     use Expectation::{Always, Sometimes};
+    let crashes = opts.crashes;
     match family {
+        Family::P2p { fifo } => {
+            let mut v: Vec<Prop> = vec![
+                (Always, "no creation", no_creation),
+                (Always, "no duplication", no_duplication),
+            ];
+            if fifo {
+                v.push((Always, "FIFO order", fifo_order));
+            }
+            if opts.network != NetworkKind::Lossy {
+                v.push((Always, "reliable delivery", reliable_delivery));
+            }
+            v.push((Sometimes, "everything delivered", everything_received));
+            v
+        }
+        Family::FailureDetector => {
+            let mut v: Vec<Prop> = vec![(Always, "well-formed suspicions", well_formed)];
+            if crashes > 0 {
+                v.push((Sometimes, "completeness", completeness));
+            }
+            if opts.timer_budget >= 2 {
+                v.push((Sometimes, "false suspicion revoked", suspicion_revoked));
+            }
+            v
+        }
+        Family::Leader => vec![
+            (Always, "leader is a process", leader_valid),
+            (Sometimes, "common live leader", common_leader),
+        ],
         Family::Abcast => vec![
             (Always, "total order", total_order),
             (Always, "integrity", broadcast_integrity),
@@ -295,6 +352,153 @@ fn termination_without<const P: usize>(m: &CheckModel, s: &State) -> bool {
         && s.crashed[P]
         && s.actor_states[P].decided.is_empty()
         && live(s).all(|i| decided_all(m, s, i))
+}
+
+/// Whether process `p` has issued its request `g` (its `(g - p) / n`-th).
+fn has_issued(m: &CheckModel, s: &State, p: Pid, g: usize) -> bool {
+    s.actor_states[p as usize].issued * m.cfg.n as usize > g - p as usize
+}
+
+/// The request `msg` from `from` to `to` was, if it was issued.
+fn sent(m: &CheckModel, s: &State, from: Pid, to: Pid, msg: &Payload) -> Option<usize> {
+    m.cfg.requests.iter().enumerate().position(|(g, (p, req))| {
+        *p == from
+            && matches!(req, Request::Send { to: dst, msg: sent } if sent == msg && dst.contains(&to))
+            && has_issued(m, s, *p, g)
+    })
+}
+
+/// Every message a process delivered from `from` was sent to it by `from`.
+fn no_creation(m: &CheckModel, s: &State) -> bool {
+    s.actor_states.iter().enumerate().all(|(q, a)| {
+        a.received
+            .iter()
+            .all(|(from, msg)| sent(m, s, *from, q as Pid, msg).is_some())
+    })
+}
+
+/// No process delivers a message (a sender and content) twice.
+fn no_duplication(_: &CheckModel, s: &State) -> bool {
+    s.actor_states.iter().all(|a| {
+        let distinct: BTreeSet<&(Pid, Payload)> = a.received.iter().collect();
+        distinct.len() == a.received.len()
+    })
+}
+
+/// Each process delivers the messages of each sender in the order they were sent.
+fn fifo_order(m: &CheckModel, s: &State) -> bool {
+    s.actor_states.iter().enumerate().all(|(q, a)| {
+        (0..m.cfg.n).all(|from| {
+            let order: Vec<Option<usize>> = a
+                .received
+                .iter()
+                .filter(|(f, _)| *f == from)
+                .map(|(_, msg)| sent(m, s, from, q as Pid, msg))
+                .collect();
+            order.windows(2).all(|w| w[0] < w[1])
+        })
+    })
+}
+
+/// At rest, every message a live process sent to a live process was delivered.
+fn reliable_delivery(m: &CheckModel, s: &State) -> bool {
+    all_received(m, s, |p| !s.crashed[p as usize]) || !at_rest(m, s)
+}
+
+/// Every issued request from a process `counts` was delivered at every live destination.
+fn all_received(m: &CheckModel, s: &State, counts: impl Fn(Pid) -> bool) -> bool {
+    m.cfg.requests.iter().enumerate().all(|(g, (p, req))| {
+        let Request::Send { to, msg } = req else {
+            return true;
+        };
+        !counts(*p)
+            || !has_issued(m, s, *p, g)
+            || to.iter().all(|&q| {
+                s.crashed[q as usize]
+                    || s.actor_states[q as usize]
+                        .received
+                        .iter()
+                        .any(|(f, got)| f == p && got == msg)
+            })
+    })
+}
+
+/// A witness: every request issued and delivered at every destination.
+fn everything_received(m: &CheckModel, s: &State) -> bool {
+    m.cfg
+        .requests
+        .iter()
+        .enumerate()
+        .all(|(g, (p, _))| has_issued(m, s, *p, g))
+        && live(s).count() == s.actor_states.len()
+        && all_received(m, s, |_| true)
+}
+
+/// What process `a`'s failure detector says of `t` now: suspected or not.
+fn suspects(s: &State, a: usize, t: Pid) -> bool {
+    s.actor_states[a]
+        .detections
+        .iter()
+        .rev()
+        .find(|(p, _)| *p == t)
+        .is_some_and(|(_, suspected)| *suspected)
+}
+
+/// A detector never suspects its own process, and about each process it alternates:
+/// suspect, trust, suspect... (no trust without a suspicion, no suspicion repeated).
+fn well_formed(_: &CheckModel, s: &State) -> bool {
+    s.actor_states.iter().enumerate().all(|(me, a)| {
+        let mut now: BTreeSet<Pid> = BTreeSet::new();
+        a.detections.iter().all(|&(p, suspected)| {
+            p as usize != me
+                && if suspected {
+                    now.insert(p)
+                } else {
+                    now.remove(&p)
+                }
+        })
+    })
+}
+
+/// A witness of strong completeness: a process crashed, and every crashed process is
+/// suspected by every live process.
+fn completeness(_: &CheckModel, s: &State) -> bool {
+    let crashed: Vec<Pid> = (0..s.crashed.len())
+        .filter(|&i| s.crashed[i])
+        .map(|i| i as Pid)
+        .collect();
+    !crashed.is_empty() && live(s).all(|a| crashed.iter().all(|&t| suspects(s, a, t)))
+}
+
+/// A witness of eventual accuracy: a live process trusts again a live process it had
+/// suspected.
+fn suspicion_revoked(_: &CheckModel, s: &State) -> bool {
+    live(s).any(|a| {
+        s.actor_states[a]
+            .detections
+            .iter()
+            .any(|&(p, suspected)| !suspected && !s.crashed[p as usize])
+    })
+}
+
+/// Every leader indicated is a process.
+fn leader_valid(m: &CheckModel, s: &State) -> bool {
+    s.actor_states
+        .iter()
+        .all(|a| a.leader.is_none_or(|l| l < m.cfg.n))
+}
+
+/// A witness of eventual leadership: every live process trusts the same live leader, after
+/// a crash when crashes are allowed (the leader then is not the crashed one).
+fn common_leader(m: &CheckModel, s: &State) -> bool {
+    let crashes_allowed = m.max_crashes > 0;
+    let mut leaders = live(s).map(|i| s.actor_states[i].leader);
+    let Some(Some(first)) = leaders.next() else {
+        return false;
+    };
+    leaders.all(|l| l == Some(first))
+        && !s.crashed[first as usize]
+        && (!crashes_allowed || s.crashed.iter().any(|c| *c))
 }
 
 type Condition = fn(&CheckModel, &State) -> bool;

@@ -1,7 +1,9 @@
 //! Model-checking tests, one binary; modules are named by behaviour.
 
 mod broken_variants_are_caught;
+mod compact_search;
 mod correct_models_hold;
+mod services;
 mod state_counts;
 
 use nekosim_models::{build, find, run, Exploration, Options, Outcome};

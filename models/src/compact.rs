@@ -1,0 +1,636 @@
+//! Compact breadth-first search: stateright's actor semantics (its [`ActorModel`] decides every
+//! step), explored by a checker that keeps each state as a handful of integers.
+//!
+//! A state of an actor model is a product: one state per process (with its timers, crash flag
+//! and storage), the messages in flight and the history. Reached states share most of their
+//! parts, so each distinct part is stored once, in an interning [`Table`], and a state is the
+//! list of its parts' numbers (SPIN's "collapse compression"): `[history, process 0, ..,
+//! process n-1, envelope, envelope, ..]`, the envelopes sorted (an unordered network is a
+//! multiset) or in channel order (an ordered one). The frontier holds these records in blocks
+//! of `u32`s, the visited set one 64-bit fingerprint and the parent's per state; a state is
+//! expanded back into stateright's [`ActorModelState`] only while its successors are made.
+//!
+//! What it finds is what stateright's own breadth-first checker finds: the same states, the
+//! same counts (generated, unique, depth) and, on one thread, the same first discovery of each
+//! property, reconstructed into a [`Path`] by replaying the model along the parents'
+//! fingerprints. It implements stateright's [`Checker`], so budgets and verdicts treat it like
+//! stateright's checkers.
+
+use std::collections::{HashMap, VecDeque};
+use std::fmt::Debug;
+use std::hash::{BuildHasherDefault, Hash, Hasher};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, RwLock};
+use std::thread::JoinHandle;
+
+use dashmap::mapref::entry::Entry;
+use dashmap::DashMap;
+use stateright::actor::{
+    Actor, ActorModel, ActorModelState, Envelope, Network, RandomChoices, Timers,
+};
+use stateright::{Checker, Expectation, Model, Path};
+
+/// One process's part of a state: its state, timers, random choices, crash flag and storage.
+type ProcPart<A> = (
+    Arc<<A as Actor>::State>,
+    Timers<<A as Actor>::Timer>,
+    RandomChoices<<A as Actor>::Random>,
+    bool,
+    Option<<A as Actor>::Storage>,
+);
+
+/// A path of an actor model.
+type ModelPath<A, C, H> = Path<ActorModelState<A, H>, <ActorModel<A, C, H> as Model>::Action>;
+
+/// Records per frontier block: the unit of work a thread takes.
+const BLOCK: usize = 1024;
+
+/// Distinct values, each numbered once: the number of an equal value is always the same.
+pub struct Table<T> {
+    ids: DashMap<Arc<T>, u32, ahash::RandomState>,
+    values: RwLock<Vec<Arc<T>>>,
+}
+
+impl<T: Hash + Eq> Default for Table<T> {
+    fn default() -> Self {
+        Self {
+            ids: DashMap::default(),
+            values: RwLock::new(Vec::new()),
+        }
+    }
+}
+
+impl<T> Debug for Table<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Table").finish_non_exhaustive()
+    }
+}
+
+impl<T: Hash + Eq> Table<T> {
+    /// The number of `v`, numbering it if it is new.
+    pub fn intern(&self, v: T) -> u32 {
+        if let Some(id) = self.ids.get(&v) {
+            return *id;
+        }
+        match self.ids.entry(Arc::new(v)) {
+            Entry::Occupied(e) => *e.get(),
+            Entry::Vacant(e) => {
+                let mut values = self.values.write().expect("table lock");
+                let id = u32::try_from(values.len()).expect("at most 2^32 distinct parts");
+                values.push(Arc::clone(e.key()));
+                e.insert(id);
+                id
+            }
+        }
+    }
+
+    /// The values numbered so far.
+    pub fn len(&self) -> usize {
+        self.values.read().expect("table lock").len()
+    }
+
+    /// Whether nothing is numbered yet.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A fingerprint is already a hash: the visited set uses it as it is.
+#[derive(Default)]
+struct Identity(u64);
+
+impl Hasher for Identity {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = self.0.rotate_left(8) ^ u64::from(b);
+        }
+    }
+    fn write_u64(&mut self, n: u64) {
+        self.0 = n;
+    }
+}
+
+/// Fingerprint → parent's fingerprint (`None` for an initial state).
+type Visited = DashMap<u64, Option<u64>, BuildHasherDefault<Identity>>;
+
+/// The fingerprint of a record (a fixed-key hash: the same on every run).
+fn fingerprint(record: &[u32]) -> u64 {
+    ahash::RandomState::with_seeds(0x6e65_6b6f, 0x0073_696d, 0x636f_6d70, 0x0061_6374)
+        .hash_one(record)
+}
+
+/// The interning tables of a search and how to pack and unpack states with them.
+struct Packer<A: Actor, H> {
+    n: usize,
+    ordered: bool,
+    history: Table<H>,
+    procs: Table<ProcPart<A>>,
+    envelopes: Table<Envelope<A::Msg>>,
+}
+
+impl<A, H> Packer<A, H>
+where
+    A: Actor,
+    A::State: Eq,
+    A::Storage: Clone + Eq + Hash,
+    A::Random: Clone + Eq + Hash,
+    H: Clone + Hash + Eq,
+{
+    /// Packs `s` into `out` (cleared first), consuming it. `parent` (the record and state
+    /// `s` was made from) lets unchanged parts keep their numbers without a lookup.
+    fn pack(
+        &self,
+        mut s: ActorModelState<A, H>,
+        parent: Option<(&[u32], &Unpacked<A, H>)>,
+        out: &mut Vec<u32>,
+    ) {
+        out.clear();
+        match parent {
+            Some((rec, p)) if p.state.history == s.history => out.push(rec[0]),
+            _ => out.push(self.history.intern(s.history.clone())),
+        }
+        for i in 0..self.n {
+            if let Some((rec, Unpacked { state: p, .. })) = parent {
+                if Arc::ptr_eq(&p.actor_states[i], &s.actor_states[i])
+                    && p.crashed[i] == s.crashed[i]
+                    && p.timers_set[i] == s.timers_set[i]
+                    && p.actor_storages[i] == s.actor_storages[i]
+                    && p.random_choices[i] == s.random_choices[i]
+                {
+                    out.push(rec[1 + i]);
+                    continue;
+                }
+            }
+            let part: ProcPart<A> = (
+                Arc::clone(&s.actor_states[i]),
+                std::mem::take(&mut s.timers_set[i]),
+                std::mem::take(&mut s.random_choices[i]),
+                s.crashed[i],
+                s.actor_storages[i].take(),
+            );
+            out.push(self.procs.intern(part));
+        }
+        // Most messages in flight were in flight in the parent: look there first.
+        let known: &[(u32, Envelope<A::Msg>)] = parent.map_or(&[], |(_, p)| &p.envelopes);
+        let intern = |env: Envelope<A::Msg>| match known.iter().find(|(_, e)| *e == env) {
+            Some((id, _)) => *id,
+            None => self.envelopes.intern(env),
+        };
+        let start = out.len();
+        match &mut s.network {
+            Network::UnorderedNonDuplicating(multiset) => {
+                for (env, count) in multiset.drain() {
+                    let id = intern(env);
+                    out.extend(std::iter::repeat_n(id, count));
+                }
+                out[start..].sort_unstable();
+            }
+            Network::Ordered(channels) => {
+                for ((src, dst), queue) in std::mem::take(channels) {
+                    for msg in queue {
+                        out.push(intern(Envelope { src, dst, msg }));
+                    }
+                }
+            }
+            Network::UnorderedDuplicating(..) => {
+                unreachable!("compact search is not spawned on duplicating networks")
+            }
+        }
+    }
+
+    /// The state a record stands for.
+    fn unpack(&self, rec: &[u32]) -> Unpacked<A, H> {
+        let history = {
+            let values = self.history.values.read().expect("table lock");
+            H::clone(&values[rec[0] as usize])
+        };
+        let procs: Vec<Arc<ProcPart<A>>> = {
+            let values = self.procs.values.read().expect("table lock");
+            rec[1..=self.n]
+                .iter()
+                .map(|&id| Arc::clone(&values[id as usize]))
+                .collect()
+        };
+        let envelopes: Vec<(u32, Envelope<A::Msg>)> = {
+            let values = self.envelopes.values.read().expect("table lock");
+            rec[1 + self.n..]
+                .iter()
+                .map(|&id| (id, Envelope::clone(&values[id as usize])))
+                .collect()
+        };
+        let in_flight = envelopes.iter().map(|(_, e)| e.clone());
+        let state = ActorModelState {
+            actor_states: procs.iter().map(|p| Arc::clone(&p.0)).collect(),
+            network: if self.ordered {
+                Network::new_ordered(in_flight)
+            } else {
+                Network::new_unordered_nonduplicating(in_flight)
+            },
+            timers_set: procs.iter().map(|p| p.1.clone()).collect(),
+            random_choices: procs.iter().map(|p| p.2.clone()).collect(),
+            crashed: procs.iter().map(|p| p.3).collect(),
+            history,
+            actor_storages: procs.iter().map(|p| p.4.clone()).collect(),
+        };
+        Unpacked { state, envelopes }
+    }
+}
+
+/// A state unpacked from its record, with its messages in flight and their numbers.
+struct Unpacked<A: Actor, H> {
+    state: ActorModelState<A, H>,
+    envelopes: Vec<(u32, Envelope<A::Msg>)>,
+}
+
+/// A block of frontier records: `[len, words..]` each, all of one depth.
+#[derive(Default)]
+struct Block {
+    words: Vec<u32>,
+    count: usize,
+}
+
+impl Block {
+    fn push(&mut self, rec: &[u32]) {
+        self.words
+            .push(u32::try_from(rec.len()).expect("a record fits in u32 words"));
+        self.words.extend_from_slice(rec);
+        self.count += 1;
+    }
+
+    fn records(&self) -> impl Iterator<Item = &[u32]> {
+        let mut at = 0;
+        std::iter::from_fn(move || {
+            let len = *self.words.get(at)? as usize;
+            let rec = &self.words[at + 1..at + 1 + len];
+            at += 1 + len;
+            Some(rec)
+        })
+    }
+}
+
+/// What every search thread shares.
+struct Search<A, C, H>
+where
+    A: Actor,
+    A::Msg: Ord,
+    A::Timer: Ord,
+    H: Clone + Debug + Hash,
+{
+    model: Arc<ActorModel<A, C, H>>,
+    packer: Packer<A, H>,
+    visited: Visited,
+    unique: AtomicUsize,
+    generated: AtomicUsize,
+    max_depth: AtomicUsize,
+    target_max_depth: Option<usize>,
+    finish_on_failure: bool,
+    /// First discovery of each property: the fingerprint of the state it was found at.
+    discoveries: Mutex<Vec<Option<u64>>>,
+    found: Vec<AtomicBool>,
+    done: AtomicBool,
+    /// The current depth's blocks, and the next block to take.
+    level: RwLock<Vec<Block>>,
+    cursor: AtomicUsize,
+    /// The next depth's blocks, as threads finish them.
+    next: Mutex<Vec<Block>>,
+}
+
+/// Stateright's breadth-first search over compact states (see the module doc).
+pub struct CompactBfs<A, C, H>
+where
+    A: Actor,
+    A::Msg: Ord,
+    A::Timer: Ord,
+    H: Clone + Debug + Hash,
+{
+    search: Arc<Search<A, C, H>>,
+    handles: Vec<JoinHandle<()>>,
+}
+
+impl<A, C, H> Debug for CompactBfs<A, C, H>
+where
+    A: Actor,
+    A::Msg: Ord,
+    A::Timer: Ord,
+    H: Clone + Debug + Hash,
+{
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CompactBfs")
+            .field("unique", &self.search.unique.load(Ordering::Relaxed))
+            .finish_non_exhaustive()
+    }
+}
+
+/// Whether [`CompactBfs`] can explore `model`: its network is not duplicating and its
+/// properties are `always` or `sometimes` (an `eventually` needs per-path bits).
+pub fn supports<A, C, H>(model: &ActorModel<A, C, H>) -> bool
+where
+    A: Actor,
+    A::Msg: Ord,
+    A::Timer: Ord,
+    H: Clone + Debug + Hash,
+{
+    model
+        .properties()
+        .iter()
+        .all(|p| p.expectation != Expectation::Eventually)
+        && model
+            .init_states()
+            .iter()
+            .all(|s| !matches!(s.network, Network::UnorderedDuplicating(..)))
+}
+
+impl<A, C, H> CompactBfs<A, C, H>
+where
+    A: Actor + Send + Sync + 'static,
+    A::Msg: Ord + Send + Sync,
+    A::Timer: Ord + Send + Sync,
+    A::State: Eq + Send + Sync,
+    A::Storage: Clone + Eq + Hash + Send + Sync,
+    A::Random: Clone + Eq + Hash + Send + Sync,
+    C: Send + Sync + 'static,
+    H: Clone + Debug + Hash + Eq + Send + Sync + 'static,
+{
+    /// Starts the search on `threads` threads. States at depth `target_max_depth` and
+    /// deeper are not checked (stateright's meaning; initial states are at depth 1). With
+    /// `finish_on_failure`, the search ends at the first `always` counterexample.
+    ///
+    /// # Panics
+    /// If `!supports(&model)`.
+    pub fn spawn(
+        model: ActorModel<A, C, H>,
+        threads: usize,
+        target_max_depth: Option<usize>,
+        finish_on_failure: bool,
+    ) -> Self {
+        assert!(supports(&model), "compact search: unsupported model");
+        let init: Vec<_> = model
+            .init_states()
+            .into_iter()
+            .filter(|s| Model::within_boundary(&model, s))
+            .collect();
+        let ordered = init
+            .first()
+            .is_some_and(|s| matches!(s.network, Network::Ordered(_)));
+        let properties = model.properties().len();
+        let search = Arc::new(Search {
+            packer: Packer {
+                n: model.actors.len(),
+                ordered,
+                history: Table::default(),
+                procs: Table::default(),
+                envelopes: Table::default(),
+            },
+            model: Arc::new(model),
+            visited: Visited::default(),
+            unique: AtomicUsize::new(0),
+            generated: AtomicUsize::new(init.len()),
+            max_depth: AtomicUsize::new(0),
+            target_max_depth,
+            finish_on_failure,
+            discoveries: Mutex::new(vec![None; properties]),
+            found: (0..properties).map(|_| AtomicBool::new(false)).collect(),
+            done: AtomicBool::new(false),
+            level: RwLock::new(Vec::new()),
+            cursor: AtomicUsize::new(0),
+            next: Mutex::new(Vec::new()),
+        });
+        let mut first = Block::default();
+        let mut rec = Vec::new();
+        for s in init {
+            search.packer.pack(s, None, &mut rec);
+            let fp = fingerprint(&rec);
+            if search.visited.insert(fp, None).is_none() {
+                search.unique.fetch_add(1, Ordering::Relaxed);
+                first.push(&rec);
+            }
+        }
+        *search.level.write().expect("level lock") = vec![first];
+        let threads = threads.max(1);
+        let barrier = Arc::new(std::sync::Barrier::new(threads));
+        let handles = (0..threads)
+            .map(|t| {
+                let search = Arc::clone(&search);
+                let barrier = Arc::clone(&barrier);
+                std::thread::Builder::new()
+                    .name(format!("compact-bfs-{t}"))
+                    .spawn(move || search.work(t == 0, &barrier))
+                    .expect("spawn a checker thread")
+            })
+            .collect();
+        Self { search, handles }
+    }
+
+    /// The tables' sizes: distinct histories, process parts and envelopes.
+    pub fn parts(&self) -> (usize, usize, usize) {
+        let p = &self.search.packer;
+        (p.history.len(), p.procs.len(), p.envelopes.len())
+    }
+}
+
+impl<A, C, H> Search<A, C, H>
+where
+    A: Actor,
+    A::Msg: Ord,
+    A::Timer: Ord,
+    A::State: Eq,
+    A::Storage: Clone + Eq + Hash,
+    A::Random: Clone + Eq + Hash,
+    H: Clone + Debug + Hash + Eq,
+{
+    /// One thread's loop: take blocks of the current depth until none is left, wait for the
+    /// others, and (the leader) swap in the next depth.
+    fn work(&self, leader: bool, barrier: &std::sync::Barrier) {
+        let mut depth = 1;
+        loop {
+            {
+                let level = self.level.read().expect("level lock");
+                let mut out = Block::default();
+                loop {
+                    if self.done.load(Ordering::Relaxed) {
+                        break;
+                    }
+                    let i = self.cursor.fetch_add(1, Ordering::Relaxed);
+                    let Some(block) = level.get(i) else { break };
+                    self.expand_block(block, depth, &mut out);
+                }
+                if out.count > 0 {
+                    self.next.lock().expect("next lock").push(out);
+                }
+            }
+            barrier.wait();
+            if leader {
+                let next = std::mem::take(&mut *self.next.lock().expect("next lock"));
+                if next.is_empty() {
+                    self.done.store(true, Ordering::Relaxed);
+                }
+                *self.level.write().expect("level lock") = next;
+                self.cursor.store(0, Ordering::Relaxed);
+            }
+            barrier.wait();
+            if self.done.load(Ordering::Relaxed) {
+                return;
+            }
+            depth += 1;
+        }
+    }
+
+    /// Checks and expands every record of `block` (all at `depth`), adding new successors to
+    /// `out` (handed over whenever it fills a block).
+    fn expand_block(&self, block: &Block, depth: usize, out: &mut Block) {
+        let model = &*self.model;
+        let properties = model.properties();
+        let mut actions = Vec::new();
+        let mut rec = Vec::new();
+        self.max_depth.fetch_max(depth, Ordering::Relaxed);
+        if self.target_max_depth.is_some_and(|d| depth >= d) {
+            return;
+        }
+        for parent in block.records() {
+            if self.done.load(Ordering::Relaxed) {
+                return;
+            }
+            let unpacked = self.packer.unpack(parent);
+            let state = &unpacked.state;
+            let fp = fingerprint(parent);
+            let mut awaiting = false;
+            for (i, p) in properties.iter().enumerate() {
+                if self.found[i].load(Ordering::Relaxed) {
+                    continue;
+                }
+                let holds = (p.condition)(model, state);
+                let discovery = match p.expectation {
+                    Expectation::Always => !holds,
+                    Expectation::Sometimes => holds,
+                    Expectation::Eventually => unreachable!("not supported"),
+                };
+                if discovery {
+                    self.discover(i, fp, p.expectation == Expectation::Always);
+                } else {
+                    awaiting = true;
+                }
+            }
+            if !awaiting {
+                self.done.store(true, Ordering::Relaxed);
+                return;
+            }
+            model.actions(state, &mut actions);
+            for action in actions.drain(..) {
+                let Some(next) = model.next_state(state, action) else {
+                    continue;
+                };
+                if !Model::within_boundary(model, &next) {
+                    continue;
+                }
+                self.generated.fetch_add(1, Ordering::Relaxed);
+                self.packer.pack(next, Some((parent, &unpacked)), &mut rec);
+                let next_fp = fingerprint(&rec);
+                if let Entry::Vacant(e) = self.visited.entry(next_fp) {
+                    e.insert(Some(fp));
+                    self.unique.fetch_add(1, Ordering::Relaxed);
+                    out.push(&rec);
+                    if out.count >= BLOCK {
+                        let full = std::mem::take(out);
+                        self.next.lock().expect("next lock").push(full);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Records the first discovery of property `i`.
+    fn discover(&self, i: usize, fp: u64, failure: bool) {
+        let mut d = self.discoveries.lock().expect("discoveries lock");
+        if d[i].is_none() {
+            d[i] = Some(fp);
+            self.found[i].store(true, Ordering::Relaxed);
+            if failure && self.finish_on_failure {
+                self.done.store(true, Ordering::Relaxed);
+            }
+        }
+    }
+
+    /// The path to the state with fingerprint `fp`: the parents' fingerprints back to an
+    /// initial state, then the model replayed forward, choosing at each step the action whose
+    /// successor has the next fingerprint.
+    fn path(&self, fp: u64) -> Option<ModelPath<A, C, H>> {
+        let mut fps = VecDeque::from([fp]);
+        while let Some(parent) = *self.visited.get(fps.front()?)? {
+            fps.push_front(parent);
+        }
+        let model = &*self.model;
+        let mut rec = Vec::new();
+        let root = fps.pop_front()?;
+        let init = model.init_states().into_iter().find(|s| {
+            self.packer.pack(s.clone(), None, &mut rec);
+            fingerprint(&rec) == root
+        })?;
+        let mut state = init.clone();
+        let mut actions = Vec::new();
+        for want in fps {
+            let mut candidates = Vec::new();
+            model.actions(&state, &mut candidates);
+            let (action, next) = candidates.into_iter().find_map(|a| {
+                let next = model.next_state(&state, a.clone())?;
+                self.packer.pack(next.clone(), None, &mut rec);
+                (fingerprint(&rec) == want).then_some((a, next))
+            })?;
+            actions.push(action);
+            state = next;
+        }
+        Path::from_actions(model, init, &actions)
+    }
+}
+
+impl<A, C, H> Checker<ActorModel<A, C, H>> for CompactBfs<A, C, H>
+where
+    A: Actor,
+    A::Msg: Ord,
+    A::Timer: Ord,
+    A::State: Eq,
+    A::Storage: Clone + Eq + Hash,
+    A::Random: Clone + Eq + Hash,
+    H: Clone + Debug + Hash + Eq,
+{
+    fn model(&self) -> &ActorModel<A, C, H> {
+        &self.search.model
+    }
+
+    fn state_count(&self) -> usize {
+        self.search.generated.load(Ordering::Relaxed)
+    }
+
+    fn unique_state_count(&self) -> usize {
+        self.search.unique.load(Ordering::Relaxed)
+    }
+
+    fn max_depth(&self) -> usize {
+        self.search.max_depth.load(Ordering::Relaxed)
+    }
+
+    fn discoveries(&self) -> HashMap<&'static str, ModelPath<A, C, H>> {
+        let found = self
+            .search
+            .discoveries
+            .lock()
+            .expect("discoveries lock")
+            .clone();
+        let properties = self.search.model.properties();
+        found
+            .into_iter()
+            .enumerate()
+            .filter_map(|(i, fp)| Some((properties[i].name, self.search.path(fp?)?)))
+            .collect()
+    }
+
+    fn handles(&mut self) -> Vec<JoinHandle<()>> {
+        std::mem::take(&mut self.handles)
+    }
+
+    fn is_done(&self) -> bool {
+        self.search.done.load(Ordering::Relaxed) && self.handles.iter().all(|h| h.is_finished())
+    }
+}
