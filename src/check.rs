@@ -90,6 +90,8 @@ pub struct CheckArgs {
     pub max_states: Option<usize>,
     /// `None`: [`default_memory_budget`].
     pub max_memory: Option<u64>,
+    /// Symmetry reduction (also on when the scenario's `check` section asks for it).
+    pub symmetry: bool,
 }
 
 /// How a check ended, as the command's exit code says it.
@@ -123,6 +125,9 @@ pub enum CheckError {
     /// Bad arguments (exit 2).
     #[error("{0}")]
     Model(#[from] ModelError),
+    /// Bad arguments (exit 2).
+    #[error("symmetry reduction needs --strategy bfs")]
+    SymmetryStrategy,
     /// A bad scenario (exit 2), located in its file.
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
@@ -241,7 +246,11 @@ pub fn resolve(args: &CheckArgs, registry: &Registry) -> Result<Resolved, CheckE
             .or(settings.rounds)
             .unwrap_or(defaults.max_round),
         partial_multicasts: defaults.partial_multicasts,
+        symmetry: args.symmetry || settings.symmetry.unwrap_or(false),
     };
+    if options.symmetry && args.strategy != Strategy::Bfs {
+        return Err(CheckError::SymmetryStrategy);
+    }
     Ok(Resolved {
         name: args.model.clone(),
         target,
@@ -354,7 +363,7 @@ pub fn check(
             target.entry,
             target.family.name(),
             opts.processes,
-            opts.requests,
+            if target.family.takes_requests() { opts.requests } else { 0 },
             opts.crashes,
             opts.timer_budget,
             opts.max_round,
@@ -364,7 +373,12 @@ pub fn check(
     w(
         out,
         format!(
-            "search: {strategy}, {} thread{}, budget {} states, {} memory",
+            "search: {strategy}{}, {} thread{}, budget {} states, {} memory",
+            if opts.symmetry {
+                " with symmetry reduction"
+            } else {
+                ""
+            },
             args.threads.max(1),
             if args.threads > 1 { "s" } else { "" },
             budget

@@ -130,6 +130,10 @@ enum Command {
         /// Last Chandra-Toueg round explored.
         #[arg(long)]
         rounds: Option<u64>,
+        /// Symmetry reduction: explore one state per class of states equal up to renaming the
+        /// processes (every layer must declare symmetry; bfs only).
+        #[arg(long)]
+        symmetry: bool,
     },
 }
 
@@ -239,6 +243,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             rrd,
             timers,
             rounds,
+            symmetry,
             ..
         } => {
             if rrd.is_some() && !cfg!(feature = "rerun") {
@@ -268,6 +273,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 rrd,
                 timers,
                 rounds,
+                symmetry,
             };
             let conclusion = check::check(&args, registry, &mut std::io::stdout().lock()).map_err(
                 |e| match e {

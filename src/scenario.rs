@@ -87,6 +87,9 @@ pub struct CheckSettings {
     /// Last Chandra-Toueg round explored; default 1.
     #[serde(default)]
     pub rounds: Option<u64>,
+    /// Symmetry reduction (`nekosim check --symmetry`); default off.
+    #[serde(default)]
+    pub symmetry: Option<bool>,
 }
 
 /// The network semantics a check explores.

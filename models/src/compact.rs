@@ -39,6 +39,11 @@ type ProcPart<A> = (
     Option<<A as Actor>::Storage>,
 );
 
+/// The images of a state under a model's symmetries ([`crate::symmetry`]): the search keeps
+/// the least record of a state and its images.
+pub type Images<A, H> =
+    Arc<dyn Fn(&ActorModelState<A, H>) -> Vec<ActorModelState<A, H>> + Send + Sync>;
+
 /// A path of an actor model.
 type ModelPath<A, C, H> = Path<ActorModelState<A, H>, <ActorModel<A, C, H> as Model>::Action>;
 
@@ -95,6 +100,13 @@ impl<T: Hash + Eq> Table<T> {
     }
 }
 
+/// A history as a table key. Histories are only `PartialEq` in stateright; those it ships
+/// (and `()`) compare every value equal to itself, which is what a key needs.
+#[derive(Clone, Hash, PartialEq)]
+struct History<H>(H);
+
+impl<H: PartialEq> Eq for History<H> {}
+
 /// A fingerprint is already a hash: the visited set uses it as it is.
 #[derive(Default)]
 struct Identity(u64);
@@ -126,7 +138,7 @@ fn fingerprint(record: &[u32]) -> u64 {
 struct Packer<A: Actor, H> {
     n: usize,
     ordered: bool,
-    history: Table<H>,
+    history: Table<History<H>>,
     procs: Table<ProcPart<A>>,
     envelopes: Table<Envelope<A::Msg>>,
 }
@@ -137,7 +149,7 @@ where
     A::State: Eq,
     A::Storage: Clone + Eq + Hash,
     A::Random: Clone + Eq + Hash,
-    H: Clone + Hash + Eq,
+    H: Clone + Hash + PartialEq,
 {
     /// Packs `s` into `out` (cleared first), consuming it. `parent` (the record and state
     /// `s` was made from) lets unchanged parts keep their numbers without a lookup.
@@ -150,7 +162,7 @@ where
         out.clear();
         match parent {
             Some((rec, p)) if p.state.history == s.history => out.push(rec[0]),
-            _ => out.push(self.history.intern(s.history.clone())),
+            _ => out.push(self.history.intern(History(s.history.clone()))),
         }
         for i in 0..self.n {
             if let Some((rec, Unpacked { state: p, .. })) = parent {
@@ -201,11 +213,30 @@ where
         }
     }
 
+    /// Packs `s` as the least record of `s` and its `images`, into `out` (`tmp` is scratch).
+    fn pack_least(
+        &self,
+        s: ActorModelState<A, H>,
+        parent: Option<(&[u32], &Unpacked<A, H>)>,
+        images: Option<&Images<A, H>>,
+        out: &mut Vec<u32>,
+        tmp: &mut Vec<u32>,
+    ) {
+        let others = images.map(|f| f(&s)).unwrap_or_default();
+        self.pack(s, parent, out);
+        for image in others {
+            self.pack(image, None, tmp);
+            if *tmp < *out {
+                std::mem::swap(out, tmp);
+            }
+        }
+    }
+
     /// The state a record stands for.
     fn unpack(&self, rec: &[u32]) -> Unpacked<A, H> {
         let history = {
             let values = self.history.values.read().expect("table lock");
-            H::clone(&values[rec[0] as usize])
+            values[rec[0] as usize].0.clone()
         };
         let procs: Vec<Arc<ProcPart<A>>> = {
             let values = self.procs.values.read().expect("table lock");
@@ -281,6 +312,7 @@ where
 {
     model: Arc<ActorModel<A, C, H>>,
     packer: Packer<A, H>,
+    images: Option<Images<A, H>>,
     visited: Visited,
     unique: AtomicUsize,
     generated: AtomicUsize,
@@ -352,11 +384,12 @@ where
     A::Storage: Clone + Eq + Hash + Send + Sync,
     A::Random: Clone + Eq + Hash + Send + Sync,
     C: Send + Sync + 'static,
-    H: Clone + Debug + Hash + Eq + Send + Sync + 'static,
+    H: Clone + Debug + Hash + PartialEq + Send + Sync + 'static,
 {
     /// Starts the search on `threads` threads. States at depth `target_max_depth` and
     /// deeper are not checked (stateright's meaning; initial states are at depth 1). With
-    /// `finish_on_failure`, the search ends at the first `always` counterexample.
+    /// `finish_on_failure`, the search ends at the first `always` counterexample. With
+    /// `images`, one state of each symmetry class is explored.
     ///
     /// # Panics
     /// If `!supports(&model)`.
@@ -365,6 +398,7 @@ where
         threads: usize,
         target_max_depth: Option<usize>,
         finish_on_failure: bool,
+        images: Option<Images<A, H>>,
     ) -> Self {
         assert!(supports(&model), "compact search: unsupported model");
         let init: Vec<_> = model
@@ -385,6 +419,7 @@ where
                 envelopes: Table::default(),
             },
             model: Arc::new(model),
+            images,
             visited: Visited::default(),
             unique: AtomicUsize::new(0),
             generated: AtomicUsize::new(init.len()),
@@ -399,9 +434,11 @@ where
             next: Mutex::new(Vec::new()),
         });
         let mut first = Block::default();
-        let mut rec = Vec::new();
+        let (mut rec, mut tmp) = (Vec::new(), Vec::new());
         for s in init {
-            search.packer.pack(s, None, &mut rec);
+            search
+                .packer
+                .pack_least(s, None, search.images.as_ref(), &mut rec, &mut tmp);
             let fp = fingerprint(&rec);
             if search.visited.insert(fp, None).is_none() {
                 search.unique.fetch_add(1, Ordering::Relaxed);
@@ -439,7 +476,7 @@ where
     A::State: Eq,
     A::Storage: Clone + Eq + Hash,
     A::Random: Clone + Eq + Hash,
-    H: Clone + Debug + Hash + Eq,
+    H: Clone + Debug + Hash + PartialEq,
 {
     /// One thread's loop: take blocks of the current depth until none is left, wait for the
     /// others, and (the leader) swap in the next depth.
@@ -484,7 +521,7 @@ where
         let model = &*self.model;
         let properties = model.properties();
         let mut actions = Vec::new();
-        let mut rec = Vec::new();
+        let (mut rec, mut tmp) = (Vec::new(), Vec::new());
         self.max_depth.fetch_max(depth, Ordering::Relaxed);
         if self.target_max_depth.is_some_and(|d| depth >= d) {
             return;
@@ -526,7 +563,13 @@ where
                     continue;
                 }
                 self.generated.fetch_add(1, Ordering::Relaxed);
-                self.packer.pack(next, Some((parent, &unpacked)), &mut rec);
+                self.packer.pack_least(
+                    next,
+                    Some((parent, &unpacked)),
+                    self.images.as_ref(),
+                    &mut rec,
+                    &mut tmp,
+                );
                 let next_fp = fingerprint(&rec);
                 if let Entry::Vacant(e) = self.visited.entry(next_fp) {
                     e.insert(Some(fp));
@@ -562,10 +605,12 @@ where
             fps.push_front(parent);
         }
         let model = &*self.model;
-        let mut rec = Vec::new();
+        let (mut rec, mut tmp) = (Vec::new(), Vec::new());
+        let images = self.images.as_ref();
         let root = fps.pop_front()?;
         let init = model.init_states().into_iter().find(|s| {
-            self.packer.pack(s.clone(), None, &mut rec);
+            self.packer
+                .pack_least(s.clone(), None, images, &mut rec, &mut tmp);
             fingerprint(&rec) == root
         })?;
         let mut state = init.clone();
@@ -575,7 +620,8 @@ where
             model.actions(&state, &mut candidates);
             let (action, next) = candidates.into_iter().find_map(|a| {
                 let next = model.next_state(&state, a.clone())?;
-                self.packer.pack(next.clone(), None, &mut rec);
+                self.packer
+                    .pack_least(next.clone(), None, images, &mut rec, &mut tmp);
                 (fingerprint(&rec) == want).then_some((a, next))
             })?;
             actions.push(action);
@@ -593,7 +639,7 @@ where
     A::State: Eq,
     A::Storage: Clone + Eq + Hash,
     A::Random: Clone + Eq + Hash,
-    H: Clone + Debug + Hash + Eq,
+    H: Clone + Debug + Hash + PartialEq,
 {
     fn model(&self) -> &ActorModel<A, C, H> {
         &self.search.model

@@ -8,6 +8,7 @@
 //! - [`registry`]: the shipped models as Rust targets, for this crate's tests and benches
 //!   (`nekosim check NAME` reads the same stacks from `examples/check/*.ron`; a test keeps
 //!   the two equal).
+//! - [`symmetry`]: symmetry reduction for stacks whose processes are alike.
 //! - [`explain`]: a path of the checker as a sequence of messages, deliveries and decisions.
 //!
 //! See docs/model-checking.md for what is checked and under which assumptions.
@@ -18,6 +19,7 @@ pub mod explain;
 pub mod model;
 pub mod property;
 pub mod registry;
+pub mod symmetry;
 
 pub use model::{
     available_memory, build, build_in, resident_memory, run, Budget, CheckModel, Exploration,

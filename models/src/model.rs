@@ -9,8 +9,8 @@ use nekosim_protocols::consensus::{ChandraToueg, CtMsg};
 use nekosim_protocols::fifo::{Fifo, FifoMsg};
 use nekosim_protocols::retransmit::{Retransmit, RtMsg};
 use nekosim_protocols::{
-    AppMsg, Content, LayerSpec, Payload, Pid, Protocols, Request, Service, Stack, StackProperty,
-    Wiring,
+    AppMsg, Content, LayerSpec, Payload, Pid, Protocols, Rename, Request, Service, Stack,
+    StackProperty, Wiring,
 };
 use stateright::actor::{ActorModel, ActorModelAction, LossyNetwork, Network};
 use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChooser};
@@ -18,6 +18,7 @@ use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChoos
 use crate::adapter::{ClientRequest, ModelTimer, NetMsg, ProcessActor, Shared};
 use crate::compact::{self, CompactBfs};
 use crate::property::{properties, Family, State};
+use crate::symmetry::Symmetry;
 
 /// A model as stateright checks it.
 pub type CheckModel = ActorModel<ProcessActor, ModelCfg, ()>;
@@ -71,6 +72,10 @@ pub struct Options {
     /// (what reliable broadcast must survive). Off, a multicast leaves at once, which keeps
     /// heartbeat-driven stacks with crashes small enough to explore.
     pub partial_multicasts: bool,
+    /// Symmetry reduction: explore one state of each class of states equal up to a renaming
+    /// of the processes ([`crate::symmetry`]). Needs every layer to declare symmetry, the
+    /// same stack at every process and multicasts that leave at once; breadth-first only.
+    pub symmetry: bool,
 }
 
 impl Default for Options {
@@ -83,6 +88,7 @@ impl Default for Options {
             timer_budget: 1,
             max_round: 1,
             partial_multicasts: true,
+            symmetry: false,
         }
     }
 }
@@ -109,6 +115,8 @@ pub enum ModelError {
     TooManyProperties(usize),
     #[error("no layer {name:?} in the stack; expected one of {known}")]
     NoLayer { name: String, known: String },
+    #[error("symmetry reduction: {0}")]
+    Symmetry(String),
     #[error("the stack has several top layers ({0}); choose the one to check with --layer")]
     TopLayers(String),
     #[error("layer {layer:?} provides {service} ({what}), which has no properties to check; checkable services: total-order broadcast, broadcast, consensus, point-to-point messages, a failure detector, leader election")]
@@ -142,6 +150,9 @@ pub struct ModelCfg {
     pub conditions: Vec<(Expectation, Condition)>,
     /// Whether property `i` has had its discovery (reset by [`run`]).
     pub found: Arc<Vec<AtomicBool>>,
+    /// The renamings that map the model onto itself, when symmetry reduction is on
+    /// ([`Options::symmetry`]; breadth-first search only).
+    pub symmetry: Option<Arc<Symmetry>>,
 }
 
 /// A property's condition.
@@ -350,6 +361,11 @@ pub fn build_in(
             }
         })
         .collect();
+    let symmetry = if opts.symmetry {
+        Some(Arc::new(symmetry_of(&shared, &actors, &requests)?))
+    } else {
+        None
+    };
     let mut cfg = ModelCfg {
         family: target.family,
         n,
@@ -361,6 +377,7 @@ pub fn build_in(
         stated,
         conditions: Vec::new(),
         found: Arc::new(Vec::new()),
+        symmetry,
     };
     let proposers = (cfg.requests.len() as u32).min(n);
     let mut props = properties(target.family, n, opts, proposers);
@@ -398,6 +415,53 @@ pub fn build_in(
         model = model.property(expectation, name, FIRST[i]);
     }
     Ok(model)
+}
+
+/// Processes a symmetry reduction can rename: `n!` renamings are tried on every state.
+pub const SYMMETRY_PROCESSES: u32 = 5;
+
+/// The renamings of a model whose processes are alike, or why they are not.
+fn symmetry_of(
+    shared: &Shared,
+    actors: &[ProcessActor],
+    requests: &[(Pid, Request)],
+) -> Result<Symmetry, ModelError> {
+    let refuse = |why: String| Err(ModelError::Symmetry(why));
+    if shared.n > SYMMETRY_PROCESSES {
+        return refuse(format!(
+            "{} processes; at most {SYMMETRY_PROCESSES} (every renaming is tried on every state)",
+            shared.n
+        ));
+    }
+    if shared.staged_sends {
+        return refuse(
+            "with crashes, a multicast leaves one destination at a time in the order of process ids, which a renaming does not keep"
+                .into(),
+        );
+    }
+    if actors.iter().any(|a| a.init != actors[0].init) {
+        return refuse("the processes do not start with the same stack".into());
+    }
+    let identity: Vec<Pid> = (0..shared.n).collect();
+    let payload = |p: &Payload, _: &Rename| Some(p.clone());
+    let r = Rename::new(&identity, &payload);
+    if let Some(layer) = actors[0]
+        .init
+        .layers
+        .iter()
+        .position(|l| l.renamed(&r).is_none())
+    {
+        return refuse(format!(
+            "layer {:?} ({}) does not declare symmetry (Microprotocol::renamed)",
+            shared.wiring.ids[layer],
+            actors[0].init.layers[layer].name()
+        ));
+    }
+    Ok(Symmetry::new(
+        shared.n,
+        requests,
+        Arc::clone(&shared.wiring.codecs),
+    ))
 }
 
 /// Property `I` of the model, reporting only its first discovery: stateright 0.31 keeps the
@@ -645,7 +709,16 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
     }
     let stop = Arc::clone(&model.cfg.stop);
     if how.strategy == Strategy::Bfs && compact::supports(&model) {
-        let checker = CompactBfs::spawn(model, how.threads, how.depth, how.first_counterexample);
+        let images = model.cfg.symmetry.clone().map(|sym| {
+            Arc::new(move |s: &State| sym.images(s)) as compact::Images<ProcessActor, ()>
+        });
+        let checker = CompactBfs::spawn(
+            model,
+            how.threads,
+            how.depth,
+            how.first_counterexample,
+            images,
+        );
         return outcome(supervise(checker, &stop, how.budget), &props);
     }
     let mut builder = model.checker().threads(how.threads.max(1));

@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::payload::Payload;
 use crate::protocol::{FieldError, Microprotocol, NoConfig, Out};
 use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
+use crate::symmetry::Rename;
 use crate::wire::Pid;
 
 /// The FIFO layer's message: the payload of layer `up` with its per-link number.
@@ -70,6 +71,26 @@ impl Microprotocol for Fifo {
             out.up_to(up, Indication::Deliver { from, msg });
             *expected += 1;
         }
+    }
+
+    fn renamed(&self, r: &Rename) -> Option<Self> {
+        let by_peer = |m: &BTreeMap<Pid, u64>| m.iter().map(|(p, n)| (r.pid(*p), *n)).collect();
+        Some(Self {
+            next: by_peer(&self.next),
+            expected: by_peer(&self.expected),
+            held: self
+                .held
+                .iter()
+                .map(|((p, seq), (up, m))| Some(((r.pid(*p), *seq), (*up, r.payload(m)?))))
+                .collect::<Option<_>>()?,
+        })
+    }
+
+    fn renamed_msg(m: &FifoMsg, r: &Rename) -> Option<FifoMsg> {
+        Some(FifoMsg {
+            payload: r.payload(&m.payload)?,
+            ..m.clone()
+        })
     }
 
     fn render(m: &FifoMsg, f: &mut fmt::Formatter<'_>) -> fmt::Result {

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::protocol::{FieldError, Microprotocol, Out};
 use crate::service::{Ctx, Indication, Service, Shape};
+use crate::symmetry::Rename;
 use crate::wire::{Pid, Real};
 
 /// The heartbeat.
@@ -121,6 +122,18 @@ impl Microprotocol for Heartbeat {
                 out.set_timer(HeartbeatTimer::Check, self.timeout.get());
             }
         }
+    }
+
+    fn renamed(&self, r: &Rename) -> Option<Self> {
+        Some(Self {
+            heard: self.heard.iter().map(|p| r.pid(*p)).collect(),
+            suspected: self.suspected.iter().map(|p| r.pid(*p)).collect(),
+            ..self.clone()
+        })
+    }
+
+    fn renamed_msg(beat: &Beat, _: &Rename) -> Option<Beat> {
+        Some(*beat)
     }
 
     fn render(_: &Beat, f: &mut fmt::Formatter<'_>) -> fmt::Result {

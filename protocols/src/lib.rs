@@ -12,6 +12,7 @@
 //! - Protocols: [`fifo`], [`retransmit`], [`rbroadcast`], [`lamport`], [`sequencer`],
 //!   [`heartbeat`], [`omega`], [`consensus`] (Chandra-Toueg), [`consensus_abcast`].
 //! - [`stack`]: composition by name, wiring checks and effect routing.
+//! - [`symmetry`]: renaming process ids, for a model checker's symmetry reduction.
 
 pub mod builtins;
 pub mod consensus;
@@ -28,6 +29,7 @@ pub mod retransmit;
 pub mod sequencer;
 pub mod service;
 pub mod stack;
+pub mod symmetry;
 pub mod wire;
 
 pub use payload::{Payload, WireError};
@@ -35,4 +37,5 @@ pub use protocol::{FieldError, Layer, Message, Microprotocol, NoConfig, NoMsg, O
 pub use registry::{ProtocolSpec, Protocols, Spec, SpecError, StackProperty};
 pub use service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, Shape, APP, NET};
 pub use stack::{LayerSpec, Routed, Stack, StackError, Wiring};
+pub use symmetry::Rename;
 pub use wire::{app_decode, app_payload, AppMsg, Content, MsgId, Pid, Real};

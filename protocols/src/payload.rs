@@ -18,6 +18,7 @@ use serde::de::{DeserializeOwned, Visitor};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::service::{LayerIx, APP};
+use crate::symmetry::Rename;
 
 /// An encoded message of the layer (or the application, [`APP`]) with index `layer`.
 ///
@@ -74,6 +75,20 @@ impl Payload {
     /// Decodes the message as an `M` (the whole encoding must be used).
     pub fn decode<M: DeserializeOwned>(&self) -> Result<M, WireError> {
         decode_bytes(&self.bytes)
+    }
+}
+
+impl Payload {
+    /// This payload with its process ids renamed by its layer's codec in `codecs` (a timer
+    /// when `timer`), or `None` if that layer does not declare symmetry.
+    pub fn renamed_with(&self, codecs: &Codecs, r: &Rename, timer: bool) -> Option<Self> {
+        let codec = codecs.get(self.layer)?;
+        let rename = if timer {
+            codec.rename_timer
+        } else {
+            codec.rename
+        };
+        Some(Self::from_parts(self.layer, &rename(&self.bytes, r)?))
     }
 }
 
@@ -148,6 +163,11 @@ pub struct Codec {
     pub render: fn(&[u8], &mut fmt::Formatter<'_>) -> Result<fmt::Result, WireError>,
     /// Writes an encoded timer (its `Debug`), or fails to decode it.
     pub render_timer: fn(&[u8], &mut fmt::Formatter<'_>) -> Result<fmt::Result, WireError>,
+    /// Renames the process ids in an encoded message ([`crate::symmetry`]), or `None` if the
+    /// protocol does not declare symmetry.
+    pub rename: fn(&[u8], &Rename) -> Option<Vec<u8>>,
+    /// Renames the process ids in an encoded timer.
+    pub rename_timer: fn(&[u8], &Rename) -> Option<Vec<u8>>,
 }
 
 impl fmt::Debug for Codec {
@@ -178,7 +198,8 @@ pub struct Codecs {
 }
 
 impl Codecs {
-    fn get(&self, layer: LayerIx) -> Option<&Codec> {
+    /// The codec of the layer `layer` ([`APP`] for the application's).
+    pub fn get(&self, layer: LayerIx) -> Option<&Codec> {
         if layer == APP {
             Some(&self.app)
         } else {

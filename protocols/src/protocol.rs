@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::payload::{Payload, WireError};
 use crate::service::{Ctx, Effect, Indication, Input, LayerIx, Request, Shape};
+use crate::symmetry::Rename;
 use crate::wire::{Pid, Real};
 
 /// What a protocol's messages and timers are: plain serde types with value semantics.
@@ -177,6 +178,27 @@ pub trait Microprotocol: Clone + Debug + Eq + Hash + Send + Sync + 'static {
     fn render(msg: &Self::Msg, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         Debug::fmt(msg, f)
     }
+
+    /// Symmetry ([`crate::symmetry`]): this instance with every process id in its state
+    /// renamed by `r`. A protocol that treats all processes alike implements it (and
+    /// [`Microprotocol::renamed_msg`]) so a model checker may explore one state of each class
+    /// equal up to renaming; the default, `None`, says the protocol is not symmetric (a fixed
+    /// sequencer, a rotating coordinator, a tie-break by id).
+    fn renamed(&self, _r: &Rename) -> Option<Self> {
+        None
+    }
+
+    /// Symmetry: `msg` with every process id renamed by `r` (payloads inside by
+    /// [`Rename::payload`]); `None` (the default) if the protocol is not symmetric.
+    fn renamed_msg(_msg: &Self::Msg, _r: &Rename) -> Option<Self::Msg> {
+        None
+    }
+
+    /// Symmetry: `timer` with every process id renamed; by default the timer itself (timers
+    /// that name no process).
+    fn renamed_timer(timer: &Self::Timer, _r: &Rename) -> Option<Self::Timer> {
+        Some(timer.clone())
+    }
 }
 
 /// Collects a handler's effects, encoding the protocol's own messages and timers.
@@ -304,6 +326,7 @@ trait DynProtocol: Debug + Send + Sync {
     fn eq_dyn(&self, other: &dyn DynProtocol) -> bool;
     fn hash_dyn(&self, state: &mut dyn Hasher);
     fn as_any(&self) -> &dyn Any;
+    fn renamed_dyn(&self, r: &Rename) -> Option<Box<dyn DynProtocol>>;
 }
 
 impl<P: Microprotocol> DynProtocol for P {
@@ -329,6 +352,10 @@ impl<P: Microprotocol> DynProtocol for P {
 
     fn as_any(&self) -> &dyn Any {
         self
+    }
+
+    fn renamed_dyn(&self, r: &Rename) -> Option<Box<dyn DynProtocol>> {
+        Some(Box::new(self.renamed(r)?))
     }
 }
 
@@ -361,6 +388,12 @@ impl Layer {
     /// Neko's name of the protocol.
     pub fn name(&self) -> &'static str {
         self.0.name()
+    }
+
+    /// This instance with its process ids renamed ([`Microprotocol::renamed`]), or `None`
+    /// if its protocol is not symmetric.
+    pub fn renamed(&self, r: &Rename) -> Option<Self> {
+        self.0.renamed_dyn(r).map(Self)
     }
 }
 

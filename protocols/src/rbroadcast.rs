@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::payload::Payload;
 use crate::protocol::{FieldError, Microprotocol, NoConfig, Out};
 use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
+use crate::symmetry::Rename;
 use crate::wire::{MsgId, Pid};
 
 /// A broadcast message and its id, relayed by every receiver.
@@ -90,6 +91,20 @@ impl Microprotocol for ReliableBroadcast {
             out.send(relay, m.clone());
         }
         out.up(Indication::BDeliver { id, msg: m.payload });
+    }
+
+    fn renamed(&self, r: &Rename) -> Option<Self> {
+        Some(Self {
+            delivered: self.delivered.iter().map(|id| r.msg_id(*id)).collect(),
+            ..self.clone()
+        })
+    }
+
+    fn renamed_msg(m: &RbMsg, r: &Rename) -> Option<RbMsg> {
+        Some(RbMsg {
+            id: r.msg_id(m.id),
+            payload: r.payload(&m.payload)?,
+        })
     }
 
     fn render(m: &RbMsg, f: &mut fmt::Formatter<'_>) -> fmt::Result {

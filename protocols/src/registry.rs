@@ -378,6 +378,8 @@ pub fn codec_of<P: Microprotocol>(name: &'static str) -> Codec {
         protocol: name,
         render: render_entry::<P>,
         render_timer: render_timer_entry::<P>,
+        rename: crate::symmetry::rename_msg_entry::<P>,
+        rename_timer: crate::symmetry::rename_timer_entry::<P>,
     }
 }
 

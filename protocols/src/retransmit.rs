@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::payload::Payload;
 use crate::protocol::{FieldError, Microprotocol, Out};
 use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
+use crate::symmetry::Rename;
 use crate::wire::{Pid, Real};
 
 /// The retransmission layer's messages.
@@ -125,6 +126,34 @@ impl Microprotocol for Retransmit {
             );
         }
         self.arm(out);
+    }
+
+    fn renamed(&self, r: &Rename) -> Option<Self> {
+        Some(Self {
+            next: self.next.iter().map(|(p, n)| (r.pid(*p), *n)).collect(),
+            unacked: self
+                .unacked
+                .iter()
+                .map(|((p, seq), (up, m))| Some(((r.pid(*p), *seq), (*up, r.payload(m)?))))
+                .collect::<Option<_>>()?,
+            delivered: self
+                .delivered
+                .iter()
+                .map(|(p, seq)| (r.pid(*p), *seq))
+                .collect(),
+            ..self.clone()
+        })
+    }
+
+    fn renamed_msg(m: &RtMsg, r: &Rename) -> Option<RtMsg> {
+        Some(match m {
+            RtMsg::Data { seq, up, payload } => RtMsg::Data {
+                seq: *seq,
+                up: *up,
+                payload: r.payload(payload)?,
+            },
+            RtMsg::Ack { seq } => RtMsg::Ack { seq: *seq },
+        })
     }
 
     fn render(m: &RtMsg, f: &mut fmt::Formatter<'_>) -> fmt::Result {

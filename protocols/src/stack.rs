@@ -404,6 +404,17 @@ pub struct Stack {
 }
 
 impl Stack {
+    /// This stack with every process id renamed ([`crate::symmetry`]), or `None` if one of
+    /// its layers is not symmetric.
+    pub fn renamed(&self, r: &crate::symmetry::Rename) -> Option<Self> {
+        let layers = self
+            .layers
+            .iter()
+            .map(|l| l.renamed(r))
+            .collect::<Option<_>>()?;
+        Some(Self { layers })
+    }
+
     /// Runs one layer's handler and routes its effects.
     pub fn step(
         &mut self,

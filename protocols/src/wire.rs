@@ -181,5 +181,7 @@ pub fn app_codec() -> Codec {
         protocol: "app",
         render: render_app,
         render_timer: render_app,
+        rename: crate::symmetry::not_renamed,
+        rename_timer: crate::symmetry::not_renamed,
     }
 }

@@ -5,6 +5,7 @@ mod compact_search;
 mod correct_models_hold;
 mod services;
 mod state_counts;
+mod symmetry;
 
 use nekosim_models::{build, find, run, Exploration, Options, Outcome};
 use nekosim_protocols::{Pid, Stack};
