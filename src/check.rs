@@ -511,8 +511,8 @@ fn write_recording(
     outcome: &Outcome,
     path: &Path,
 ) -> Result<(), RecordingError> {
-    use crate::recording::rerun_canvas::RerunCanvas;
-    use crate::recording::{Canvas, Recorder, Stamp, Target};
+    use crate::recording::rerun_canvas::{Layout, RerunCanvas};
+    use crate::recording::{Canvas, Level, Recorder, Stamp, Target};
     use nekosim_actors::world::geometry::Point;
     use nekosim_actors::world::motion::{Kinematics, Pose};
     use nekosim_actors::world::virtual_world::WorldSize;
@@ -534,7 +534,8 @@ fn write_recording(
     };
     let title = format!("check {name}");
     let id = format!("{title} {:?} {} steps", v.name, steps.len());
-    let canvas = RerunCanvas::start(&title, &id, &target, n)?;
+    let layout = Layout::check((Point::new(-LANE, -LANE), Point::new(LANE * n as f64, LANE)));
+    let canvas = RerunCanvas::start(&title, &id, &target, &layout)?;
     let mut rec = Recorder::new(canvas, &size, 0.0);
     for p in 0..n as u32 {
         rec.record(&Record {
@@ -564,7 +565,8 @@ fn write_recording(
         t: 0.0,
         seq: Some(0),
     };
-    rec.canvas_mut().log(start, &verdict);
+    let verdict_level = if v.holds { Level::Info } else { Level::Error };
+    rec.canvas_mut().log(start, verdict_level, &verdict);
     for item in path_items(model, &steps) {
         match item {
             Item::Obs(r) => rec.record(&r),
@@ -588,7 +590,7 @@ fn write_recording(
                     });
                 } else {
                     rec.canvas_mut()
-                        .log(Stamp { t, seq: Some(seq) }, &x.to_string());
+                        .log(Stamp { t, seq: Some(seq) }, Level::Info, &x.to_string());
                 }
             }
         }
@@ -601,6 +603,7 @@ fn write_recording(
             t: end,
             seq: Some(last),
         },
+        verdict_level,
         &verdict,
     );
     rec.canvas_mut().finish()

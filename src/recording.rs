@@ -193,10 +193,42 @@ pub trait Canvas {
     fn collision(&mut self, at: Stamp, k: u64, point: Point, label: &str);
     /// Every copy in flight on `layer`, drawn in `colour`.
     fn messages(&mut self, at: Stamp, layer: &str, colour: Rgb, flights: &[Flight]);
-    /// A Neko log line.
-    fn log(&mut self, at: Stamp, line: &str);
+    /// A Neko log line at a level ([`level_of`]).
+    fn log(&mut self, at: Stamp, level: Level, line: &str);
     /// The run's figures.
     fn metrics(&mut self, at: Stamp, m: &Metrics);
+}
+
+/// How much a log line matters, as the recording's log view shows it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Level {
+    /// What robots and protocols do: motions, sensing, messages, deliveries.
+    Info,
+    /// Something a reader should notice: a collision, a suspicion.
+    Warn,
+    /// A failure: a crash, a violated property.
+    Error,
+}
+
+impl Level {
+    /// Rerun's name of the level.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Info => "INFO",
+            Self::Warn => "WARN",
+            Self::Error => "ERROR",
+        }
+    }
+}
+
+/// The level of a record's log line: collisions and suspicions warn, crashes are errors, the
+/// rest is information.
+pub fn level_of(obs: &Observation) -> Level {
+    match obs {
+        Observation::Collision { .. } | Observation::Suspect { .. } => Level::Warn,
+        Observation::Crash { .. } => Level::Error,
+        _ => Level::Info,
+    }
 }
 
 /// Robots per drawn group (one Rerun entity per group and entity family).
@@ -218,7 +250,7 @@ impl Canvas for NoCanvas {
     fn query(&mut self, _: Stamp, _: RobotId, _: Option<(Point, f64)>) {}
     fn collision(&mut self, _: Stamp, _: u64, _: Point, _: &str) {}
     fn messages(&mut self, _: Stamp, _: &str, _: Rgb, _: &[Flight]) {}
-    fn log(&mut self, _: Stamp, _: &str) {}
+    fn log(&mut self, _: Stamp, _: Level, _: &str) {}
     fn metrics(&mut self, _: Stamp, _: &Metrics) {}
 }
 
@@ -663,7 +695,7 @@ impl<C: Canvas> Recorder<C> {
 
     fn log_line(&mut self, at: Stamp, rec: &Record) {
         let line = self.log.line(rec);
-        self.canvas.log(at, &line);
+        self.canvas.log(at, level_of(&rec.obs), &line);
     }
 
     fn draw_messages(&mut self, at: Stamp, layer: &str) {
@@ -748,7 +780,7 @@ mod tests {
             self.0
                 .push(format!("{} messages {layer} {}", s(at), flights.len()));
         }
-        fn log(&mut self, _: Stamp, _: &str) {}
+        fn log(&mut self, _: Stamp, _: Level, _: &str) {}
         fn metrics(&mut self, at: Stamp, m: &Metrics) {
             self.0.push(format!(
                 "{} metrics c{} f{} d{} e{}",

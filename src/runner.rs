@@ -277,12 +277,18 @@ fn start_recording(built: &Built, target: &Target) -> Result<Option<Recorder>, R
         built.until,
         built.robots.len()
     );
-    let canvas = crate::recording::rerun_canvas::RerunCanvas::start(
-        &built.name,
-        &id,
-        target,
+    let world = match built.world.size {
+        nekosim_actors::world::virtual_world::WorldSize::Bounded { min, max } => Some((min, max)),
+        nekosim_actors::world::virtual_world::WorldSize::Infinite => None,
+    };
+    let layout = crate::recording::rerun_canvas::Layout::run(
+        world,
         built.robots.len(),
-    )?;
+        built.messages,
+        built.labels,
+    );
+    let canvas =
+        crate::recording::rerun_canvas::RerunCanvas::start(&built.name, &id, target, &layout)?;
     Ok(Some(crate::recording::Recorder::new(
         canvas,
         &built.world.size,

@@ -106,6 +106,9 @@ pub enum CheckNetwork {
 pub struct Animation {
     /// Frames per simulated second sampled from the motion formulas; 0: event instants only.
     pub framerate: f64,
+    /// Robot labels in recordings; default: shown up to 20 robots.
+    #[serde(default)]
+    pub labels: Option<bool>,
 }
 
 /// A fault to inject.
@@ -305,6 +308,11 @@ pub struct Built {
     pub sensors: Sensors,
     /// Animation frames per simulated second of recordings; 0: event instants only.
     pub framerate: f64,
+    /// Robot labels in recordings (`animation.labels`; `None`: by the robot count).
+    pub labels: Option<bool>,
+    /// Whether robots can exchange messages: the scenario names a network or a stack (what
+    /// decides whether a recording plots messages).
+    pub messages: bool,
 }
 
 /// A scenario file read and parsed, with the positions of its values.
@@ -679,6 +687,8 @@ impl Source {
             codecs,
             sensors: registry.sensors.clone(),
             framerate,
+            labels: s.animation.as_ref().and_then(|a| a.labels),
+            messages: s.network.is_some() || !s.stack.is_empty(),
             name,
             seed,
             until,

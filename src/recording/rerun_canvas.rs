@@ -31,7 +31,7 @@ use rerun::{
 };
 
 use super::rrd_file::{Ids, RrdFile};
-use super::{Canvas, Flight, Metrics, RecordingError, Rgb, Stamp, Target, ROBOT_GROUP};
+use super::{Canvas, Flight, Level, Metrics, RecordingError, Rgb, Stamp, Target, ROBOT_GROUP};
 
 /// Rows buffered per entity (log, metrics, collisions) before they are sent as one chunk.
 pub const FLUSH_ROWS: usize = 4096;
@@ -49,9 +49,82 @@ pub const FLUSH_INSTANCES: usize = 1 << 15;
 /// best, 2,048 and 4,096 slightly worse.
 pub const EVENT_FLUSH_INSTANCES: usize = 1536;
 
-/// Runs with more robots than this draw their markers without labels (a label per robot would
-/// cover a world of a thousand robots entirely).
-pub const LABELLED_ROBOTS: usize = 100;
+/// Runs with more robots than this draw their markers without labels unless the scenario asks
+/// for them (`animation: (labels: true)`): by 40 s of the seed's 100-robot example the labels
+/// cover the middle of the world.
+pub const LABELLED_ROBOTS: usize = 20;
+
+/// The colour of collision crosses (amber).
+pub const COLLISION_COLOUR: Rgb = [255, 176, 0];
+
+/// A heading arrow's length in robot radii, from the centre: it sticks out of the disc by
+/// one radius.
+pub const HEADING_RADII: f64 = 2.0;
+
+/// A destination marker: the robot's colour at this opacity, at this fraction of its radius.
+pub const DESTINATION_ALPHA: u8 = 110;
+pub const DESTINATION_RADII: f64 = 0.4;
+
+/// How long a collision marker stays drawn after its instant [simulated s].
+pub const COLLISION_SECONDS: f64 = 3.0;
+
+/// The margin around the world in the 2D view, as a fraction of its larger side.
+pub const WORLD_MARGIN: f64 = 0.03;
+
+/// What the default layout shows, decided from the run's setting before it starts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Layout {
+    /// The world's bounds, which the 2D view frames with a small margin ([`WORLD_MARGIN`];
+    /// `None`: an infinite world, framed by the viewer).
+    pub world: Option<(Point, Point)>,
+    /// The metric entities of [`METRICS`] that can change in this run: one plot each, and
+    /// only these are logged.
+    pub metrics: Vec<&'static str>,
+    /// Whether robot markers carry labels.
+    pub labels: bool,
+}
+
+impl Layout {
+    /// The layout of a simulated run of `robots` robots in a world of `world`: collisions
+    /// and the event rate always, messages when the run has a network or a stack
+    /// (`messages`); labels up to [`LABELLED_ROBOTS`] robots unless `labels` says.
+    pub fn run(
+        world: Option<(Point, Point)>,
+        robots: usize,
+        messages: bool,
+        labels: Option<bool>,
+    ) -> Self {
+        let metrics = METRICS
+            .iter()
+            .copied()
+            .filter(|m| {
+                messages || !matches!(*m, "metrics/messages_in_flight" | "metrics/deliveries")
+            })
+            .collect();
+        Self {
+            world,
+            metrics,
+            labels: labels.unwrap_or(robots <= LABELLED_ROBOTS),
+        }
+    }
+
+    /// The layout of a model checker's path of `processes` lanes in `world`: messages only
+    /// (no collisions, and an event rate means nothing there), labelled.
+    pub fn check(world: (Point, Point)) -> Self {
+        Self {
+            world: Some(world),
+            metrics: vec!["metrics/messages_in_flight", "metrics/deliveries"],
+            labels: true,
+        }
+    }
+
+    /// The 2D view's bounds: the world with its margin, `[x_min, x_max, y_min, y_max]`.
+    pub fn view_bounds(&self) -> Option<[f64; 4]> {
+        let (min, max) = self.world?;
+        let m = WORLD_MARGIN * (max.x - min.x).max(max.y - min.y);
+        Some([min.x - m, max.x + m, min.y - m, max.y + m])
+    }
+}
 
 /// A static `show_labels: false` for a Points2D entity.
 fn hidden_labels() -> archetypes::Points2D {
@@ -221,7 +294,8 @@ struct GroupRows {
     labels: Col<String>,
     /// Destinations of current motions with their robots' colours, on rows where one changed.
     dests: Col<[f32; 2]>,
-    dest_colours: Col<Rgb>,
+    dest_colours: Col<[u8; 4]>,
+    dest_radii: Col<f32>,
     /// Push sensor circles, on rows where one is active or one was switched off.
     centres: Col<[f32; 2]>,
     half_sizes: Col<[f32; 2]>,
@@ -304,7 +378,15 @@ impl GroupRows {
             .columns(|v, n| vec2_column(v, archetypes::Points2D::descriptor_positions(), n))?;
         dests.extend(rows.dest_colours.columns(|v, n| {
             archetypes::Points2D::update_fields()
-                .with_colors(v)
+                .with_colors(
+                    v.into_iter()
+                        .map(|[r, g, b, a]| rerun::Color::from_unmultiplied_rgba(r, g, b, a)),
+                )
+                .columns(n)
+        })?);
+        dests.extend(rows.dest_radii.columns(|v, n| {
+            archetypes::Points2D::update_fields()
+                .with_radii(v)
                 .columns(n)
         })?);
         if !dests.is_empty() {
@@ -374,7 +456,7 @@ impl Group {
         for (i, (_, a)) in poses.iter().enumerate() {
             if self.angle[i] != *a {
                 self.angle[i] = *a;
-                let v = heading_vector(*a) * (1.5 * self.radius[i]);
+                let v = heading_vector(*a) * (HEADING_RADII * self.radius[i]);
                 self.vector[i] = [v.x as f32, v.y as f32];
             }
         }
@@ -395,11 +477,21 @@ impl Group {
             let n = poses.len();
             let dests = self.dest[..n].iter().zip(&self.colour[..n]);
             rows.dests.push(dests.clone().filter_map(|(d, _)| *d));
-            rows.dest_colours
-                .push(dests.filter_map(|(d, c)| d.map(|_| *c)));
+            rows.dest_colours.push(
+                dests
+                    .clone()
+                    .filter_map(|(d, c)| d.map(|_| [c[0], c[1], c[2], DESTINATION_ALPHA])),
+            );
+            rows.dest_radii.push(
+                self.dest[..n]
+                    .iter()
+                    .zip(&self.radius[..n])
+                    .filter_map(|(d, r)| d.map(|_| (DESTINATION_RADII * r) as f32)),
+            );
         } else {
             rows.dests.skip();
             rows.dest_colours.skip();
+            rows.dest_radii.skip();
         }
         let active = self.reach.iter().any(Option::is_some);
         if std::mem::take(&mut self.sensors_changed) || active {
@@ -481,14 +573,16 @@ pub struct RerunCanvas {
     live: Option<RecordingStream>,
     /// Robot groups, by group number.
     groups: Vec<Group>,
-    log: Rows<String>,
+    log: Rows<(Level, String)>,
     metrics: Rows<Metrics>,
     /// Exact poses at kinematic records: `(robot, [x, y, angle])`.
     exact: Rows<(RobotId, [f64; 3])>,
     /// Legs of the robots' paths: `(from, to, colour)`.
     legs: Rows<([f32; 2], [f32; 2], Rgb)>,
-    /// Collision markers, one per row: `(contact point, label)`.
-    collisions: Rows<([f32; 2], String)>,
+    /// Collision markers, one per row: `(contact point, half size)`.
+    collisions: Rows<([f32; 2], f32)>,
+    /// The half size of a collision cross: the largest robot radius so far.
+    marker: f32,
     ids: Ids,
     /// With a viewer connected, everything is flushed at every whole simulated second.
     next_live_flush: f64,
@@ -497,8 +591,10 @@ pub struct RerunCanvas {
     /// The .rrd being written, its temporary name and its target.
     file: Option<(RrdFile, PathBuf, PathBuf)>,
     error: Option<RecordingError>,
-    /// Whether robot and collision markers show their labels (see [`RerunCanvas::start`]).
+    /// Whether robot markers show their labels ([`Layout::labels`]).
     labels: bool,
+    /// The metric entities logged ([`Layout::metrics`]).
+    plotted: Vec<&'static str>,
 }
 
 impl std::fmt::Debug for RerunCanvas {
@@ -566,15 +662,18 @@ fn connect(
 fn blueprint_msgs(
     recording_id: &str,
     ids: &mut Ids,
+    layout: &Layout,
 ) -> Result<(Vec<LogMsg>, BlueprintActivationCommand), RecordingError> {
     use rerun::external::re_sdk_types::blueprint::archetypes::{
-        ContainerBlueprint, ViewBlueprint, ViewContents, ViewportBlueprint, VisibleTimeRanges,
+        ContainerBlueprint, PanelBlueprint, PlotLegend, ViewBlueprint, ViewContents,
+        ViewportBlueprint, VisibleTimeRanges, VisualBounds2D,
     };
     use rerun::external::re_sdk_types::blueprint::components::{
-        ContainerKind, IncludedContent, QueryExpression, RootContainer, ViewClass,
+        ColumnShare, ContainerKind, IncludedContent, PanelState, QueryExpression, RootContainer,
+        RowShare, ViewClass,
     };
     use rerun::external::re_sdk_types::datatypes::{
-        TimeInt, TimeRange, TimeRangeBoundary, VisibleTimeRange,
+        Range1D, Range2D, TimeInt, TimeRange, TimeRangeBoundary, VisibleTimeRange,
     };
 
     let store = StoreId::new(
@@ -604,7 +703,12 @@ fn blueprint_msgs(
     // Views 1-2 and 3.. (one per metric, so that each plot has its own scale: events per
     // second run to thousands while collisions count in tens), containers from 10.
     let (world, log, root, right, plots) = (1, 2, 10, 11, 12);
-    let metric_views: Vec<(u8, &str)> = METRICS.iter().zip(3..).map(|(m, n)| (n, *m)).collect();
+    let metric_views: Vec<(u8, &str)> = METRICS
+        .iter()
+        .zip(3..)
+        .filter(|(m, _)| layout.metrics.contains(*m))
+        .map(|(m, n)| (n, *m))
+        .collect();
     let mut rows: Vec<(String, Box<dyn rerun::AsComponents>)> = Vec::new();
     let views = [
         (world, "2D", "world", "/world".to_owned()),
@@ -647,11 +751,11 @@ fn blueprint_msgs(
             rerun::external::re_sdk_types::blueprint::components::VisibleTimeRange(trail),
         ])),
     ));
-    // Collision markers stay from their instant on.
+    // Collision markers stay for COLLISION_SECONDS after their instant.
     let collisions = VisibleTimeRange {
         timeline: "sim_time".into(),
         range: TimeRange {
-            start: TimeRangeBoundary::Infinite,
+            start: TimeRangeBoundary::CursorRelative(TimeInt(-(COLLISION_SECONDS * 1e9) as i64)),
             end: TimeRangeBoundary::CursorRelative(TimeInt(0)),
         },
     };
@@ -664,6 +768,68 @@ fn blueprint_msgs(
             rerun::external::re_sdk_types::blueprint::components::VisibleTimeRange(collisions),
         ])),
     ));
+    // The 2D view frames the world, not whatever was drawn so far.
+    if let Some([x0, x1, y0, y1]) = layout.view_bounds() {
+        rows.push((
+            format!("{}/VisualBounds2D", path("view", world)),
+            Box::new(VisualBounds2D::new(Range2D {
+                x_range: Range1D([x0, x1]),
+                y_range: Range1D([y0, y1]),
+            })),
+        ));
+    }
+    // The log shows time, level and text: its entity path is always `/log`.
+    {
+        use rerun::external::re_sdk_types::blueprint::archetypes::TextLogColumns;
+        use rerun::external::re_sdk_types::blueprint::datatypes::{
+            TextLogColumn, TextLogColumnKind, TimelineColumn,
+        };
+        rows.push((
+            format!("{}/TextLogColumns", path("view", log)),
+            Box::new(
+                TextLogColumns::new()
+                    .with_timeline_columns([
+                        TimelineColumn {
+                            visible: true.into(),
+                            timeline: "sim_time".into(),
+                        },
+                        TimelineColumn {
+                            visible: false.into(),
+                            timeline: "event".into(),
+                        },
+                    ])
+                    .with_text_log_columns([
+                        TextLogColumn {
+                            kind: TextLogColumnKind::EntityPath,
+                            visible: false.into(),
+                        },
+                        TextLogColumn {
+                            kind: TextLogColumnKind::LogLevel,
+                            visible: true.into(),
+                        },
+                        TextLogColumn {
+                            kind: TextLogColumnKind::Body,
+                            visible: true.into(),
+                        },
+                    ]),
+            ),
+        ));
+    }
+    // One series per plot: no legend over the data.
+    for (n, _) in &metric_views {
+        rows.push((
+            format!("{}/PlotLegend", path("view", *n)),
+            Box::new(PlotLegend::new().with_visible(false)),
+        ));
+    }
+    // The world gets the window: the blueprint and selection panels start collapsed (the
+    // time panel stays, for scrubbing).
+    for panel in ["blueprint_panel", "selection_panel"] {
+        rows.push((
+            panel.into(),
+            Box::new(PanelBlueprint::new().with_state(PanelState::Collapsed)),
+        ));
+    }
     let contents = |children: &[(&str, u8)]| -> Vec<IncludedContent> {
         children
             .iter()
@@ -679,14 +845,16 @@ fn blueprint_msgs(
         path("container", right),
         Box::new(
             ContainerBlueprint::new(ContainerKind::Vertical)
-                .with_contents(contents(&[("view", log), ("container", plots)])),
+                .with_contents(contents(&[("view", log), ("container", plots)]))
+                .with_row_shares([RowShare(1.0.into()), RowShare(1.0.into())]),
         ),
     ));
     rows.push((
         path("container", root),
         Box::new(
             ContainerBlueprint::new(ContainerKind::Horizontal)
-                .with_contents(contents(&[("view", world), ("container", right)])),
+                .with_contents(contents(&[("view", world), ("container", right)]))
+                .with_col_shares([ColumnShare(2.0.into()), ColumnShare(1.0.into())]),
         ),
     ));
     rows.push((
@@ -737,13 +905,12 @@ impl RerunCanvas {
     /// The recording's id is derived from `id` (what makes the run: the scenario and its
     /// seed), so the same run gives the same recording.
     ///
-    /// `robots` is how many robots the run has: their markers and the collision markers are
-    /// labelled for at most [`LABELLED_ROBOTS`] (beyond, labels would hide the world).
+    /// `layout` says what the default blueprint shows ([`Layout`]).
     pub fn start(
         name: &str,
         id: &str,
         target: &Target,
-        robots: usize,
+        layout: &Layout,
     ) -> Result<Self, RecordingError> {
         let recording_id = format!("nekosim-{:016x}", fnv1a(id.as_bytes()));
         let store = StoreId::recording(APP, recording_id.clone());
@@ -778,7 +945,7 @@ impl RerunCanvas {
             Some((url, uri)) => Some((url.clone(), connect(&url, uri)?)),
             None => None,
         };
-        let (blueprint, activation) = blueprint_msgs(&recording_id, &mut ids)?;
+        let (blueprint, activation) = blueprint_msgs(&recording_id, &mut ids, layout)?;
         let mut file = None;
         if let Some(path) = &target.rrd {
             let create = |e: &dyn std::fmt::Display| RecordingError::Create {
@@ -800,12 +967,14 @@ impl RerunCanvas {
             legs: Rows::default(),
             exact: Rows::default(),
             collisions: Rows::default(),
+            marker: 1.0,
             ids,
             next_live_flush: 1.0,
             url: viewer.as_ref().map(|v| v.0.clone()),
             file,
             error: None,
-            labels: robots <= LABELLED_ROBOTS,
+            labels: layout.labels,
+            plotted: layout.metrics.clone(),
         };
         // From here on, dropping the canvas on an error finishes and places the file.
         if let Some((_, sink)) = viewer {
@@ -821,14 +990,12 @@ impl RerunCanvas {
             None,
             &rerun::RecordingInfo::new().with_name(name),
         );
-        let collisions = archetypes::Points2D::update_fields()
-            .with_colors([[255, 40, 40]])
-            .with_radii([2.0]);
-        let collisions = if canvas.labels {
-            collisions
-        } else {
-            collisions.with_show_labels(false)
-        };
+        // A collision is a cross, in a colour no robot has (robots' hues are saturated at
+        // 0.75 and 0.9 brightness; this is a full amber with thick strokes), unlabelled.
+        let collisions = archetypes::LineStrips2D::update_fields()
+            .with_colors([COLLISION_COLOUR])
+            .with_radii([rerun::Radius::new_ui_points(2.5)])
+            .with_show_labels(false);
         canvas.row("world/collisions", None, &collisions);
         Ok(canvas)
     }
@@ -922,11 +1089,18 @@ impl RerunCanvas {
         if data.is_empty() {
             return;
         }
-        let (points, labels): (Vec<[f32; 2]>, Vec<String>) = data.into_iter().unzip();
-        let columns = archetypes::Points2D::update_fields()
-            .with_positions(points)
-            .with_labels(labels)
-            .columns_of_unit_batches()
+        let n = data.len();
+        // Two strokes per collision: the diagonals of a square of side 2h on the contact
+        // point.
+        let strips = data.into_iter().flat_map(|([x, y], h)| {
+            [
+                [[x - h, y - h], [x + h, y + h]],
+                [[x - h, y + h], [x + h, y - h]],
+            ]
+        });
+        let columns = archetypes::LineStrips2D::update_fields()
+            .with_strips(strips)
+            .columns(std::iter::repeat_n(2, n))
             .map(|c| c.collect::<Vec<_>>());
         self.send("world/collisions", times, columns);
     }
@@ -974,8 +1148,14 @@ impl RerunCanvas {
         if lines.is_empty() {
             return;
         }
+        let (levels, lines): (Vec<Level>, Vec<String>) = lines.into_iter().unzip();
         let columns = archetypes::TextLog::update_fields()
             .with_many_text(lines)
+            .with_many_level(
+                levels
+                    .into_iter()
+                    .map(|l| rerun::TextLogLevel::from(l.name())),
+            )
             .columns_of_unit_batches()
             .map(|c| c.collect());
         self.send("log", times, columns);
@@ -993,6 +1173,9 @@ impl RerunCanvas {
             data.iter().map(|m| m.events_per_second).collect(),
         ];
         for (entity, values) in METRICS.iter().zip(series) {
+            if !self.plotted.contains(entity) {
+                continue;
+            }
             let columns = archetypes::Scalars::update_fields()
                 .with_scalars(values)
                 .columns_of_unit_batches()
@@ -1117,6 +1300,7 @@ impl Canvas for RerunCanvas {
     }
 
     fn spawn(&mut self, robot: RobotId, radius: f64, colour: Rgb) {
+        self.marker = self.marker.max(radius as f32);
         let (group, i) = self.group(robot);
         group.radius[i] = radius;
         group.colour[i] = colour;
@@ -1187,8 +1371,8 @@ impl Canvas for RerunCanvas {
         self.row(&entity, Some(at), &e);
     }
 
-    fn collision(&mut self, at: Stamp, _: u64, point: Point, label: &str) {
-        self.collisions.push(at, (p32(point), label.to_string()));
+    fn collision(&mut self, at: Stamp, _: u64, point: Point, _label: &str) {
+        self.collisions.push(at, (p32(point), self.marker));
         if self.collisions.len() >= FLUSH_ROWS {
             self.flush_collisions();
         }
@@ -1205,8 +1389,8 @@ impl Canvas for RerunCanvas {
         self.row(&format!("world/messages/{layer}"), Some(at), &arrows);
     }
 
-    fn log(&mut self, at: Stamp, line: &str) {
-        self.log.push(at, line.to_string());
+    fn log(&mut self, at: Stamp, level: Level, line: &str) {
+        self.log.push(at, (level, line.to_string()));
         if self.log.len() >= FLUSH_ROWS {
             self.flush_log();
         }
@@ -1228,5 +1412,34 @@ impl RerunCanvas {
             self.flush_all();
             self.next_live_flush = t.floor() + 1.0;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_layout_plots_what_can_move_and_labels_small_runs() {
+        let world = Some((Point::new(0.0, 0.0), Point::new(800.0, 400.0)));
+        let quiet = Layout::run(world, 100, false, None);
+        assert_eq!(
+            quiet.metrics,
+            ["metrics/collisions", "metrics/events_per_second"]
+        );
+        assert!(!quiet.labels);
+        assert!(Layout::run(world, 100, false, Some(true)).labels);
+        assert!(Layout::run(world, 20, true, None).labels);
+        assert!(!Layout::run(world, 21, true, None).labels);
+        assert!(!Layout::run(world, 5, true, Some(false)).labels);
+        assert_eq!(Layout::run(world, 5, true, None).metrics, METRICS);
+        // A 3 % margin of the larger side (800) on every side.
+        assert_eq!(quiet.view_bounds(), Some([-24.0, 824.0, -24.0, 424.0]));
+        assert_eq!(Layout::run(None, 5, true, None).view_bounds(), None);
+        let check = Layout::check((Point::new(-10.0, -10.0), Point::new(30.0, 10.0)));
+        assert_eq!(
+            check.metrics,
+            ["metrics/messages_in_flight", "metrics/deliveries"]
+        );
     }
 }

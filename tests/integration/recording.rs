@@ -42,7 +42,7 @@ impl Canvas for Poses {
         self.collisions.push((k, p));
     }
     fn messages(&mut self, _: Stamp, _: &str, _: Rgb, _: &[Flight]) {}
-    fn log(&mut self, _: Stamp, _: &str) {}
+    fn log(&mut self, _: Stamp, _: nekosim::recording::Level, _: &str) {}
     fn metrics(&mut self, _: Stamp, _: &Metrics) {}
 }
 

@@ -7,7 +7,8 @@ Checks that `rerun rrd verify` accepts the file; it has the `sim_time` and `even
 process p stands on its lane, (10 p, 0), at every step; every `send` of the trace has an arrow
 per receiver at its step; a crashed process is grey from its crash on; the text log has one
 line per lane's birth and per trace record plus the verdict naming PROPERTY, at the start and
-at the end; the default blueprint is the layout of `nekosim run` recordings (verify_rrd.py).
+at the end, an ERROR for a counterexample and INFO for a witness; the default blueprint is
+the layout of `nekosim run` recordings (verify_rrd.py) with message plots only.
 Prints one summary line and exits 0, or prints what differs and exits 1.
 """
 
@@ -69,7 +70,7 @@ def main() -> None:
 
     sends = check_sends(rows, trace)
     crashes = check_crashes_grey(rows, trace)
-    views = check_blueprint(rrd, rows)
+    views = check_blueprint(rrd, rows, trace, check=True)
 
     texts = [
         text
@@ -79,6 +80,16 @@ def main() -> None:
     verdicts = [t for t in texts if f'"{prop}"' in t and ("counterexample of" in t or "witness of" in t)]
     if len(verdicts) != 2:
         fail(f"{len(verdicts)} verdict lines naming {prop!r} in the log; expected 2: {texts[:3]}")
+    # A violated property is an error in the log, a witness information.
+    verdict_levels = [
+        level
+        for _, _, _, cols in rows.by_entity.get("/log", [])
+        for text, level in zip(cols.get("TextLog:text") or [], cols.get("TextLog:level") or [])
+        if text in verdicts
+    ]
+    want_level = "ERROR" if "counterexample of" in verdicts[0] else "INFO"
+    if verdict_levels != [want_level, want_level]:
+        fail(f"verdict lines at levels {verdict_levels}, expected {want_level}")
     # The lanes' birth lines, one line per trace record, the verdict twice.
     if len(texts) != processes + len(trace) + 2:
         fail(f"{len(texts)} log lines, expected {processes} births, the trace's {len(trace)} records and 2 verdicts")

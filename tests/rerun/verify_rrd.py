@@ -17,19 +17,25 @@ Independently of nekosim's code, it checks that:
   `world/paths` row at the event that ended it, from the earlier position to the later one;
 - while a push proximity sensor is active, the robot's group has a circle of its reach
   (radius + range) around it, and none once it is switched off;
-- the number of collision markers (`world/collisions`, one row each) equals the number of
-  `collision` records of the trace;
+- the number of collision markers (`world/collisions`, one row each, a cross of two strokes
+  centred on the contact point) equals the number of `collision` records of the trace; the
+  markers are unlabelled and in a colour no robot has;
 - a crashed robot is grey from its crash on;
 - every view or proximity query is a circle of its range around the robot from its request
   to its reply; the last metric samples count the trace's collisions and deliveries, and every
   `events_per_second` sample the trace's records in the simulated second before it;
-- with more than 100 robots, robot and collision markers have a static `show_labels: false`,
-  and with 100 or fewer none has;
+- with more than 20 robots, robot markers have a static `show_labels: false`, and with 20 or
+  fewer none has;
 - every `send` record has a message-arrow row at its event with at least one arrow per receiver;
-- the text log has one line per trace record;
+- the text log has one line per trace record, at level WARN for collisions and suspicions,
+  ERROR for crashes and INFO otherwise;
 - the default blueprint reaches, from its viewport, a 2D view of `/world`, a text log of `/log`
-  and one time-series view per metric, each over an entity the recording has, with the
-  trails' (last 10 s) and collision markers' (up to the cursor) visible time ranges.
+  and one time-series view per metric logged, each over an entity the recording has, with the
+  trails' (last 10 s) and collision markers' (last 3 s) visible time ranges; the metrics are
+  collisions and the event rate, plus messages in flight and deliveries when the trace has
+  sends; the plots' legends are hidden, the log hides its entity-path column, the blueprint
+  and selection panels are collapsed, and the 2D view's bounds are the world's box with a
+  3 % margin.
 
 Prints one summary line and exits 0, or prints what differs and exits 1.
 """
@@ -51,7 +57,15 @@ import rerun.experimental as rrx
 TOLERANCE = 1e-6
 GROUP = 16
 # Runs with more robots than this have no marker labels (src/recording/rerun_canvas.rs).
-LABELLED_ROBOTS = 100
+LABELLED_ROBOTS = 20
+# The 2D view frames the world with this margin, a fraction of its larger side.
+WORLD_MARGIN = 0.03
+# Collision markers stay this long [s].
+COLLISION_SECONDS = 3
+# Blueprint panel states (rerun.blueprint.components.PanelState).
+COLLAPSED = 2
+# Text log column kinds (TextLogColumnKind).
+ENTITY_PATH = 1
 
 
 def group(robot: int) -> tuple[str, int]:
@@ -194,7 +208,7 @@ def check_crashes_grey(rows: "Rows", trace: list[dict]) -> list[dict]:
     return crashes
 
 
-def check_blueprint(rrd: Path, rows: "Rows") -> int:
+def check_blueprint(rrd: Path, rows: "Rows", trace: list[dict], check: bool = False) -> int:
     """The default blueprint lays out, from its viewport's root container, a 2D view of
     `/world`, a text log of `/log` and one time-series view per metric entity of the recording;
     every view shows an entity the recording has, and the trails and collision markers have
@@ -234,8 +248,29 @@ def check_blueprint(rrd: Path, rows: "Rows") -> int:
     metric_entities = sorted(e for e in rows.by_entity if e.startswith("/metrics/"))
     want = sorted([("2D", "/world"), ("TextLog", "/log")] + [("TimeSeries", e) for e in metric_entities])
     got = sorted((c, o) for c, o, _ in views)
-    if got != want or len(metric_entities) != 4:
+    if got != want or not metric_entities:
         fail(f"blueprint views {got}, expected {want}")
+    # A simulated run plots collisions and its event rate; messages only when robots send.
+    # A model checker's path plots its messages only.
+    sends = any(r["kind"] == "send" for r in trace)
+    must = {"/metrics/collisions", "/metrics/events_per_second"}
+    if sends:
+        must |= {"/metrics/messages_in_flight", "/metrics/deliveries"}
+    if check:
+        must = {"/metrics/messages_in_flight", "/metrics/deliveries"}
+    if set(metric_entities) != must and (check or sends or not set(metric_entities) >= must):
+        fail(f"plots {metric_entities}, expected {sorted(must)} (sends in the trace: {sends})")
+    for cls, _, node in views:
+        if cls == "TimeSeries" and entities.get(f"{node}/PlotLegend", {}).get("PlotLegend:visible") != [False]:
+            fail(f"blueprint: the legend of {node} is not hidden")
+        if cls == "TextLog":
+            columns = entities.get(f"{node}/TextLogColumns", {}).get("TextLogColumns:text_log_columns")
+            shown = [c["kind"] for c in columns or [] if c["visible"]]
+            if not columns or ENTITY_PATH in shown:
+                fail(f"blueprint: the log shows its entity path column: {columns}")
+    for panel in ("/blueprint_panel", "/selection_panel"):
+        if entities.get(panel, {}).get("PanelBlueprint:state") != [COLLAPSED]:
+            fail(f"blueprint: {panel} is {entities.get(panel)}, expected collapsed")
     for cls, origin, node in views:
         if not any(e == origin or e.startswith(origin + "/") for e in rows.by_entity):
             fail(f"blueprint: the {cls} view of {origin} shows no entity of the recording")
@@ -248,8 +283,20 @@ def check_blueprint(rrd: Path, rows: "Rows") -> int:
     }
     if ranges["paths"] != [{"timeline": "sim_time", "range": {"start": -10 * 10**9, "end": 0}}]:
         fail(f"blueprint: trails are visible over {ranges['paths']}, expected the last 10 s")
-    if ranges["collisions"] != [{"timeline": "sim_time", "range": {"start": None, "end": 0}}]:
-        fail(f"blueprint: collision markers are visible over {ranges['collisions']}, expected up to the cursor")
+    if ranges["collisions"] != [{"timeline": "sim_time", "range": {"start": -COLLISION_SECONDS * 10**9, "end": 0}}]:
+        fail(f"blueprint: collision markers are visible over {ranges['collisions']}, expected the last {COLLISION_SECONDS} s")
+    # The 2D view frames the world (its static box) with the margin.
+    box = rows.static.get("/world/bounds", {})
+    bounds = entities.get(f"{world}/VisualBounds2D", {}).get("VisualBounds2D:range")
+    if box:
+        (cx, cy), (hx, hy) = box["Boxes2D:centers"][0], box["Boxes2D:half_sizes"][0]
+        m = WORLD_MARGIN * 2 * max(hx, hy)
+        want_bounds = [cx - hx - m, cx + hx + m, cy - hy - m, cy + hy + m]
+        got_bounds = None if not bounds else [*bounds[0]["x_range"], *bounds[0]["y_range"]]
+        if got_bounds is None or max(abs(g - w) for g, w in zip(got_bounds, want_bounds)) > 1e-3 * max(1.0, hx, hy):
+            fail(f"blueprint: the 2D view's bounds are {bounds}, expected {want_bounds}")
+    elif bounds:
+        fail(f"blueprint: an infinite world has view bounds {bounds}")
     return len(views)
 
 
@@ -266,7 +313,7 @@ def main() -> None:
             fail(f"timeline {timeline} missing; have {sorted(rows.timelines)}")
     if "/world/robots/0-15" not in rows.by_entity:
         fail(f"no robots entity; have {sorted(rows.by_entity)}")
-    views = check_blueprint(rrd, rows)
+    views = check_blueprint(rrd, rows, trace)
 
     # Every kinematic record has its exact pose at its event, and nothing else does.
     paths = rebuild(trace)
@@ -357,14 +404,29 @@ def main() -> None:
         fail(f"{len(legs)} legs in /world/paths, the trace has {moves} moves")
 
     collisions = sum(1 for r in trace if r["kind"] == "collision")
-    # One marker per row of world/collisions, at the collision's event.
+    # One marker per row of world/collisions, at the collision's event: a cross of two
+    # strokes, in a colour no robot has, without labels.
     markers = sum(
-        len(cols["Points2D:positions"])
+        len(cols["LineStrips2D:strips"]) // 2
         for sim, _, _, cols in rows.by_entity.get("/world/collisions", [])
-        if sim is not None and "Points2D:positions" in cols
+        if sim is not None and "LineStrips2D:strips" in cols
     )
     if markers != collisions:
         fail(f"{markers} collision markers, the trace has {collisions} collisions")
+    style = rows.static.get("/world/collisions", {})
+    robot_colours = {
+        c
+        for e, rs in rows.by_entity.items()
+        if e.startswith("/world/robots/")
+        for _, _, _, cols in rs
+        for c in cols.get("Points2D:colors", [])
+    }
+    if collisions and (
+        style.get("LineStrips2D:show_labels") != [False]
+        or not style.get("LineStrips2D:colors")
+        or style["LineStrips2D:colors"][0] in robot_colours
+    ):
+        fail(f"collision markers are styled {style}; robots are coloured {sorted(robot_colours)[:5]}...")
     # Each marker is at its collision's event, at the contact point: on the boundary, or
     # between the two centres in the ratio of the radii.
     at_event = {ev: cols for _, ev, _, cols in rows.by_entity.get("/world/collisions", []) if ev is not None}
@@ -376,9 +438,13 @@ def main() -> None:
             want = (x + (ox - x) * k, y + (oy - y) * k)
         else:
             want = (ox, oy)
-        got = (at_event.get(c["seq"]) or {}).get("Points2D:positions")
-        if not got or max(abs(g - w) for g, w in zip(got[0], want)) > 2**-22 * max(1.0, *map(abs, want)):
-            fail(f"collision #{c['seq']}: marker {got}, contact point {want}")
+        strips = (at_event.get(c["seq"]) or {}).get("LineStrips2D:strips")
+        got = None
+        if strips and len(strips) == 2:
+            (ax, ay), (bx, by) = strips[0]
+            got = ((ax + bx) / 2, (ay + by) / 2)
+        if not got or max(abs(g - w) for g, w in zip(got, want)) > 2**-20 * max(1.0, *map(abs, want)):
+            fail(f"collision #{c['seq']}: marker centred at {got}, contact point {want}")
 
     sends = check_sends(rows, trace)
     check_crashes_grey(rows, trace)
@@ -454,14 +520,16 @@ def main() -> None:
         ("/metrics/collisions", sum(1 for r in trace if r["kind"] == "collision")),
         ("/metrics/deliveries", sum(1 for r in trace if r["kind"] == "deliver")),
     ):
+        if entity not in rows.by_entity and want == 0:
+            continue
         last = rows.latest_at(entity, "Scalars:scalars", 2**62)
         if last != [float(want)]:
             fail(f"{entity} ends at {last}, the trace has {want}")
 
-    # Labels: drawn for runs of at most LABELLED_ROBOTS robots; beyond, every robot group and
-    # the collision markers have a static `show_labels: false`.
+    # Labels: drawn for runs of at most LABELLED_ROBOTS robots; beyond, every robot group has
+    # a static `show_labels: false`.
     robots = sum(1 for r in trace if r["kind"] == "spawn")
-    labelled = [e for e in rows.by_entity if e.startswith("/world/robots/") or e == "/world/collisions"]
+    labelled = [e for e in rows.by_entity if e.startswith("/world/robots/")]
     hidden = [e for e in labelled if rows.static.get(e, {}).get("Points2D:show_labels") == [False]]
     if robots > LABELLED_ROBOTS and sorted(hidden) != sorted(labelled):
         fail(f"{robots} robots: labels shown on {sorted(set(labelled) - set(hidden))}")
@@ -489,6 +557,18 @@ def main() -> None:
     log_rows = sum(1 for _, ev, _, cols in rows.by_entity.get("/log", []) if "TextLog:text" in cols)
     if log_rows != len(trace):
         fail(f"{log_rows} log lines, the trace has {len(trace)} records")
+    # Levels: collisions and suspicions warn, crashes are errors, the rest is information.
+    levels = defaultdict(int)
+    for _, _, _, cols in rows.by_entity.get("/log", []):
+        for level in cols.get("TextLog:level", []):
+            levels[level] += 1
+    want_levels = {
+        "WARN": sum(1 for r in trace if r["kind"] in ("collision", "suspect")),
+        "ERROR": sum(1 for r in trace if r["kind"] == "crash"),
+    }
+    want_levels["INFO"] = len(trace) - want_levels["WARN"] - want_levels["ERROR"]
+    if {k: v for k, v in levels.items() if v} != {k: v for k, v in want_levels.items() if v}:
+        fail(f"log levels {dict(levels)}, expected {want_levels}")
 
     print(
         f"verify_rrd: ok: {rrd.name}: {rows_checked} exact poses at their records, "
@@ -497,7 +577,8 @@ def main() -> None:
         f"{moves} legs, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, {queries} queries, "
         f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views, "
-        f"labels {'hidden' if hidden else 'shown'}"
+        f"labels {'hidden' if hidden else 'shown'}, "
+        f"plots {','.join(sorted(e.rsplit('/', 1)[1] for e in rows.by_entity if e.startswith('/metrics/')))}"
     )
 
 
