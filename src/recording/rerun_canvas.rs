@@ -296,6 +296,9 @@ struct GroupRows {
     dests: Col<[f32; 2]>,
     dest_colours: Col<[u8; 4]>,
     dest_radii: Col<f32>,
+    /// Each robot's current leg, from its last kinematic record to where it is: the trail
+    /// growing behind it (completed legs are `world/paths`).
+    trails: Col<[[f32; 2]; 2]>,
     /// Push sensor circles, on rows where one is active or one was switched off.
     centres: Col<[f32; 2]>,
     half_sizes: Col<[f32; 2]>,
@@ -336,6 +339,7 @@ impl GroupRows {
                 .columns(n)
         })?);
         let heading_colours = rows.colours.clone();
+        let trail_colours = rows.colours.clone();
         robots.extend(rows.colours.columns(|v, n| {
             archetypes::Points2D::update_fields()
                 .with_colors(v)
@@ -371,6 +375,19 @@ impl GroupRows {
         })?);
         if !headings.is_empty() {
             out.push((group_entity("headings", first), times.clone(), headings));
+        }
+        let mut trails = rows.trails.columns(|v, n| {
+            archetypes::LineStrips2D::update_fields()
+                .with_strips(v)
+                .columns(n)
+        })?;
+        if !trails.is_empty() {
+            trails.extend(trail_colours.columns(|v, n| {
+                archetypes::LineStrips2D::update_fields()
+                    .with_colors(v)
+                    .columns(n)
+            })?);
+            out.push((group_entity("trails", first), times.clone(), trails));
         }
 
         let mut dests = rows
@@ -417,6 +434,8 @@ struct Group {
     dest: Vec<Option<[f32; 2]>>,
     /// Active push sensors' reach.
     reach: Vec<Option<f64>>,
+    /// Where each robot was at its latest kinematic record: where its trail starts.
+    corner: Vec<Option<[f32; 2]>>,
     /// The headings last drawn and their arrows.
     angle: Vec<f64>,
     vector: Vec<[f32; 2]>,
@@ -435,6 +454,7 @@ impl Group {
             self.colour.resize(n, super::GREY);
             self.dest.resize(n, None);
             self.reach.resize(n, None);
+            self.corner.resize(n, None);
             self.angle.resize(n, f64::NAN);
             self.vector.resize(n, [0.0; 2]);
         }
@@ -452,6 +472,12 @@ impl Group {
         };
         rows.sim.push(at.t);
         rows.positions.push(poses.iter().map(|(p, _)| p32(*p)));
+        rows.trails.push(
+            poses
+                .iter()
+                .zip(&self.corner)
+                .map(|((p, _), c)| [c.unwrap_or(p32(*p)), p32(*p)]),
+        );
         // A heading arrow is recomputed only when the heading changed.
         for (i, (_, a)) in poses.iter().enumerate() {
             if self.angle[i] != *a {
@@ -1340,6 +1366,8 @@ impl Canvas for RerunCanvas {
     }
 
     fn pose(&mut self, at: Stamp, robot: RobotId, pos: Point, angle: f64) {
+        let (group, i) = self.group(robot);
+        group.corner[i] = Some(p32(pos));
         self.exact.push(at, (robot, [pos.x, pos.y, angle]));
         if self.exact.len() >= FLUSH_ROWS {
             self.flush_exact();

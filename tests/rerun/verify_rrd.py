@@ -403,6 +403,34 @@ def main() -> None:
     if len(legs) != moves:
         fail(f"{len(legs)} legs in /world/paths, the trace has {moves} moves")
 
+    # Trails grow behind the robots: on every row of a group's trails, robot j's strip runs
+    # from where it was at one of its kinematic records at or before the row to where the
+    # rebuilt path puts it at the row's instant.
+    trail_points = 0
+    for entity, rs in rows.by_entity.items():
+        if not entity.startswith("/world/trails/"):
+            continue
+        first = int(entity.rsplit("/", 1)[1].split("-")[0])
+        for sim, _, _, cols in rs:
+            if sim is None:
+                continue
+            t = sim / 1e9
+            for j, strip in enumerate(cols.get("LineStrips2D:strips", [])):
+                path = paths.get(first + j)
+                if path is None:
+                    continue
+                (sx, sy), (ex, ey) = strip
+                want_end = pos_at(path, t)
+                corners = [(x, y) for (t0, x, y, _, _) in path if t0 <= t + 1e-9]
+                tol = 2**-20 * max(1.0, abs(ex), abs(ey), abs(sx), abs(sy))
+                if max(abs(ex - want_end[0]), abs(ey - want_end[1])) > tol * 4:
+                    fail(f"trail of robot {first + j} at {t}: ends at {(ex, ey)}, the path is at {want_end}")
+                if not any(max(abs(sx - x), abs(sy - y)) <= tol * 4 for x, y in corners):
+                    fail(f"trail of robot {first + j} at {t}: starts at {(sx, sy)}, not a corner of its path before {t}")
+                trail_points += 2
+    if any(r["kind"] == "motion_finish" for r in trace) and trail_points == 0:
+        fail("robots moved but no trail was drawn")
+
     collisions = sum(1 for r in trace if r["kind"] == "collision")
     # One marker per row of world/collisions, at the collision's event: a cross of two
     # strokes, in a colour no robot has, without labels.
@@ -574,7 +602,7 @@ def main() -> None:
         f"verify_rrd: ok: {rrd.name}: {rows_checked} exact poses at their records, "
         f"{drawn_checked} drawn positions, "
         f"{checked} latest-at positions at {len(instants)} instants, "
-        f"{moves} legs, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
+        f"{moves} legs, {trail_points} trail points, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, {queries} queries, "
         f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views, "
         f"labels {'hidden' if hidden else 'shown'}, "
