@@ -534,7 +534,11 @@ fn write_recording(
     };
     let title = format!("check {name}");
     let id = format!("{title} {:?} {} steps", v.name, steps.len());
-    let layout = Layout::check((Point::new(-LANE, -LANE), Point::new(LANE * n as f64, LANE)));
+    let layout = Layout::check(
+        (Point::new(-LANE, -LANE), Point::new(LANE * n as f64, LANE)),
+        n,
+        steps.len(),
+    );
     let canvas = RerunCanvas::start(&title, &id, &target, &layout)?;
     let mut rec = Recorder::new(canvas, &size, 0.0);
     for p in 0..n as u32 {
@@ -566,6 +570,11 @@ fn write_recording(
         seq: Some(0),
     };
     let verdict_level = if v.holds { Level::Info } else { Level::Error };
+    // The verdict in full, beside the diagram.
+    let statement = nekosim_models::property::statement(v.name)
+        .map(|s| format!("\n\n> **{}**: {s}", v.name))
+        .unwrap_or_default();
+    rec.canvas_mut().note(&format!("### {verdict}{statement}"));
     rec.canvas_mut().log(start, verdict_level, &verdict);
     for item in path_items(model, &steps) {
         match item {

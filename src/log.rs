@@ -39,13 +39,65 @@ pub fn wire_text(p: &Payload) -> String {
 }
 
 /// A message split for Neko's `messages` lines: its type (the rendering's first word) and the
-/// rest of the rendering (`-` when there is none).
+/// rest of the rendering (`-` when there is none), with its numbers rounded as the seed's log
+/// writes positions ([`round_numbers`]; the trace keeps every digit).
 pub fn type_and_rest(p: &Payload) -> (String, String) {
     let text = p.to_string();
     let ty = type_word(&text).to_string();
     let rest = text[ty.len()..].trim();
     let rest = if rest.is_empty() { "-" } else { rest };
-    (ty, rest.to_string())
+    (ty, round_numbers(rest))
+}
+
+/// `text` with every decimal number of more than three decimals rounded to three
+/// (`GOTO(613.475885753758, 4.5)` becomes `GOTO(613.476, 4.5)`); integers, identifiers and
+/// shorter decimals are left as they are.
+pub fn round_numbers(text: &str) -> String {
+    let bytes = text.as_bytes();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let starts_number = bytes[i].is_ascii_digit()
+            && (i == 0 || !(bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_'));
+        if !starts_number {
+            let c = text[i..].chars().next().expect("in bounds");
+            out.push(c);
+            i += c.len_utf8();
+            continue;
+        }
+        let start = i;
+        while i < bytes.len() && bytes[i].is_ascii_digit() {
+            i += 1;
+        }
+        let mut decimals = 0;
+        if i + 1 < bytes.len() && bytes[i] == b'.' && bytes[i + 1].is_ascii_digit() {
+            i += 1;
+            while i < bytes.len() && bytes[i].is_ascii_digit() {
+                i += 1;
+                decimals += 1;
+            }
+        }
+        // An exponent belongs to the number.
+        if decimals > 0 && i < bytes.len() && (bytes[i] == b'e' || bytes[i] == b'E') {
+            let mut j = i + 1;
+            if j < bytes.len() && (bytes[j] == b'-' || bytes[j] == b'+') {
+                j += 1;
+            }
+            if j < bytes.len() && bytes[j].is_ascii_digit() {
+                while j < bytes.len() && bytes[j].is_ascii_digit() {
+                    j += 1;
+                }
+                i = j;
+                decimals = usize::MAX;
+            }
+        }
+        let number = &text[start..i];
+        match number.parse::<f64>() {
+            Ok(v) if decimals > 3 => out.push_str(&format!("{v:.3}")),
+            _ => out.push_str(number),
+        }
+    }
+    out
 }
 
 /// Turns observations into log lines; remembers each robot's current motion pattern.
@@ -236,5 +288,26 @@ mod num_tests {
         fn everyday_values_match_the_standard_formatter(v in -1e7f64..1e7) {
             prop_assert_eq!(num(v), std_num(v));
         }
+    }
+}
+
+#[cfg(test)]
+mod round_tests {
+    use super::round_numbers;
+
+    #[test]
+    fn long_decimals_are_rounded_to_three_places_and_nothing_else_changes() {
+        assert_eq!(
+            round_numbers("(613.475885753758, 477.918603071893)"),
+            "(613.476, 477.919)"
+        );
+        assert_eq!(
+            round_numbers("[-0.12345, 4.5, 7, 1.000]"),
+            "[-0.123, 4.5, 7, 1.000]"
+        );
+        assert_eq!(round_numbers("ts 1, 1:0, M 12"), "ts 1, 1:0, M 12");
+        assert_eq!(round_numbers("p10 x2.123456 1.5e-7"), "p10 x2.123456 0.000");
+        assert_eq!(round_numbers("é 3.14159 ü"), "é 3.142 ü");
+        assert_eq!(round_numbers(""), "");
     }
 }

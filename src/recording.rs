@@ -156,6 +156,21 @@ pub struct Flight {
     pub target: Point,
     /// The message's outermost type (`FIFO`, `LAMPORT`, an application type).
     pub label: String,
+    /// The whole message as the log renders it (`FIFO#0(LAMPORT(ts 1, 1:0, M 1))`).
+    pub text: String,
+    /// When it was sent [simulated s].
+    pub sent: f64,
+}
+
+/// Something on a process's lane of the space-time diagram.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mark {
+    /// A broadcast delivered to the algorithm.
+    Deliver,
+    /// A consensus decision.
+    Decide,
+    /// The robot crashed: its lane ends.
+    Crash,
 }
 
 /// Where a recording draws; one method per entity family of docs/visualization.md.
@@ -195,6 +210,14 @@ pub trait Canvas {
     fn messages(&mut self, at: Stamp, layer: &str, colour: Rgb, flights: &[Flight]);
     /// A Neko log line at a level ([`level_of`]).
     fn log(&mut self, at: Stamp, level: Level, line: &str);
+    /// The space-time diagram: `flight` arrived at `at` (drawn then, from the sender's lane at
+    /// the send to the receiver's lane at the receive), on `layer` in `colour`.
+    fn exchange(&mut self, _at: Stamp, _layer: &str, _colour: Rgb, _flight: &Flight) {}
+    /// The space-time diagram: `mark` on `robot`'s lane at `at`, labelled `label` (a
+    /// delivery's message id, a decision's instance).
+    fn mark(&mut self, _at: Stamp, _robot: RobotId, _mark: Mark, _label: &str) {}
+    /// A document shown beside the drawings (a check's verdict, in Markdown).
+    fn note(&mut self, _markdown: &str) {}
     /// The run's figures.
     fn metrics(&mut self, at: Stamp, m: &Metrics);
 }
@@ -568,6 +591,7 @@ impl<C: Canvas> Recorder<C> {
                 self.canvas.colour(*robot, GREY);
                 self.canvas.destination(*robot, None);
                 self.commit(at, *robot);
+                self.canvas.mark(at, *robot, Mark::Crash, "crash");
             }
             Observation::Collision {
                 robot,
@@ -657,13 +681,16 @@ impl<C: Canvas> Recorder<C> {
             } => {
                 let origin = self.pos_now(*robot, rec.t);
                 let mut added = Vec::with_capacity(to.len());
+                let text = msg.to_string();
                 for dest in to {
                     let flight = Flight {
                         from: *robot,
                         to: *dest,
                         origin,
                         target: self.pos_now(*dest, rec.t),
-                        label: type_word(&msg.to_string()).to_string(),
+                        label: type_word(&text).to_string(),
+                        text: text.clone(),
+                        sent: rec.t,
                     };
                     added.push(((*robot, *dest, layer.clone(), msg.clone()), flight));
                 }
@@ -681,13 +708,22 @@ impl<C: Canvas> Recorder<C> {
                     if let Some(i) = list.iter().position(|(k, _)| {
                         k.0 == *from && k.1 == *robot && &k.2 == layer && &k.3 == msg
                     }) {
-                        list.remove(i);
+                        let (_, flight) = list.remove(i);
                         self.metrics.in_flight -= 1;
                         self.draw_messages(at, layer);
+                        self.canvas
+                            .exchange(at, layer, layer_colour(layer), &flight);
                     }
                 }
             }
-            Observation::Deliver { .. } => self.metrics.deliveries += 1,
+            Observation::Deliver { robot, id, .. } => {
+                self.metrics.deliveries += 1;
+                self.canvas.mark(at, *robot, Mark::Deliver, &id.to_string());
+            }
+            Observation::Decide { robot, k, .. } => {
+                self.canvas
+                    .mark(at, *robot, Mark::Decide, &format!("decide #{k}"));
+            }
             _ => {}
         }
         self.log_line(at, rec);

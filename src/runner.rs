@@ -284,8 +284,9 @@ fn start_recording(built: &Built, target: &Target) -> Result<Option<Recorder>, R
     let layout = crate::recording::rerun_canvas::Layout::run(
         world,
         built.robots.len(),
-        built.messages,
+        (built.messages, built.deliveries),
         built.labels,
+        built.until,
     );
     let canvas =
         crate::recording::rerun_canvas::RerunCanvas::start(&built.name, &id, target, &layout)?;

@@ -313,6 +313,8 @@ pub struct Built {
     /// Whether robots can exchange messages: the scenario names a network or a stack (what
     /// decides whether a recording plots messages).
     pub messages: bool,
+    /// Whether a protocol can deliver to the algorithms: the scenario has a stack.
+    pub deliveries: bool,
 }
 
 /// A scenario file read and parsed, with the positions of its values.
@@ -689,6 +691,7 @@ impl Source {
             framerate,
             labels: s.animation.as_ref().and_then(|a| a.labels),
             messages: s.network.is_some() || !s.stack.is_empty(),
+            deliveries: !s.stack.is_empty(),
             name,
             seed,
             until,

@@ -150,6 +150,32 @@ pub fn properties(family: Family, n: u32, opts: &Options, proposers: u32) -> Vec
     }
 }
 
+/// What a property of [`properties`] says, in words (reports and recordings state it in full).
+pub fn statement(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "total order" => "the delivery sequences of any two processes, crashed ones included, are prefixes of one another",
+        "integrity" => "no process delivers (or decides) twice, and only what was broadcast (or proposed), by its origin, with its content",
+        "uniform agreement" => "at rest, whatever any process delivered, crashed or not, every live process delivered",
+        "agreement" => "at rest, whatever a live process delivered, every live process delivered (consensus: no two processes decide differently)",
+        "validity" => "at rest, every live process delivered everything it broadcast (consensus: a decided value was proposed)",
+        "everything delivered" => "a state where every process delivered every request",
+        "termination" => "a state where every live process decided every instance",
+        "no creation" => "every message a process delivered from p was sent to it by p",
+        "no duplication" => "no process delivers a message twice",
+        "FIFO order" => "each process delivers each sender's messages in the order they were sent",
+        "reliable delivery" => "at rest, every message a live process sent to a live process was delivered",
+        "well-formed suspicions" => "a detector never suspects its own process, and alternates suspect and trust about each process",
+        "completeness" => "a state where a process crashed and every live process suspects every crashed one",
+        "false suspicion revoked" => "a state where a live process trusts again a live process it had suspected",
+        "leader is a process" => "every leader indicated is one of the processes",
+        "common live leader" => "a state where every live process trusts the same live leader",
+        n if n.starts_with("termination with p") => {
+            "a state where that process crashed undecided and every live process decided"
+        }
+        _ => return None,
+    })
+}
+
 fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
     (0..s.actor_states.len()).filter(|&i| !s.crashed[i])
 }

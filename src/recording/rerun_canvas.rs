@@ -31,7 +31,9 @@ use rerun::{
 };
 
 use super::rrd_file::{Ids, RrdFile};
-use super::{Canvas, Flight, Level, Metrics, RecordingError, Rgb, Stamp, Target, ROBOT_GROUP};
+use super::{
+    Canvas, Flight, Level, Mark, Metrics, RecordingError, Rgb, Stamp, Target, ROBOT_GROUP,
+};
 
 /// Rows buffered per entity (log, metrics, collisions) before they are sent as one chunk.
 pub const FLUSH_ROWS: usize = 4096;
@@ -82,39 +84,84 @@ pub struct Layout {
     pub metrics: Vec<&'static str>,
     /// Whether robot markers carry labels.
     pub labels: bool,
+    /// The space-time diagram, for runs whose robots can exchange messages and for check
+    /// recordings.
+    pub spacetime: Option<SpaceTime>,
+}
+
+/// The space-time diagram's geometry: one vertical lane per process, `LANE_GAP` apart, time
+/// running down from 0 to `span` over [`SpaceTime::height`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpaceTime {
+    pub lanes: usize,
+    /// The simulated time (or checker steps) the diagram spans.
+    pub span: f64,
+    /// Label messages with their whole rendering (`FIFO#0(LAMPORT(ts 1, 1:0, M 1))`) rather
+    /// than their type, and show each lane's delivered sequence (check recordings).
+    pub full: bool,
+}
+
+/// Distance between two lanes of the space-time diagram.
+pub const LANE_GAP: f64 = 10.0;
+
+impl SpaceTime {
+    /// The diagram's height: one and a half times its width (at least two lanes wide).
+    pub fn height(&self) -> f64 {
+        LANE_GAP * self.lanes.max(2) as f64 * 1.5
+    }
+
+    /// Where `(robot, t)` is drawn.
+    pub fn at(&self, robot: RobotId, t: f64) -> [f32; 2] {
+        let scale = self.height() / self.span.max(1e-9);
+        [(LANE_GAP * f64::from(robot)) as f32, (t * scale) as f32]
+    }
 }
 
 impl Layout {
     /// The layout of a simulated run of `robots` robots in a world of `world`: collisions
-    /// and the event rate always, messages when the run has a network or a stack
-    /// (`messages`); labels up to [`LABELLED_ROBOTS`] robots unless `labels` says.
+    /// and the event rate always, messages in flight when the run has a network or a stack
+    /// (`messages`), deliveries when it has a stack (`deliveries`); labels up to
+    /// [`LABELLED_ROBOTS`] robots unless `labels` says.
     pub fn run(
         world: Option<(Point, Point)>,
         robots: usize,
-        messages: bool,
+        (messages, deliveries): (bool, bool),
         labels: Option<bool>,
+        until: f64,
     ) -> Self {
         let metrics = METRICS
             .iter()
             .copied()
-            .filter(|m| {
-                messages || !matches!(*m, "metrics/messages_in_flight" | "metrics/deliveries")
+            .filter(|m| match *m {
+                "metrics/messages_in_flight" => messages,
+                "metrics/deliveries" => deliveries,
+                _ => true,
             })
             .collect();
         Self {
             world,
             metrics,
             labels: labels.unwrap_or(robots <= LABELLED_ROBOTS),
+            spacetime: messages.then_some(SpaceTime {
+                lanes: robots,
+                span: until,
+                full: false,
+            }),
         }
     }
 
     /// The layout of a model checker's path of `processes` lanes in `world`: messages only
     /// (no collisions, and an event rate means nothing there), labelled.
-    pub fn check(world: (Point, Point)) -> Self {
+    pub fn check(world: (Point, Point), processes: usize, steps: usize) -> Self {
         Self {
             world: Some(world),
             metrics: vec!["metrics/messages_in_flight", "metrics/deliveries"],
             labels: true,
+            spacetime: Some(SpaceTime {
+                lanes: processes,
+                span: steps.max(1) as f64,
+                full: true,
+            }),
         }
     }
 
@@ -621,6 +668,16 @@ pub struct RerunCanvas {
     labels: bool,
     /// The metric entities logged ([`Layout::metrics`]).
     plotted: Vec<&'static str>,
+    /// The space-time diagram, if drawn.
+    spacetime: Option<SpaceTime>,
+    /// Where each crashed lane ends.
+    lane_end: Vec<Option<f32>>,
+    /// Arrows of the diagram, one per row: `(origin, vector, colour, label)`.
+    st_messages: Rows<([f32; 2], [f32; 2], Rgb, String)>,
+    /// Marks on the lanes, one per row: `(position, colour, label)`.
+    st_marks: Rows<([f32; 2], Rgb, String)>,
+    /// Each lane's deliveries so far (full diagrams).
+    delivered: Vec<Vec<String>>,
 }
 
 impl std::fmt::Debug for RerunCanvas {
@@ -729,6 +786,8 @@ fn blueprint_msgs(
     // Views 1-2 and 3.. (one per metric, so that each plot has its own scale: events per
     // second run to thousands while collisions count in tens), containers from 10.
     let (world, log, root, right, plots) = (1, 2, 10, 11, 12);
+    let (spacetime, verdict) = (7, 8);
+    let full = layout.spacetime.is_some_and(|s| s.full);
     let metric_views: Vec<(u8, &str)> = METRICS
         .iter()
         .zip(3..)
@@ -741,6 +800,12 @@ fn blueprint_msgs(
         (log, "TextLog", "log", "/log".to_owned()),
     ]
     .into_iter()
+    .chain(
+        layout
+            .spacetime
+            .map(|_| (spacetime, "2D", "space-time", "/spacetime".to_owned())),
+    )
+    .chain(full.then(|| (verdict, "TextDocument", "verdict", "/verdict".to_owned())))
     .chain(metric_views.iter().map(|(n, entity)| {
         let name = entity.rsplit('/').next().unwrap_or(entity);
         (*n, "TimeSeries", name, format!("/{entity}"))
@@ -794,6 +859,38 @@ fn blueprint_msgs(
             rerun::external::re_sdk_types::blueprint::components::VisibleTimeRange(collisions),
         ])),
     ));
+    // The space-time diagram keeps every arrow and mark from its instant on, and frames its
+    // lanes.
+    if let Some(st) = layout.spacetime {
+        let always = VisibleTimeRange {
+            timeline: "sim_time".into(),
+            range: TimeRange {
+                start: TimeRangeBoundary::Infinite,
+                end: TimeRangeBoundary::CursorRelative(TimeInt(0)),
+            },
+        };
+        for entity in ["messages", "marks"] {
+            rows.push((
+                format!(
+                    "{}/ViewContents/overrides/spacetime/{entity}/visualizers",
+                    path("view", spacetime)
+                ),
+                Box::new(VisibleTimeRanges::new([
+                    rerun::external::re_sdk_types::blueprint::components::VisibleTimeRange(
+                        always.clone(),
+                    ),
+                ])),
+            ));
+        }
+        let right_edge = LANE_GAP * st.lanes.max(2) as f64;
+        rows.push((
+            format!("{}/VisualBounds2D", path("view", spacetime)),
+            Box::new(VisualBounds2D::new(Range2D {
+                x_range: Range1D([-LANE_GAP, right_edge]),
+                y_range: Range1D([-LANE_GAP, st.height() + 2.0 * LANE_GAP]),
+            })),
+        ));
+    }
     // The 2D view frames the world, not whatever was drawn so far.
     if let Some([x0, x1, y0, y1]) = layout.view_bounds() {
         rows.push((
@@ -848,14 +945,25 @@ fn blueprint_msgs(
             Box::new(PlotLegend::new().with_visible(false)),
         ));
     }
-    // The world gets the window: the blueprint and selection panels start collapsed (the
-    // time panel stays, for scrubbing).
+    // The world gets the window: the blueprint and selection panels start collapsed, and the
+    // time panel to its bar (play, speed and the time cursor stay, for scrubbing).
     for panel in ["blueprint_panel", "selection_panel"] {
         rows.push((
             panel.into(),
             Box::new(PanelBlueprint::new().with_state(PanelState::Collapsed)),
         ));
     }
+    rows.push((
+        "time_panel".into(),
+        Box::new(
+            rerun::external::re_sdk_types::blueprint::archetypes::TimePanelBlueprint::new()
+                .with_state(PanelState::Collapsed)
+                .with_timeline("sim_time")
+                .with_play_state(
+                    rerun::external::re_sdk_types::blueprint::components::PlayState::Playing,
+                ),
+        ),
+    ));
     let contents = |children: &[(&str, u8)]| -> Vec<IncludedContent> {
         children
             .iter()
@@ -867,20 +975,53 @@ fn blueprint_msgs(
         path("container", plots),
         Box::new(ContainerBlueprint::new(ContainerKind::Grid).with_contents(contents(&plot_views))),
     ));
+    // A run: the world (two thirds), then the space-time diagram when messages flow, then
+    // the log above the plots. A check: the space-time diagram is the main view; the verdict,
+    // the lanes' world and the log above the plots beside it.
+    let share = |v: &[f32]| v.iter().map(|s| RowShare((*s).into())).collect::<Vec<_>>();
+    let col_share = |v: &[f32]| {
+        v.iter()
+            .map(|s| ColumnShare((*s).into()))
+            .collect::<Vec<_>>()
+    };
+    let (right_children, right_shares): (Vec<(&str, u8)>, Vec<f32>) = if full {
+        (
+            vec![
+                ("view", verdict),
+                ("view", log),
+                ("view", world),
+                ("container", plots),
+            ],
+            vec![0.8, 1.5, 0.8, 0.8],
+        )
+    } else {
+        (vec![("view", log), ("container", plots)], vec![1.0, 1.0])
+    };
     rows.push((
         path("container", right),
         Box::new(
             ContainerBlueprint::new(ContainerKind::Vertical)
-                .with_contents(contents(&[("view", log), ("container", plots)]))
-                .with_row_shares([RowShare(1.0.into()), RowShare(1.0.into())]),
+                .with_contents(contents(&right_children))
+                .with_row_shares(share(&right_shares)),
         ),
     ));
+    let (root_children, root_shares): (Vec<(&str, u8)>, Vec<f32>) = match layout.spacetime {
+        Some(_) if full => (
+            vec![("view", spacetime), ("container", right)],
+            vec![2.0, 1.0],
+        ),
+        Some(_) => (
+            vec![("view", world), ("view", spacetime), ("container", right)],
+            vec![2.0, 1.0, 1.0],
+        ),
+        None => (vec![("view", world), ("container", right)], vec![2.0, 1.0]),
+    };
     rows.push((
         path("container", root),
         Box::new(
             ContainerBlueprint::new(ContainerKind::Horizontal)
-                .with_contents(contents(&[("view", world), ("container", right)]))
-                .with_col_shares([ColumnShare(2.0.into()), ColumnShare(1.0.into())]),
+                .with_contents(contents(&root_children))
+                .with_col_shares(col_share(&root_shares)),
         ),
     ));
     rows.push((
@@ -1001,6 +1142,13 @@ impl RerunCanvas {
             error: None,
             labels: layout.labels,
             plotted: layout.metrics.clone(),
+            spacetime: layout.spacetime,
+            lane_end: layout.spacetime.map_or(Vec::new(), |s| vec![None; s.lanes]),
+            st_messages: Rows::default(),
+            st_marks: Rows::default(),
+            delivered: layout
+                .spacetime
+                .map_or(Vec::new(), |s| vec![Vec::new(); s.lanes]),
         };
         // From here on, dropping the canvas on an error finishes and places the file.
         if let Some((_, sink)) = viewer {
@@ -1023,6 +1171,39 @@ impl RerunCanvas {
             .with_radii([rerun::Radius::new_ui_points(2.5)])
             .with_show_labels(false);
         canvas.row("world/collisions", None, &collisions);
+        if let Some(st) = canvas.spacetime {
+            let labelled = st.full || st.lanes <= LABELLED_ROBOTS;
+            canvas.draw_lanes(Stamp {
+                t: 0.0,
+                seq: Some(0),
+            });
+            let names = archetypes::Points2D::new(
+                (0..st.lanes as RobotId)
+                    .map(|p| st.at(p, 0.0))
+                    .map(|[x, y]| [x, y - 0.4 * LANE_GAP as f32]),
+            )
+            .with_radii([0.1])
+            .with_colors([[170, 170, 170]])
+            .with_labels((0..st.lanes).map(|p| format!("p{p}")))
+            .with_show_labels(labelled);
+            canvas.row("spacetime/names", None, &names);
+            canvas.row(
+                "spacetime/messages",
+                None,
+                // Runs colour arrows by layer and name types in the log; a check labels each
+                // arrow with its whole message.
+                &archetypes::Arrows2D::update_fields()
+                    .with_radii([rerun::Radius::new_ui_points(1.0)])
+                    .with_show_labels(st.full),
+            );
+            canvas.row(
+                "spacetime/marks",
+                None,
+                &archetypes::Points2D::update_fields()
+                    .with_radii([rerun::Radius::new_ui_points(5.0)])
+                    .with_show_labels(st.full),
+            );
+        }
         Ok(canvas)
     }
 
@@ -1210,7 +1391,68 @@ impl RerunCanvas {
         }
     }
 
+    /// The diagram's lanes at `at`: each from the top to the bottom, or to where its process
+    /// crashed.
+    fn draw_lanes(&mut self, at: Stamp) {
+        let Some(st) = self.spacetime else { return };
+        let bottom = st.height() as f32;
+        let strips: Vec<[[f32; 2]; 2]> = (0..st.lanes)
+            .map(|p| {
+                let [x, _] = st.at(p as RobotId, 0.0);
+                [[x, 0.0], [x, self.lane_end[p].unwrap_or(bottom)]]
+            })
+            .collect();
+        let lanes = archetypes::LineStrips2D::new(strips)
+            .with_colors([[120, 120, 120]])
+            .with_radii([rerun::Radius::new_ui_points(1.0)]);
+        self.row("spacetime/lanes", Some(at), &lanes);
+    }
+
+    fn flush_spacetime(&mut self) {
+        let (times, arrows) = self.st_messages.take();
+        if !arrows.is_empty() {
+            let n = arrows.len();
+            let mut origins = Vec::with_capacity(n);
+            let mut vectors = Vec::with_capacity(n);
+            let mut colours = Vec::with_capacity(n);
+            let mut labels = Vec::with_capacity(n);
+            for (o, v, c, l) in arrows {
+                origins.push(o);
+                vectors.push(v);
+                colours.push(c);
+                labels.push(l);
+            }
+            let columns = archetypes::Arrows2D::update_fields()
+                .with_origins(origins)
+                .with_vectors(vectors)
+                .with_colors(colours)
+                .with_labels(labels)
+                .columns_of_unit_batches()
+                .map(|c| c.collect::<Vec<_>>());
+            self.send("spacetime/messages", times, columns);
+        }
+        let (times, marks) = self.st_marks.take();
+        if !marks.is_empty() {
+            let mut positions = Vec::new();
+            let mut colours = Vec::new();
+            let mut labels = Vec::new();
+            for (p, c, l) in marks {
+                positions.push(p);
+                colours.push(c);
+                labels.push(l);
+            }
+            let columns = archetypes::Points2D::update_fields()
+                .with_positions(positions)
+                .with_colors(colours)
+                .with_labels(labels)
+                .columns_of_unit_batches()
+                .map(|c| c.collect::<Vec<_>>());
+            self.send("spacetime/marks", times, columns);
+        }
+    }
+
     fn flush_all(&mut self) {
+        self.flush_spacetime();
         for g in 0..self.groups.len() {
             self.flush_group(g);
         }
@@ -1425,6 +1667,71 @@ impl Canvas for RerunCanvas {
         self.live_flush(at.t);
     }
 
+    fn exchange(&mut self, at: Stamp, _layer: &str, colour: Rgb, f: &Flight) {
+        let Some(st) = self.spacetime else { return };
+        let from = st.at(f.from, f.sent);
+        let to = st.at(f.to, at.t);
+        let label = if st.full {
+            f.text.clone()
+        } else {
+            f.label.clone()
+        };
+        self.st_messages.push(
+            at,
+            (from, [to[0] - from[0], to[1] - from[1]], colour, label),
+        );
+        if self.st_messages.len() >= FLUSH_ROWS {
+            self.flush_spacetime();
+        }
+    }
+
+    fn mark(&mut self, at: Stamp, robot: RobotId, mark: Mark, label: &str) {
+        let Some(st) = self.spacetime else { return };
+        let p = st.at(robot, at.t);
+        let colour = match mark {
+            Mark::Deliver => [60, 200, 90],
+            Mark::Decide => [70, 140, 255],
+            Mark::Crash => [230, 40, 40],
+        };
+        self.st_marks.push(at, (p, colour, label.to_string()));
+        if mark == Mark::Crash {
+            if let Some(end) = self.lane_end.get_mut(robot as usize) {
+                *end = Some(p[1]);
+                self.draw_lanes(at);
+            }
+        }
+        if mark == Mark::Deliver && st.full {
+            if let Some(seq) = self.delivered.get_mut(robot as usize) {
+                seq.push(label.to_string());
+            }
+            // Each lane's delivered sequence under it, as it grows.
+            let below = st.height() as f32 + LANE_GAP as f32;
+            let positions: Vec<[f32; 2]> = (0..st.lanes)
+                .map(|q| [st.at(q as RobotId, 0.0)[0], below])
+                .collect();
+            let labels: Vec<String> = self
+                .delivered
+                .iter()
+                .map(|seq| format!("[{}]", seq.join(", ")))
+                .collect();
+            let seqs = archetypes::Points2D::new(positions)
+                .with_radii([0.1])
+                .with_labels(labels);
+            self.row("spacetime/delivered", Some(at), &seqs);
+        }
+        if self.st_marks.len() >= FLUSH_ROWS {
+            self.flush_spacetime();
+        }
+    }
+
+    fn note(&mut self, markdown: &str) {
+        self.row(
+            "verdict",
+            None,
+            &archetypes::TextDocument::new(markdown).with_media_type(rerun::MediaType::markdown()),
+        );
+    }
+
     fn metrics(&mut self, at: Stamp, m: &Metrics) {
         self.metrics.push(at, *m);
         if self.metrics.len() >= FLUSH_ROWS {
@@ -1450,24 +1757,45 @@ mod tests {
     #[test]
     fn a_layout_plots_what_can_move_and_labels_small_runs() {
         let world = Some((Point::new(0.0, 0.0), Point::new(800.0, 400.0)));
-        let quiet = Layout::run(world, 100, false, None);
+        let quiet = Layout::run(world, 100, (false, false), None, 10.0);
         assert_eq!(
             quiet.metrics,
             ["metrics/collisions", "metrics/events_per_second"]
         );
         assert!(!quiet.labels);
-        assert!(Layout::run(world, 100, false, Some(true)).labels);
-        assert!(Layout::run(world, 20, true, None).labels);
-        assert!(!Layout::run(world, 21, true, None).labels);
-        assert!(!Layout::run(world, 5, true, Some(false)).labels);
-        assert_eq!(Layout::run(world, 5, true, None).metrics, METRICS);
+        assert!(Layout::run(world, 100, (false, false), Some(true), 10.0).labels);
+        assert!(Layout::run(world, 20, (true, true), None, 10.0).labels);
+        assert!(!Layout::run(world, 21, (true, true), None, 10.0).labels);
+        assert!(!Layout::run(world, 5, (true, true), Some(false), 10.0).labels);
+        assert_eq!(
+            Layout::run(world, 5, (true, true), None, 10.0).metrics,
+            METRICS
+        );
         // A 3 % margin of the larger side (800) on every side.
         assert_eq!(quiet.view_bounds(), Some([-24.0, 824.0, -24.0, 424.0]));
-        assert_eq!(Layout::run(None, 5, true, None).view_bounds(), None);
-        let check = Layout::check((Point::new(-10.0, -10.0), Point::new(30.0, 10.0)));
+        assert_eq!(
+            Layout::run(None, 5, (true, true), None, 10.0).view_bounds(),
+            None
+        );
+        assert_eq!(quiet.spacetime, None);
+        // Messages over a network without a stack: nothing is ever delivered.
+        assert_eq!(
+            Layout::run(world, 5, (true, false), None, 10.0).metrics,
+            [
+                "metrics/collisions",
+                "metrics/messages_in_flight",
+                "metrics/events_per_second"
+            ]
+        );
+        let check = Layout::check((Point::new(-10.0, -10.0), Point::new(30.0, 10.0)), 3, 8);
         assert_eq!(
             check.metrics,
             ["metrics/messages_in_flight", "metrics/deliveries"]
         );
+        // Three lanes 10 apart over 8 steps, 45 high (1.5 times the width of three lanes).
+        let st = check.spacetime.unwrap();
+        assert!(st.full);
+        assert_eq!(st.at(2, 8.0), [20.0, 45.0]);
+        assert_eq!(st.at(1, 4.0), [10.0, 22.5]);
     }
 }

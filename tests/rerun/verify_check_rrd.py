@@ -8,7 +8,9 @@ process p stands on its lane, (10 p, 0), at every step; every `send` of the trac
 per receiver at its step; a crashed process is grey from its crash on; the text log has one
 line per lane's birth and per trace record plus the verdict naming PROPERTY, at the start and
 at the end, an ERROR for a counterexample and INFO for a witness; the default blueprint is
-the layout of `nekosim run` recordings (verify_rrd.py) with message plots only.
+the layout of `nekosim run` recordings (verify_rrd.py) with message plots only, the
+space-time diagram (every receive an arrow between the lanes, labelled with the whole message)
+and the verdict document stating the property in full.
 Prints one summary line and exits 0, or prints what differs and exits 1.
 """
 
@@ -23,6 +25,7 @@ from verify_rrd import (
     check_blueprint,
     check_crashes_grey,
     check_sends,
+    check_spacetime,
     fail,
     group,
     load_trace,
@@ -69,7 +72,21 @@ def main() -> None:
             fail(f"process {p}: exact pose at step 0 is {pose}, expected its lane ({LANE * p}, 0)")
 
     sends = check_sends(rows, trace)
+    arrows = check_spacetime(rows, trace)
     crashes = check_crashes_grey(rows, trace)
+    # The verdict beside the diagram, stated in full.
+    doc = rows.static.get("/verdict", {}).get("TextDocument:text")
+    if not doc or f'"{prop}"' not in doc[0] or f"**{prop}**:" not in doc[0]:
+        fail(f"the verdict document is {doc}, expected it to name and state {prop!r}")
+    # Full payloads on the arrows: each a whole rendering, not only its type.
+    labels = [
+        label
+        for _, ev, _, cols in rows.by_entity.get("/spacetime/messages", [])
+        if ev is not None
+        for label in cols.get("Arrows2D:labels", [])
+    ]
+    if arrows and not all("(" in label for label in labels):
+        fail(f"space-time labels are not whole messages: {labels[:3]}")
     views = check_blueprint(rrd, rows, trace, check=True)
 
     texts = [
@@ -96,7 +113,7 @@ def main() -> None:
 
     print(
         f"verify_check_rrd: ok: {rrd.name}: {processes} lanes over {steps} steps, "
-        f"{len(sends)} sends with arrows, {len(crashes)} crashes grey, {len(texts)} log lines, "
+        f"{len(sends)} sends with arrows, {arrows} space-time arrows, {len(crashes)} crashes grey, {len(texts)} log lines, "
         f"{views} blueprint views"
     )
 

@@ -195,6 +195,50 @@ def check_sends(rows: "Rows", trace: list[dict]) -> list[dict]:
     return sends
 
 
+def check_spacetime(rows: "Rows", trace: list[dict]) -> int:
+    """The space-time diagram: each receive of the trace is an arrow at its event from the
+    sender's lane (x = 10 * sender) at the send to the receiver's lane at the receive, with
+    time running down at one scale for the whole diagram; each delivery a mark on its lane at
+    its event. Returns the number of arrows checked."""
+    if not any(r["kind"] == "send" for r in trace):
+        if any(e.startswith("/spacetime/messages") and any(s is not None for s, *_ in rs) for e, rs in rows.by_entity.items()):
+            fail("a space-time arrow without any send in the trace")
+        return 0
+    pending: dict[tuple, list[float]] = defaultdict(list)
+    arrows = {ev: cols for _, ev, _, cols in rows.by_entity.get("/spacetime/messages", []) if ev is not None}
+    scale = None
+    checked = 0
+    for r in trace:
+        key = (r.get("robot"), r.get("layer"), r.get("msg"))
+        if r["kind"] == "send":
+            for to in r["to"]:
+                pending[(r["robot"], to, r["layer"], r.get("msg"))].append(r["t"])
+        elif r["kind"] == "receive":
+            sends = pending.get((r["from"], r["robot"], r["layer"], r.get("msg")))
+            if not sends:
+                continue
+            sent = sends.pop(0)
+            cols = arrows.get(r["seq"])
+            if not cols or "Arrows2D:origins" not in cols:
+                fail(f"receive #{r['seq']}: no space-time arrow at its event")
+            (ox, oy), (vx, vy) = cols["Arrows2D:origins"][0], cols["Arrows2D:vectors"][0]
+            if abs(ox - 10 * r["from"]) > 1e-4 or abs(ox + vx - 10 * r["robot"]) > 1e-4:
+                fail(f"receive #{r['seq']}: arrow from x={ox} to x={ox + vx}, lanes {r['from']} -> {r['robot']}")
+            if r["t"] > 0:
+                k = (oy + vy) / r["t"]
+                scale = scale or k
+                if abs(k - scale) > 1e-4 * scale or abs(oy - scale * sent) > 1e-3 * max(1.0, oy):
+                    fail(f"receive #{r['seq']}: arrow from y={oy} to y={oy + vy}, sent {sent}, received {r['t']}, scale {scale}")
+            checked += 1
+    marks = {ev: cols for _, ev, _, cols in rows.by_entity.get("/spacetime/marks", []) if ev is not None}
+    for r in trace:
+        if r["kind"] in ("deliver", "decide", "crash"):
+            cols = marks.get(r["seq"])
+            if not cols or abs(cols["Points2D:positions"][0][0] - 10 * r["robot"]) > 1e-4:
+                fail(f"{r['kind']} #{r['seq']} of p{r['robot']}: no mark on its lane: {cols}")
+    return checked
+
+
 def check_crashes_grey(rows: "Rows", trace: list[dict]) -> list[dict]:
     """Crashed robots are grey from their crash on."""
     grey = 0x808080FF
@@ -246,16 +290,25 @@ def check_blueprint(rrd: Path, rows: "Rows", trace: list[dict], check: bool = Fa
         else:
             fail(f"blueprint: {node} is neither a container nor a view: {cols}")
     metric_entities = sorted(e for e in rows.by_entity if e.startswith("/metrics/"))
-    want = sorted([("2D", "/world"), ("TextLog", "/log")] + [("TimeSeries", e) for e in metric_entities])
+    messages = check or "/metrics/messages_in_flight" in metric_entities
+    want = sorted(
+        [("2D", "/world"), ("TextLog", "/log")]
+        + [("TimeSeries", e) for e in metric_entities]
+        + ([("2D", "/spacetime")] if messages else [])
+        + ([("TextDocument", "/verdict")] if check else [])
+    )
     got = sorted((c, o) for c, o, _ in views)
     if got != want or not metric_entities:
         fail(f"blueprint views {got}, expected {want}")
     # A simulated run plots collisions and its event rate; messages only when robots send.
     # A model checker's path plots its messages only.
     sends = any(r["kind"] == "send" for r in trace)
+    layered = any(r["kind"] == "send" and r["layer"] != "app" for r in trace)
     must = {"/metrics/collisions", "/metrics/events_per_second"}
     if sends:
-        must |= {"/metrics/messages_in_flight", "/metrics/deliveries"}
+        must.add("/metrics/messages_in_flight")
+    if layered:
+        must.add("/metrics/deliveries")
     if check:
         must = {"/metrics/messages_in_flight", "/metrics/deliveries"}
     if set(metric_entities) != must and (check or sends or not set(metric_entities) >= must):
@@ -271,12 +324,14 @@ def check_blueprint(rrd: Path, rows: "Rows", trace: list[dict], check: bool = Fa
     for panel in ("/blueprint_panel", "/selection_panel"):
         if entities.get(panel, {}).get("PanelBlueprint:state") != [COLLAPSED]:
             fail(f"blueprint: {panel} is {entities.get(panel)}, expected collapsed")
+    if entities.get("/time_panel", {}).get("TimePanelBlueprint:state") != [COLLAPSED]:
+        fail(f"blueprint: the time panel is {entities.get('/time_panel')}, expected collapsed")
     for cls, origin, node in views:
-        if not any(e == origin or e.startswith(origin + "/") for e in rows.by_entity):
+        if not any(e == origin or e.startswith(origin + "/") for e in rows.by_entity) and origin != "/spacetime":
             fail(f"blueprint: the {cls} view of {origin} shows no entity of the recording")
         if entities.get(f"{node}/ViewContents", {}).get("ViewContents:query") != ["$origin/**"]:
             fail(f"blueprint: the {cls} view of {origin} does not show its origin's subtree")
-    world = next(node for cls, _, node in views if cls == "2D")
+    world = next(node for cls, origin, node in views if cls == "2D" and origin == "/world")
     ranges = {
         e: entities.get(f"{world}/ViewContents/overrides/world/{e}/visualizers", {}).get("VisibleTimeRanges:ranges")
         for e in ("paths", "collisions")
@@ -475,6 +530,7 @@ def main() -> None:
             fail(f"collision #{c['seq']}: marker centred at {got}, contact point {want}")
 
     sends = check_sends(rows, trace)
+    spacetime = check_spacetime(rows, trace)
     check_crashes_grey(rows, trace)
 
     # Push sensors: at each switch, the group's circles are those of its active sensors, in
@@ -602,7 +658,7 @@ def main() -> None:
         f"verify_rrd: ok: {rrd.name}: {rows_checked} exact poses at their records, "
         f"{drawn_checked} drawn positions, "
         f"{checked} latest-at positions at {len(instants)} instants, "
-        f"{moves} legs, {trail_points} trail points, {markers} collision markers, {len(sends)} sends with arrows, {switches} sensor switches, "
+        f"{moves} legs, {trail_points} trail points, {markers} collision markers, {spacetime} space-time arrows, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, {queries} queries, "
         f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views, "
         f"labels {'hidden' if hidden else 'shown'}, "
