@@ -313,6 +313,7 @@ where
     model: Arc<ActorModel<A, C, H>>,
     packer: Packer<A, H>,
     images: Option<Images<A, H>>,
+    closed: Option<Arc<AtomicBool>>,
     visited: Visited,
     unique: AtomicUsize,
     generated: AtomicUsize,
@@ -389,7 +390,9 @@ where
     /// Starts the search on `threads` threads. States at depth `target_max_depth` and
     /// deeper are not checked (stateright's meaning; initial states are at depth 1). With
     /// `finish_on_failure`, the search ends at the first `always` counterexample. With
-    /// `images`, one state of each symmetry class is explored.
+    /// `images`, one state of each symmetry class is explored. Once `closed` is set (a budget
+    /// ran out, and the model's boundary takes no new state), the states held are still
+    /// checked but no longer expanded: every successor would be outside.
     ///
     /// # Panics
     /// If `!supports(&model)`.
@@ -399,6 +402,7 @@ where
         target_max_depth: Option<usize>,
         finish_on_failure: bool,
         images: Option<Images<A, H>>,
+        closed: Option<Arc<AtomicBool>>,
     ) -> Self {
         assert!(supports(&model), "compact search: unsupported model");
         let init: Vec<_> = model
@@ -420,6 +424,7 @@ where
             },
             model: Arc::new(model),
             images,
+            closed,
             visited: Visited::default(),
             unique: AtomicUsize::new(0),
             generated: AtomicUsize::new(init.len()),
@@ -553,6 +558,13 @@ where
             if !awaiting {
                 self.done.store(true, Ordering::Relaxed);
                 return;
+            }
+            if self
+                .closed
+                .as_ref()
+                .is_some_and(|c| c.load(Ordering::Relaxed))
+            {
+                continue;
             }
             model.actions(state, &mut actions);
             for action in actions.drain(..) {

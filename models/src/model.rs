@@ -718,6 +718,7 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
             how.depth,
             how.first_counterexample,
             images,
+            Some(Arc::clone(&stop)),
         );
         return outcome(supervise(checker, &stop, how.budget), &props);
     }
