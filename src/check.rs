@@ -738,6 +738,7 @@ fn path_items(model: &CheckModel, steps: &[Step]) -> Vec<Item> {
                             to: to.clone(),
                             layer: name(*layer),
                             msg: msg.clone(),
+                            arrive: Vec::new(),
                         }))
                     }
                     Happening::Send { .. } => None,
@@ -746,6 +747,7 @@ fn path_items(model: &CheckModel, steps: &[Step]) -> Vec<Item> {
                         to: vec![*to],
                         layer: name(msg.layer),
                         msg: msg.msg.clone(),
+                        arrive: Vec::new(),
                     })),
                     Happening::App { layer, ind } => {
                         let layer = name(*layer);

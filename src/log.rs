@@ -199,7 +199,13 @@ impl NekoLog {
             Observation::Request { robot, layer, op, msg } => {
                 format!("{t} p{robot} Request: layer {layer} | {op} | {}", wire_text(msg))
             }
-            Observation::Send { robot, to, layer, msg } => {
+            Observation::Send {
+                robot,
+                to,
+                layer,
+                msg,
+                ..
+            } => {
                 let dests: Vec<String> = to.iter().map(|d| format!("p{d}")).collect();
                 let (ty, rest) = type_and_rest(msg);
                 format!("{t} p{robot} messages e s p{robot} {} {ty} {rest} [{layer}]", dests.join(","))

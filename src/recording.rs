@@ -160,6 +160,10 @@ pub struct Flight {
     pub text: String,
     /// When it was sent [simulated s].
     pub sent: f64,
+    /// When it arrives, as the network decided at the send (`None`: unknown or lost). The
+    /// arrow then ends where the receiver will be at that instant, predicted from its current
+    /// motion and predicted again whenever its motion changes, so it is exact at the receive.
+    pub arrive: Option<f64>,
 }
 
 /// Something on a process's lane of the space-time diagram.
@@ -218,6 +222,8 @@ pub trait Canvas {
     fn mark(&mut self, _at: Stamp, _robot: RobotId, _mark: Mark, _label: &str) {}
     /// A document shown beside the drawings (a check's verdict, in Markdown).
     fn note(&mut self, _markdown: &str) {}
+    /// The messages in flight on `layer` as packets along their arrows, at `at`.
+    fn packets(&mut self, _at: Stamp, _layer: &str, _colour: Rgb, _packets: &[Point]) {}
     /// The run's figures.
     fn metrics(&mut self, at: Stamp, m: &Metrics);
 }
@@ -442,6 +448,15 @@ impl<C: Canvas> Recorder<C> {
                         self.commit(at, first as RobotId);
                     }
                 }
+                let layers: Vec<String> = self
+                    .flights
+                    .iter()
+                    .filter(|(_, l)| l.iter().any(|(_, f)| f.arrive.is_some()))
+                    .map(|(layer, _)| layer.clone())
+                    .collect();
+                for layer in layers {
+                    self.draw_packets(at, &layer);
+                }
                 self.frame += 1;
             }
             if sample_t == next {
@@ -517,6 +532,50 @@ impl<C: Canvas> Recorder<C> {
             let from = std::mem::replace(&mut r.corner, state.pos);
             self.canvas.leg(at, robot, from, state.pos);
         }
+        // The robot's motion changed: where the messages on their way to it will find it.
+        let r = &self.robots[robot as usize];
+        let mut moved = Vec::new();
+        for (layer, list) in &mut self.flights {
+            let mut changed = false;
+            for (_, f) in list.iter_mut().filter(|(_, f)| f.to == robot) {
+                if let Some(t) = f.arrive {
+                    let target = r.at(t).0;
+                    changed |= target != f.target;
+                    f.target = target;
+                }
+            }
+            if changed {
+                moved.push(layer.clone());
+            }
+        }
+        for layer in moved {
+            self.draw_messages(at, &layer);
+        }
+    }
+
+    /// Each message in flight on `layer` as a packet along its arrow, at its progress at `t`
+    /// (copies without an arrival time have none).
+    fn draw_packets(&mut self, at: Stamp, layer: &str) {
+        let packets: Vec<Point> = self
+            .flights
+            .get(layer)
+            .map(|l| {
+                l.iter()
+                    .filter_map(|(_, f)| {
+                        let arrive = f.arrive?;
+                        let span = arrive - f.sent;
+                        let k = if span > 0.0 {
+                            ((at.t - f.sent) / span).clamp(0.0, 1.0)
+                        } else {
+                            1.0
+                        };
+                        Some(f.origin + (f.target - f.origin) * k)
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        self.canvas
+            .packets(at, layer, layer_colour(layer), &packets);
     }
 
     /// Draws one record. Records must come in processing order.
@@ -678,19 +737,22 @@ impl<C: Canvas> Recorder<C> {
                 to,
                 layer,
                 msg,
+                arrive,
             } => {
                 let origin = self.pos_now(*robot, rec.t);
                 let mut added = Vec::with_capacity(to.len());
                 let text = msg.to_string();
-                for dest in to {
+                for (k, dest) in to.iter().enumerate() {
+                    let arrive = arrive.get(k).copied().flatten();
                     let flight = Flight {
                         from: *robot,
                         to: *dest,
                         origin,
-                        target: self.pos_now(*dest, rec.t),
+                        target: self.pos_now(*dest, arrive.unwrap_or(rec.t)),
                         label: type_word(&text).to_string(),
                         text: text.clone(),
                         sent: rec.t,
+                        arrive,
                     };
                     added.push(((*robot, *dest, layer.clone(), msg.clone()), flight));
                 }
@@ -742,6 +804,7 @@ impl<C: Canvas> Recorder<C> {
             .unwrap_or_default();
         self.canvas
             .messages(at, layer, layer_colour(layer), &flights);
+        self.draw_packets(at, layer);
     }
 }
 
@@ -948,6 +1011,7 @@ mod tests {
                 to: vec![1],
                 layer: "app".into(),
                 msg: msg.clone(),
+                arrive: vec![Some(1.6)],
             },
         ));
         r.record(&rec(

@@ -50,16 +50,23 @@ impl Handler<Deliver> for NetworkActor {
             msg,
         } = m.event.payload
         {
+            let world = self.world.lock().expect("world lock");
+            let pos = |id| world.state_at(id, m.now).pos;
+            let copies = self.net.transmit(m.now, from, &to, &pos);
+            drop(world);
             out.record(Observation::Send {
                 robot: from,
                 to: to.clone(),
                 layer: crate::layer::layer_name(&self.wiring, layer),
                 msg: msg.clone(),
+                arrive: if copies.iter().map(|(d, _)| d).eq(to.iter()) {
+                    copies.iter().map(|(_, at)| *at).collect()
+                } else {
+                    to.iter()
+                        .map(|d| copies.iter().find(|(c, _)| c == d).and_then(|(_, at)| *at))
+                        .collect()
+                },
             });
-            let world = self.world.lock().expect("world lock");
-            let pos = |id| world.state_at(id, m.now).pos;
-            let copies = self.net.transmit(m.now, from, &to, &pos);
-            drop(world);
             for (d, at) in copies {
                 let Some(at) = at else { continue };
                 let ind = Indication::Deliver {

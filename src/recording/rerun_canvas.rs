@@ -13,6 +13,7 @@
 //! queries) are single rows. When a viewer is connected, every buffer is also flushed each
 //! simulated second so the live view keeps up.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -678,6 +679,8 @@ pub struct RerunCanvas {
     st_marks: Rows<([f32; 2], Rgb, String)>,
     /// Each lane's deliveries so far (full diagrams).
     delivered: Vec<Vec<String>>,
+    /// Packets in flight per layer, a row per event or frame.
+    packets: BTreeMap<String, Rows<Vec<[f32; 2]>>>,
 }
 
 impl std::fmt::Debug for RerunCanvas {
@@ -1149,6 +1152,7 @@ impl RerunCanvas {
             delivered: layout
                 .spacetime
                 .map_or(Vec::new(), |s| vec![Vec::new(); s.lanes]),
+            packets: BTreeMap::new(),
         };
         // From here on, dropping the canvas on an error finishes and places the file.
         if let Some((_, sink)) = viewer {
@@ -1451,7 +1455,24 @@ impl RerunCanvas {
         }
     }
 
+    fn flush_packets(&mut self) {
+        let layers: Vec<String> = self.packets.keys().cloned().collect();
+        for layer in layers {
+            let (times, rows) = self.packets.get_mut(&layer).expect("listed").take();
+            if rows.is_empty() {
+                continue;
+            }
+            let lengths: Vec<usize> = rows.iter().map(Vec::len).collect();
+            let columns = archetypes::Points2D::update_fields()
+                .with_positions(rows.into_iter().flatten())
+                .columns(lengths)
+                .map(|c| c.collect::<Vec<_>>());
+            self.send(&format!("world/packets/{layer}"), times, columns);
+        }
+    }
+
     fn flush_all(&mut self) {
+        self.flush_packets();
         self.flush_spacetime();
         for g in 0..self.groups.len() {
             self.flush_group(g);
@@ -1721,6 +1742,25 @@ impl Canvas for RerunCanvas {
         }
         if self.st_marks.len() >= FLUSH_ROWS {
             self.flush_spacetime();
+        }
+    }
+
+    fn packets(&mut self, at: Stamp, layer: &str, colour: Rgb, packets: &[Point]) {
+        if !self.packets.contains_key(layer) {
+            // The layer's colour and size, once.
+            let style = archetypes::Points2D::update_fields()
+                .with_colors([colour])
+                .with_radii([self.marker * 0.5]);
+            self.row(&format!("world/packets/{layer}"), None, &style);
+        }
+        // On `sim_time` only: packets move with frames, between events.
+        let rows = self.packets.entry(layer.to_string()).or_default();
+        rows.push(
+            Stamp { t: at.t, seq: None },
+            packets.iter().map(|p| p32(*p)).collect(),
+        );
+        if rows.len() >= FLUSH_ROWS {
+            self.flush_packets();
         }
     }
 

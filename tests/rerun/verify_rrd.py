@@ -239,6 +239,38 @@ def check_spacetime(rows: "Rows", trace: list[dict]) -> int:
     return checked
 
 
+def check_message_ends(rows: "Rows", trace: list[dict], paths) -> int:
+    """In the world, the last arrow drawn for a copy before its receive runs from the sender's
+    position at the send to the receiver's position at the receive (the trace's `arrive`
+    times let the recording know the receive instant at the send). Returns the copies
+    checked."""
+    pending: dict[tuple, list[float]] = defaultdict(list)
+    checked = 0
+    for r in trace:
+        if r["kind"] == "send" and "arrive" in r:
+            for to, at in zip(r["to"], r["arrive"]):
+                if at is not None:
+                    pending[(r["robot"], to, r["layer"], r.get("msg"))].append(r["t"])
+        elif r["kind"] == "receive":
+            sends = pending.get((r["from"], r["robot"], r["layer"], r.get("msg")))
+            if not sends:
+                continue
+            sent = sends.pop(0)
+            entity = f"/world/messages/{r['layer']}"
+            origins = rows.latest_at_event(entity, "Arrows2D:origins", r["seq"] - 1) or []
+            vectors = rows.latest_at_event(entity, "Arrows2D:vectors", r["seq"] - 1) or []
+            start = pos_at(paths[r["from"]], sent)
+            end = pos_at(paths[r["robot"]], r["t"])
+            tol = 2**-18 * max(1.0, *map(abs, start), *map(abs, end))
+            if not any(
+                max(abs(o[0] - start[0]), abs(o[1] - start[1]), abs(o[0] + v[0] - end[0]), abs(o[1] + v[1] - end[1])) <= tol
+                for o, v in zip(origins, vectors)
+            ):
+                fail(f"receive #{r['seq']}: no arrow from {start} (send at {sent}) to {end} (receive at {r['t']}) in {entity}")
+            checked += 1
+    return checked
+
+
 def check_crashes_grey(rows: "Rows", trace: list[dict]) -> list[dict]:
     """Crashed robots are grey from their crash on."""
     grey = 0x808080FF
@@ -531,6 +563,7 @@ def main() -> None:
 
     sends = check_sends(rows, trace)
     spacetime = check_spacetime(rows, trace)
+    ends = check_message_ends(rows, trace, paths)
     check_crashes_grey(rows, trace)
 
     # Push sensors: at each switch, the group's circles are those of its active sensors, in
@@ -658,7 +691,7 @@ def main() -> None:
         f"verify_rrd: ok: {rrd.name}: {rows_checked} exact poses at their records, "
         f"{drawn_checked} drawn positions, "
         f"{checked} latest-at positions at {len(instants)} instants, "
-        f"{moves} legs, {trail_points} trail points, {markers} collision markers, {spacetime} space-time arrows, {len(sends)} sends with arrows, {switches} sensor switches, "
+        f"{moves} legs, {trail_points} trail points, {markers} collision markers, {spacetime} space-time arrows, {ends} arrows ending at the receive, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, {queries} queries, "
         f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views, "
         f"labels {'hidden' if hidden else 'shown'}, "

@@ -86,6 +86,10 @@ pub enum Observation {
         layer: String,
         #[serde(flatten, serialize_with = "ser::msg_and_type")]
         msg: Payload,
+        /// When each copy arrives, as the network decided at the send (aligned with `to`;
+        /// `None`: lost). Empty where unknown (a model checker's path).
+        #[serde(skip_serializing_if = "Vec::is_empty")]
+        arrive: Vec<Option<f64>>,
     },
     /// A message arrived from the network at `layer` of `robot`.
     Receive {
