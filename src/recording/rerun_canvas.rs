@@ -520,12 +520,18 @@ impl Group {
         };
         rows.sim.push(at.t);
         rows.positions.push(poses.iter().map(|(p, _)| p32(*p)));
-        rows.trails.push(
-            poses
-                .iter()
-                .zip(&self.corner)
-                .map(|((p, _), c)| [c.unwrap_or(p32(*p)), p32(*p)]),
-        );
+        // Trails grow with the animation frames; at event instants the leg that ended is
+        // drawn in `world/paths`, and a recording without frames has no trails.
+        if at.seq.is_none() {
+            rows.trails.push(
+                poses
+                    .iter()
+                    .zip(&self.corner)
+                    .map(|((p, _), c)| [c.unwrap_or(p32(*p)), p32(*p)]),
+            );
+        } else {
+            rows.trails.skip();
+        }
         // A heading arrow is recomputed only when the heading changed.
         for (i, (_, a)) in poses.iter().enumerate() {
             if self.angle[i] != *a {

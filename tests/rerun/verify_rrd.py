@@ -515,7 +515,7 @@ def main() -> None:
                 if not any(max(abs(sx - x), abs(sy - y)) <= tol * 4 for x, y in corners):
                     fail(f"trail of robot {first + j} at {t}: starts at {(sx, sy)}, not a corner of its path before {t}")
                 trail_points += 2
-    if any(r["kind"] == "motion_finish" for r in trace) and trail_points == 0:
+    if framerate > 0 and any(r["kind"] == "motion_finish" for r in trace) and trail_points == 0:
         fail("robots moved but no trail was drawn")
 
     collisions = sum(1 for r in trace if r["kind"] == "collision")
