@@ -689,6 +689,8 @@ where
     }
 
     fn is_done(&self) -> bool {
-        self.search.done.load(Ordering::Relaxed) && self.handles.iter().all(|h| h.is_finished())
+        // A thread ends only once the search is done, or when it panicked (then `join`
+        // passes the panic on instead of the caller waiting for ever).
+        self.search.done.load(Ordering::Relaxed) || self.handles.iter().any(|h| h.is_finished())
     }
 }
