@@ -195,6 +195,23 @@ def check_sends(rows: "Rows", trace: list[dict]) -> list[dict]:
     return sends
 
 
+def received_copies(trace: list[dict], with_arrival: bool = False):
+    """Each `receive` record with the time of the `send` it answers (sender, receiver, layer
+    and message equal, the earliest unmatched copy); with `with_arrival`, only copies whose
+    send gave an arrival time."""
+    pending: dict[tuple, list[float]] = defaultdict(list)
+    for r in trace:
+        if r["kind"] == "send" and (not with_arrival or "arrive" in r):
+            arrive = r.get("arrive") or [None] * len(r["to"])
+            for to, at in zip(r["to"], arrive):
+                if not with_arrival or at is not None:
+                    pending[(r["robot"], to, r["layer"], r.get("msg"))].append(r["t"])
+        elif r["kind"] == "receive":
+            sends = pending.get((r["from"], r["robot"], r["layer"], r.get("msg")))
+            if sends:
+                yield r, sends.pop(0)
+
+
 def check_spacetime(rows: "Rows", trace: list[dict]) -> int:
     """The space-time diagram: each receive of the trace is an arrow at its event from the
     sender's lane (x = 10 * sender) at the send to the receiver's lane at the receive, with
@@ -204,32 +221,22 @@ def check_spacetime(rows: "Rows", trace: list[dict]) -> int:
         if any(e.startswith("/spacetime/messages") and any(s is not None for s, *_ in rs) for e, rs in rows.by_entity.items()):
             fail("a space-time arrow without any send in the trace")
         return 0
-    pending: dict[tuple, list[float]] = defaultdict(list)
     arrows = {ev: cols for _, ev, _, cols in rows.by_entity.get("/spacetime/messages", []) if ev is not None}
     scale = None
     checked = 0
-    for r in trace:
-        key = (r.get("robot"), r.get("layer"), r.get("msg"))
-        if r["kind"] == "send":
-            for to in r["to"]:
-                pending[(r["robot"], to, r["layer"], r.get("msg"))].append(r["t"])
-        elif r["kind"] == "receive":
-            sends = pending.get((r["from"], r["robot"], r["layer"], r.get("msg")))
-            if not sends:
-                continue
-            sent = sends.pop(0)
-            cols = arrows.get(r["seq"])
-            if not cols or "Arrows2D:origins" not in cols:
-                fail(f"receive #{r['seq']}: no space-time arrow at its event")
-            (ox, oy), (vx, vy) = cols["Arrows2D:origins"][0], cols["Arrows2D:vectors"][0]
-            if abs(ox - 10 * r["from"]) > 1e-4 or abs(ox + vx - 10 * r["robot"]) > 1e-4:
-                fail(f"receive #{r['seq']}: arrow from x={ox} to x={ox + vx}, lanes {r['from']} -> {r['robot']}")
-            if r["t"] > 0:
-                k = (oy + vy) / r["t"]
-                scale = scale or k
-                if abs(k - scale) > 1e-4 * scale or abs(oy - scale * sent) > 1e-3 * max(1.0, oy):
-                    fail(f"receive #{r['seq']}: arrow from y={oy} to y={oy + vy}, sent {sent}, received {r['t']}, scale {scale}")
-            checked += 1
+    for r, sent in received_copies(trace):
+        cols = arrows.get(r["seq"])
+        if not cols or "Arrows2D:origins" not in cols:
+            fail(f"receive #{r['seq']}: no space-time arrow at its event")
+        (ox, oy), (vx, vy) = cols["Arrows2D:origins"][0], cols["Arrows2D:vectors"][0]
+        if abs(ox - 10 * r["from"]) > 1e-4 or abs(ox + vx - 10 * r["robot"]) > 1e-4:
+            fail(f"receive #{r['seq']}: arrow from x={ox} to x={ox + vx}, lanes {r['from']} -> {r['robot']}")
+        if r["t"] > 0:
+            k = (oy + vy) / r["t"]
+            scale = scale or k
+            if abs(k - scale) > 1e-4 * scale or abs(oy - scale * sent) > 1e-3 * max(1.0, oy):
+                fail(f"receive #{r['seq']}: arrow from y={oy} to y={oy + vy}, sent {sent}, received {r['t']}, scale {scale}")
+        checked += 1
     marks = {ev: cols for _, ev, _, cols in rows.by_entity.get("/spacetime/marks", []) if ev is not None}
     for r in trace:
         if r["kind"] in ("deliver", "decide", "crash"):
@@ -244,30 +251,20 @@ def check_message_ends(rows: "Rows", trace: list[dict], paths) -> int:
     position at the send to the receiver's position at the receive (the trace's `arrive`
     times let the recording know the receive instant at the send). Returns the copies
     checked."""
-    pending: dict[tuple, list[float]] = defaultdict(list)
     checked = 0
-    for r in trace:
-        if r["kind"] == "send" and "arrive" in r:
-            for to, at in zip(r["to"], r["arrive"]):
-                if at is not None:
-                    pending[(r["robot"], to, r["layer"], r.get("msg"))].append(r["t"])
-        elif r["kind"] == "receive":
-            sends = pending.get((r["from"], r["robot"], r["layer"], r.get("msg")))
-            if not sends:
-                continue
-            sent = sends.pop(0)
-            entity = f"/world/messages/{r['layer']}"
-            origins = rows.latest_at_event(entity, "Arrows2D:origins", r["seq"] - 1) or []
-            vectors = rows.latest_at_event(entity, "Arrows2D:vectors", r["seq"] - 1) or []
-            start = pos_at(paths[r["from"]], sent)
-            end = pos_at(paths[r["robot"]], r["t"])
-            tol = 2**-18 * max(1.0, *map(abs, start), *map(abs, end))
-            if not any(
-                max(abs(o[0] - start[0]), abs(o[1] - start[1]), abs(o[0] + v[0] - end[0]), abs(o[1] + v[1] - end[1])) <= tol
-                for o, v in zip(origins, vectors)
-            ):
-                fail(f"receive #{r['seq']}: no arrow from {start} (send at {sent}) to {end} (receive at {r['t']}) in {entity}")
-            checked += 1
+    for r, sent in received_copies(trace, with_arrival=True):
+        entity = f"/world/messages/{r['layer']}"
+        origins = rows.latest_at_event(entity, "Arrows2D:origins", r["seq"] - 1) or []
+        vectors = rows.latest_at_event(entity, "Arrows2D:vectors", r["seq"] - 1) or []
+        start = pos_at(paths[r["from"]], sent)
+        end = pos_at(paths[r["robot"]], r["t"])
+        tol = 2**-18 * max(1.0, *map(abs, start), *map(abs, end))
+        if not any(
+            max(abs(o[0] - start[0]), abs(o[1] - start[1]), abs(o[0] + v[0] - end[0]), abs(o[1] + v[1] - end[1])) <= tol
+            for o, v in zip(origins, vectors)
+        ):
+            fail(f"receive #{r['seq']}: no arrow from {start} (send at {sent}) to {end} (receive at {r['t']}) in {entity}")
+        checked += 1
     return checked
 
 

@@ -3,6 +3,7 @@
 //! a layer written here with a seeded bug. The oracle is the counterexample's own last state,
 //! read independently of the property that found it.
 
+use nekosim_models::property::State;
 use nekosim_models::{build_in, run, Exploration, Family, NetworkKind, Options, Outcome, Target};
 use nekosim_protocols::{
     AppMsg, Content, Ctx, FieldError, Indication, LayerIx, LayerSpec, Microprotocol, NoConfig, Out,
@@ -96,6 +97,15 @@ fn opts(requests: u32, network: NetworkKind) -> Options {
 
 fn names(o: &Outcome) -> Vec<&'static str> {
     o.verdicts.iter().map(|v| v.name).collect()
+}
+
+/// The last state of the path found for property `name` (a witness or counterexample).
+fn last_state(o: &Outcome, name: &str) -> State {
+    o.verdict(name)
+        .and_then(|v| v.path.as_ref())
+        .unwrap_or_else(|| panic!("no path for {name:?}"))
+        .last_state()
+        .clone()
 }
 
 fn holds(o: &Outcome) -> bool {
@@ -220,14 +230,7 @@ fn a_heartbeat_detector_is_complete_and_revokes_false_suspicions() {
     assert_eq!(names(&crash), ["well-formed suspicions", "completeness"]);
     assert!(holds(&crash), "{:?}", crash.verdicts);
     // The witness's last state: a crashed process every live one suspects.
-    let last = crash
-        .verdict("completeness")
-        .unwrap()
-        .path
-        .as_ref()
-        .unwrap()
-        .last_state()
-        .clone();
+    let last = last_state(crash, "completeness");
     let dead = (0..3).find(|&p| last.crashed[p]).expect("a crash");
     for q in (0..3).filter(|&q| !last.crashed[q]) {
         let about: Vec<bool> = last.actor_states[q]
@@ -278,14 +281,7 @@ fn omega_over_heartbeat_agrees_on_a_live_leader_after_a_crash() {
     );
     assert_eq!(names(&o), ["leader is a process", "common live leader"]);
     assert!(holds(&o), "{:?}", o.verdicts);
-    let last = o
-        .verdict("common live leader")
-        .unwrap()
-        .path
-        .as_ref()
-        .unwrap()
-        .last_state()
-        .clone();
+    let last = last_state(o, "common live leader");
     let leaders: Vec<Option<Pid>> = (0..3)
         .filter(|&q| !last.crashed[q])
         .map(|q| last.actor_states[q].leader)
