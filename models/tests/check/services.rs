@@ -230,7 +230,7 @@ fn a_heartbeat_detector_is_complete_and_revokes_false_suspicions() {
     assert_eq!(names(&crash), ["well-formed suspicions", "completeness"]);
     assert!(holds(&crash), "{:?}", crash.verdicts);
     // The witness's last state: a crashed process every live one suspects.
-    let last = last_state(crash, "completeness");
+    let last = last_state(&crash, "completeness");
     let dead = (0..3).find(|&p| last.crashed[p]).expect("a crash");
     for q in (0..3).filter(|&q| !last.crashed[q]) {
         let about: Vec<bool> = last.actor_states[q]
@@ -281,7 +281,7 @@ fn omega_over_heartbeat_agrees_on_a_live_leader_after_a_crash() {
     );
     assert_eq!(names(&o), ["leader is a process", "common live leader"]);
     assert!(holds(&o), "{:?}", o.verdicts);
-    let last = last_state(o, "common live leader");
+    let last = last_state(&o, "common live leader");
     let leaders: Vec<Option<Pid>> = (0..3)
         .filter(|&q| !last.crashed[q])
         .map(|q| last.actor_states[q].leader)
