@@ -498,9 +498,29 @@ pub fn check(
 /// Distance between two process lanes in a counterexample recording.
 #[cfg(feature = "rerun")]
 const LANE: f64 = 10.0;
+/// The radius of a process's marker in a check recording's world view.
+#[cfg(feature = "rerun")]
+const MARKER: f64 = 1.0;
+
+/// Where process `p` of `n` stands in a check recording's world view: on a circle of radius
+/// [`ring_radius`] around the origin, p0 at the top and the others clockwise, so that no
+/// arrow between two processes runs through a third.
+#[cfg(feature = "rerun")]
+fn ring_position(p: u32, n: usize) -> (f64, f64) {
+    let a = std::f64::consts::FRAC_PI_2 - std::f64::consts::TAU * f64::from(p) / n.max(1) as f64;
+    let r = ring_radius(n);
+    (r * a.cos(), r * a.sin())
+}
+
+/// The radius of the circle of [`ring_position`]: `LANE` for up to three processes, growing
+/// with their number so neighbours stay about `LANE` apart.
+#[cfg(feature = "rerun")]
+fn ring_radius(n: usize) -> f64 {
+    LANE * (n as f64 / 3.0).max(1.0)
+}
 
 /// Saves the traced path (see [`traced`]) as a Rerun recording: process `p` stands still at
-/// `(LANE * p, 0)`, its lane; each step is one simulated second, so a message's arrow goes
+/// [`ring_position`]; each step is one simulated second, so a message's arrow goes
 /// from the sender's lane to the receiver's and stays from the step that sent it to the step
 /// that received it; deliveries, decisions, timers, losses and crashes are log lines (a
 /// crashed process turns grey), and the log opens and ends with the verdict. No path, no file.
@@ -523,22 +543,21 @@ fn write_recording(
     let steps = explain(model, v.path.as_ref().expect("traced paths exist"));
     let _codecs = install(&model.actors[0].shared.wiring.codecs);
     let n = model.actors.len();
-    let lane = |p: u32| Point::new(LANE * p as f64, 0.0);
-    let size = WorldSize::Bounded {
-        min: Point::new(-LANE, -LANE),
-        max: Point::new(LANE * n as f64, LANE),
+    let lane = |p: u32| {
+        let (x, y) = ring_position(p, n);
+        Point::new(x, y)
     };
+    // The ring with a marker's diameter around it.
+    let edge = ring_radius(n) + 2.0 * MARKER;
+    let (min, max) = (Point::new(-edge, -edge), Point::new(edge, edge));
+    let size = WorldSize::Bounded { min, max };
     let target = Target {
         rrd: Some(path.to_path_buf()),
         connect: None,
     };
     let title = format!("check {name}");
     let id = format!("{title} {:?} {} steps", v.name, steps.len());
-    let layout = Layout::check(
-        (Point::new(-LANE, -LANE), Point::new(LANE * n as f64, LANE)),
-        n,
-        steps.len(),
-    );
+    let layout = Layout::check((min, max), n, steps.len(), MARKER);
     let canvas = RerunCanvas::start(&title, &id, &target, &layout)?;
     let mut rec = Recorder::new(canvas, &size, 0.0);
     for p in 0..n as u32 {
@@ -549,7 +568,7 @@ fn write_recording(
                 robot: p,
                 pos: lane(p),
                 angle: 90.0,
-                radius: 1.0,
+                radius: MARKER,
             },
         });
     }

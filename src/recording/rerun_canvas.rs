@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use nekosim_actors::world::geometry::{heading_vector, Point};
+use nekosim_actors::world::geometry::{heading_vector, Point, Vector};
 use nekosim_actors::world::RobotId;
 use rerun::external::arrow::array::{
     Array as _, ArrayRef, FixedSizeListArray, Float32Array, Float64Array, ListArray, UInt32Array,
@@ -88,6 +88,11 @@ pub struct Layout {
     /// The space-time diagram, for runs whose robots can exchange messages and for check
     /// recordings.
     pub spacetime: Option<SpaceTime>,
+    /// Draw world message arrows between the markers' rims rather than their centres: each
+    /// starts and ends this far from the centres, and is shifted by half of it to the right
+    /// of its direction so the two directions between a pair of processes stay apart (check
+    /// recordings, where the markers are large beside the distances). `None`: centre to centre.
+    pub inset: Option<f64>,
 }
 
 /// The space-time diagram's geometry: one vertical lane per process, `LANE_GAP` apart, time
@@ -148,12 +153,14 @@ impl Layout {
                 span: until,
                 full: false,
             }),
+            inset: None,
         }
     }
 
     /// The layout of a model checker's path of `processes` lanes in `world`: messages only
-    /// (no collisions, and an event rate means nothing there), labelled.
-    pub fn check(world: (Point, Point), processes: usize, steps: usize) -> Self {
+    /// (no collisions, and an event rate means nothing there), labelled, arrows between the
+    /// rims of markers of radius `radius`.
+    pub fn check(world: (Point, Point), processes: usize, steps: usize, radius: f64) -> Self {
         Self {
             world: Some(world),
             metrics: vec!["metrics/messages_in_flight", "metrics/deliveries"],
@@ -163,6 +170,7 @@ impl Layout {
                 span: steps.max(1) as f64,
                 full: true,
             }),
+            inset: Some(radius),
         }
     }
 
@@ -618,6 +626,22 @@ fn sparse(
 /// 2D vectors as the Arrow array of Rerun's `Vec2D`-based components (positions, origins,
 /// vectors, centres, half sizes: a fixed-size list of two 32-bit floats), built without copying
 /// or going through the archetype builders, which convert value by value.
+/// The arrow from the rim of a marker of radius `r` at `a` to the rim of one at `b`, shifted by
+/// `r / 2` to the right of its direction (so `b -> a` runs beside it); centre to centre when
+/// the markers overlap.
+fn rim_to_rim(a: Point, b: Point, r: f64) -> (Point, Point) {
+    let d = b - a;
+    let len = d.norm();
+    if len <= 2.0 * r {
+        return (a, b);
+    }
+    let u = d / len;
+    let right = Vector::new(u.y, -u.x) * (r / 2.0);
+    // The shifted ends stay on the rims: step in by the chord's half-length there.
+    let inner = (r * r - (r / 2.0) * (r / 2.0)).sqrt();
+    (a + u * inner + right, b - u * inner + right)
+}
+
 fn vec2_array(values: Vec<[f32; 2]>) -> ArrayRef {
     let floats = Float32Array::from(values.into_flattened());
     Arc::new(FixedSizeListArray::new(
@@ -673,10 +697,16 @@ pub struct RerunCanvas {
     error: Option<RecordingError>,
     /// Whether robot markers show their labels ([`Layout::labels`]).
     labels: bool,
+    /// The blueprint's store, for the axes settled at the end ([`RerunCanvas::finish`]).
+    blueprint: StoreId,
+    /// Each metric's least and greatest value so far, in [`METRICS`]' order.
+    extent: [Option<(f64, f64)>; 4],
     /// The metric entities logged ([`Layout::metrics`]).
     plotted: Vec<&'static str>,
     /// The space-time diagram, if drawn.
     spacetime: Option<SpaceTime>,
+    /// [`Layout::inset`].
+    inset: Option<f64>,
     /// Where each crashed lane ends.
     lane_end: Vec<Option<f32>>,
     /// Arrows of the diagram, one per row: `(origin, vector, colour, label)`.
@@ -751,6 +781,80 @@ fn connect(
 /// messages (header and chunks) and its activation, with fixed view and container ids and the
 /// next row and chunk ids, so that it is the same in every recording. (The SDK's `Blueprint`
 /// builder makes the same layout with random ids and wall-clock times.)
+/// The blueprint store of the recording `recording_id`.
+fn blueprint_store(recording_id: &str) -> StoreId {
+    StoreId::new(
+        StoreKind::Blueprint,
+        APP,
+        format!("{recording_id}-blueprint"),
+    )
+}
+
+/// The fixed UUID of blueprint item `n` (a view or a container).
+fn blueprint_uuid(n: u8) -> [u8; 16] {
+    let mut bytes = [0u8; 16];
+    bytes[6] = 0x40; // version 4
+    bytes[8] = 0x80; // RFC 4122 variant
+    bytes[15] = n;
+    bytes
+}
+
+/// The entity path of blueprint item `n` of `kind` (`view`, `container`).
+fn blueprint_path(kind: &str, n: u8) -> String {
+    let u = blueprint_uuid(n);
+    let hex: String = u.iter().map(|b| format!("{b:02x}")).collect();
+    format!(
+        "{kind}/{}-{}-{}-{}-{}",
+        &hex[0..8],
+        &hex[8..12],
+        &hex[12..16],
+        &hex[16..20],
+        &hex[20..32]
+    )
+}
+
+/// One static-free blueprint chunk per `(entity, components)` at blueprint time `time`.
+fn blueprint_rows(
+    store: &StoreId,
+    ids: &mut Ids,
+    time: i64,
+    rows: Vec<(String, Box<dyn rerun::AsComponents>)>,
+) -> Result<Vec<LogMsg>, RecordingError> {
+    let mut msgs = Vec::new();
+    for (entity, what) in rows {
+        let times = [TimeColumn::new_sequence("blueprint", [time])];
+        let columns = what
+            .as_serialized_batches()
+            .into_iter()
+            .map(|b| {
+                let n = b.array.len();
+                b.partitioned([n]).map(|c| (c.descriptor, c.list_array))
+            })
+            .collect::<Result<_, _>>()
+            .map_err(rerun_err)?;
+        let chunk = Chunk::from_native_row_ids(
+            ids.chunk(),
+            entity.as_str().into(),
+            Some(true),
+            &ids.rows(1),
+            times
+                .into_iter()
+                .map(|c| (*c.timeline().name(), c))
+                .collect(),
+            columns,
+        )
+        .map_err(rerun_err)?;
+        let arrow = chunk.to_arrow_msg().map_err(rerun_err)?;
+        msgs.push(LogMsg::ArrowMsg(store.clone(), arrow));
+    }
+    Ok(msgs)
+}
+
+/// The metric views' numbers in the blueprint: [`METRICS`]' `i`-th is view `3 + i`.
+fn metric_view(i: usize) -> u8 {
+    3 + i as u8
+}
+
 fn blueprint_msgs(
     recording_id: &str,
     ids: &mut Ids,
@@ -768,30 +872,9 @@ fn blueprint_msgs(
         Range1D, Range2D, TimeInt, TimeRange, TimeRangeBoundary, VisibleTimeRange,
     };
 
-    let store = StoreId::new(
-        StoreKind::Blueprint,
-        APP,
-        format!("{recording_id}-blueprint"),
-    );
-    let uuid = |n: u8| {
-        let mut bytes = [0u8; 16];
-        bytes[6] = 0x40; // version 4
-        bytes[8] = 0x80; // RFC 4122 variant
-        bytes[15] = n;
-        bytes
-    };
-    let path = |kind: &str, n: u8| {
-        let u = uuid(n);
-        let hex: String = u.iter().map(|b| format!("{b:02x}")).collect();
-        format!(
-            "{kind}/{}-{}-{}-{}-{}",
-            &hex[0..8],
-            &hex[8..12],
-            &hex[12..16],
-            &hex[16..20],
-            &hex[20..32]
-        )
-    };
+    let store = blueprint_store(recording_id);
+    let uuid = blueprint_uuid;
+    let path = blueprint_path;
     // Views 1-2 and 3.. (one per metric, so that each plot has its own scale: events per
     // second run to thousands while collisions count in tens), containers from 10.
     let (world, log, root, right, plots) = (1, 2, 10, 11, 12);
@@ -799,9 +882,9 @@ fn blueprint_msgs(
     let full = layout.spacetime.is_some_and(|s| s.full);
     let metric_views: Vec<(u8, &str)> = METRICS
         .iter()
-        .zip(3..)
-        .filter(|(m, _)| layout.metrics.contains(*m))
-        .map(|(m, n)| (n, *m))
+        .enumerate()
+        .filter(|(_, m)| layout.metrics.contains(*m))
+        .map(|(i, m)| (metric_view(i), *m))
         .collect();
     let mut rows: Vec<(String, Box<dyn rerun::AsComponents>)> = Vec::new();
     let views = [
@@ -1039,32 +1122,7 @@ fn blueprint_msgs(
     ));
 
     let mut msgs = vec![ids.store_info(store.clone())];
-    for (entity, what) in rows {
-        let times = [TimeColumn::new_sequence("blueprint", [0])];
-        let columns = what
-            .as_serialized_batches()
-            .into_iter()
-            .map(|b| {
-                let n = b.array.len();
-                b.partitioned([n]).map(|c| (c.descriptor, c.list_array))
-            })
-            .collect::<Result<_, _>>()
-            .map_err(rerun_err)?;
-        let chunk = Chunk::from_native_row_ids(
-            ids.chunk(),
-            entity.as_str().into(),
-            Some(true),
-            &ids.rows(1),
-            times
-                .into_iter()
-                .map(|c| (*c.timeline().name(), c))
-                .collect(),
-            columns,
-        )
-        .map_err(rerun_err)?;
-        let arrow = chunk.to_arrow_msg().map_err(rerun_err)?;
-        msgs.push(LogMsg::ArrowMsg(store.clone(), arrow));
-    }
+    msgs.extend(blueprint_rows(&store, ids, 0, rows)?);
     let activation = BlueprintActivationCommand {
         blueprint_id: store,
         make_active: true,
@@ -1151,7 +1209,10 @@ impl RerunCanvas {
             error: None,
             labels: layout.labels,
             plotted: layout.metrics.clone(),
+            blueprint: activation.blueprint_id.clone(),
+            extent: [None; 4],
             spacetime: layout.spacetime,
+            inset: layout.inset,
             lane_end: layout.spacetime.map_or(Vec::new(), |s| vec![None; s.lanes]),
             st_messages: Rows::default(),
             st_marks: Rows::default(),
@@ -1389,9 +1450,14 @@ impl RerunCanvas {
             data.iter().map(|m| m.deliveries as f64).collect(),
             data.iter().map(|m| m.events_per_second).collect(),
         ];
-        for (entity, values) in METRICS.iter().zip(series) {
+        for (i, (entity, values)) in METRICS.iter().zip(series).enumerate() {
             if !self.plotted.contains(entity) {
                 continue;
+            }
+            for &v in &values {
+                let (lo, hi) = self.extent[i].get_or_insert((v, v));
+                *lo = lo.min(v);
+                *hi = hi.max(v);
             }
             let columns = archetypes::Scalars::update_fields()
                 .with_scalars(values)
@@ -1510,7 +1576,8 @@ impl RerunCanvas {
     }
 
     /// Sends what is buffered, ends the stream (the .rrd file gets its footer) and moves the
-    /// file into place. The first error of the recording, if any, is returned.
+    /// file into place; a plot whose metric never changed gets an axis from its value to one
+    /// more (a lone tick at its value says nothing). The first error of the recording, if any, is returned.
     pub fn finish(&mut self) -> Result<(), RecordingError> {
         if self.live.is_some() || self.file.is_some() {
             self.flush_all();
@@ -1531,6 +1598,12 @@ impl RerunCanvas {
             }
         }
         if let Some((mut rrd, temp, target)) = self.file.take() {
+            match self.flat_axes() {
+                Ok(msgs) => rrd.messages(msgs),
+                Err(e) => {
+                    self.error.get_or_insert(e);
+                }
+            }
             if let Err(e) = rrd.finish() {
                 self.error.get_or_insert(RecordingError::Write {
                     path: target.display().to_string(),
@@ -1548,6 +1621,45 @@ impl RerunCanvas {
             Some(e) => Err(e),
             None => Ok(()),
         }
+    }
+}
+
+impl RerunCanvas {
+    /// The blueprint's last word, once the run is over: each plotted metric that kept one
+    /// value `v` gets the y range `[v - 1, v + 1]`, clamped at 0 for counts, so its plot reads
+    /// as a flat line on a scale, followed by the blueprint's activation again.
+    fn flat_axes(&mut self) -> Result<Vec<LogMsg>, RecordingError> {
+        use rerun::external::re_sdk_types::blueprint::archetypes::ScalarAxis;
+        use rerun::external::re_sdk_types::datatypes::Range1D;
+        let rows: Vec<(String, Box<dyn rerun::AsComponents>)> = METRICS
+            .iter()
+            .zip(self.extent)
+            .enumerate()
+            .filter_map(|(i, (_, extent))| {
+                let (lo, hi) = extent?;
+                (lo == hi).then(|| {
+                    let range = Range1D([(lo - 1.0).max(0.0_f64.min(lo)), hi + 1.0]);
+                    (
+                        format!("{}/ScalarAxis", blueprint_path("view", metric_view(i))),
+                        Box::new(ScalarAxis::new().with_range(range))
+                            as Box<dyn rerun::AsComponents>,
+                    )
+                })
+            })
+            .collect();
+        if rows.is_empty() {
+            return Ok(Vec::new());
+        }
+        let store = self.blueprint.clone();
+        let mut msgs = blueprint_rows(&store, &mut self.ids, 1, rows)?;
+        msgs.push(LogMsg::BlueprintActivationCommand(
+            BlueprintActivationCommand {
+                blueprint_id: store,
+                make_active: true,
+                make_default: true,
+            },
+        ));
+        Ok(msgs)
     }
 }
 
@@ -1676,13 +1788,27 @@ impl Canvas for RerunCanvas {
     }
 
     fn messages(&mut self, at: Stamp, layer: &str, colour: Rgb, flights: &[Flight]) {
-        let arrows = archetypes::Arrows2D::from_vectors(flights.iter().map(|f| {
-            let v = f.target - f.origin;
+        let ends: Vec<(Point, Point)> = flights
+            .iter()
+            .map(|f| match self.inset {
+                Some(r) => rim_to_rim(f.origin, f.target, r),
+                None => (f.origin, f.target),
+            })
+            .collect();
+        let full = self.spacetime.is_some_and(|s| s.full);
+        let arrows = archetypes::Arrows2D::from_vectors(ends.iter().map(|(a, b)| {
+            let v = *b - *a;
             [v.x as f32, v.y as f32]
         }))
-        .with_origins(flights.iter().map(|f| p32(f.origin)))
+        .with_origins(ends.iter().map(|(a, _)| p32(*a)))
         .with_colors([colour])
-        .with_labels(flights.iter().map(|f| f.label.clone()));
+        .with_labels(flights.iter().map(|f| {
+            if full {
+                f.text.clone()
+            } else {
+                f.label.clone()
+            }
+        }));
         self.row(&format!("world/messages/{layer}"), Some(at), &arrows);
     }
 
@@ -1833,7 +1959,12 @@ mod tests {
                 "metrics/events_per_second"
             ]
         );
-        let check = Layout::check((Point::new(-10.0, -10.0), Point::new(30.0, 10.0)), 3, 8);
+        let check = Layout::check(
+            (Point::new(-10.0, -10.0), Point::new(30.0, 10.0)),
+            3,
+            8,
+            1.0,
+        );
         assert_eq!(
             check.metrics,
             ["metrics/messages_in_flight", "metrics/deliveries"]

@@ -4,8 +4,11 @@
 Usage: verify_check_rrd.py RECORDING.rrd TRACE.jsonl PROPERTY PROCESSES
 
 Checks that `rerun rrd verify` accepts the file; it has the `sim_time` and `event` timelines;
-process p stands on its lane, (10 p, 0), at every step; every `send` of the trace has an arrow
-per receiver at its step; a crashed process is grey from its crash on; the text log has one
+process p stands at its place on a ring (radius 10 max(1, n/3), p0 at the top, clockwise) at
+every step; every `send` of the trace has an arrow per receiver at its step, from the sender's
+rim to the receiver's (markers of radius 1; no arrowhead under a marker), shifted to the right
+of its direction so the two directions between a pair stay apart, and labelled with the whole
+message; a crashed process is grey from its crash on; the text log has one
 line per lane's birth and per trace record plus the verdict naming PROPERTY, at the start and
 at the end, an ERROR for a counterexample and INFO for a witness; the default blueprint is
 the layout of `nekosim run` recordings (verify_rrd.py) with message plots only, the
@@ -16,6 +19,7 @@ Prints one summary line and exits 0, or prints what differs and exits 1.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -34,6 +38,41 @@ from verify_rrd import (
 )
 
 LANE = 10.0
+MARKER = 1.0
+
+
+def place(p: int, n: int) -> tuple[float, float]:
+    """Process p's place on the ring: p0 at the top, the others clockwise."""
+    r = LANE * max(1.0, n / 3)
+    a = math.pi / 2 - 2 * math.pi * p / n
+    return r * math.cos(a), r * math.sin(a)
+
+
+def check_world_arrows(rows: "Rows", trace: list[dict], n: int) -> int:
+    """Each send's world arrows: tail on the sender's rim, tip on the receiver's, both off
+    the centre line by half a radius to the right of the direction; labels whole messages."""
+    checked = 0
+    for s in (r for r in trace if r["kind"] == "send"):
+        entity = f"/world/messages/{s['layer']}"
+        rows_at = [cols for _, ev, _, cols in rows.by_entity.get(entity, []) if ev == s["seq"]]
+        cols = rows_at[-1]
+        pairs = list(zip(cols["Arrows2D:origins"], cols["Arrows2D:vectors"], cols.get("Arrows2D:labels", [])))
+        for to in s["to"]:
+            a, b = place(s["robot"], n), place(to, n)
+            d = math.dist(a, b)
+            ux, uy = (b[0] - a[0]) / d, (b[1] - a[1]) / d
+            found = False
+            for (ox, oy), (vx, vy), label in pairs:
+                tip = (ox + vx, oy + vy)
+                on_rims = abs(math.dist((ox, oy), a) - MARKER) < 1e-3 and abs(math.dist(tip, b) - MARKER) < 1e-3
+                # Right of the direction (ux, uy) is (uy, -ux): the shift's sign.
+                side = (ox - a[0]) * uy - (oy - a[1]) * ux
+                if on_rims and abs(side - MARKER / 2) < 1e-3 and "(" in label:
+                    found = True
+            if not found:
+                fail(f"send #{s['seq']} p{s['robot']} -> p{to}: no rim-to-rim arrow with a whole label in {pairs}")
+            checked += 1
+    return checked
 
 
 def main() -> None:
@@ -59,8 +98,9 @@ def main() -> None:
             if drawn is None or len(drawn) <= j:
                 fail(f"{entity}: no marker of process {p} at step {step}")
             x, y = drawn[j]
-            if abs(x - LANE * p) > 1e-4 or abs(y) > 1e-4:
-                fail(f"{entity} at step {step}: process {p} at {(x, y)}, expected its lane ({LANE * p}, 0)")
+            want = place(p, processes)
+            if math.dist((x, y), want) > 1e-4:
+                fail(f"{entity} at step {step}: process {p} at {(x, y)}, expected its place {want}")
     spawned = {
         cols["nekosim.Pose:robot"][0]: cols["nekosim.Pose:pose"]
         for sim, _, _, cols in rows.by_entity.get("/world/poses", [])
@@ -68,10 +108,12 @@ def main() -> None:
     }
     for p in range(processes):
         pose = spawned.get(p)
-        if pose is None or abs(pose[0] - LANE * p) > TOLERANCE or abs(pose[1]) > TOLERANCE:
-            fail(f"process {p}: exact pose at step 0 is {pose}, expected its lane ({LANE * p}, 0)")
+        want = place(p, processes)
+        if pose is None or math.dist(pose[:2], want) > TOLERANCE:
+            fail(f"process {p}: exact pose at step 0 is {pose}, expected its place {want}")
 
     sends = check_sends(rows, trace)
+    world_arrows = check_world_arrows(rows, trace, processes)
     arrows = check_spacetime(rows, trace)
     crashes = check_crashes_grey(rows, trace)
     # The verdict beside the diagram, stated in full.
@@ -113,7 +155,7 @@ def main() -> None:
 
     print(
         f"verify_check_rrd: ok: {rrd.name}: {processes} lanes over {steps} steps, "
-        f"{len(sends)} sends with arrows, {arrows} space-time arrows, {len(crashes)} crashes grey, {len(texts)} log lines, "
+        f"{len(sends)} sends with {world_arrows} rim-to-rim arrows, {arrows} space-time arrows, {len(crashes)} crashes grey, {len(texts)} log lines, "
         f"{views} blueprint views"
     )
 

@@ -342,9 +342,25 @@ def check_blueprint(rrd: Path, rows: "Rows", trace: list[dict], check: bool = Fa
         must = {"/metrics/messages_in_flight", "/metrics/deliveries"}
     if set(metric_entities) != must and (check or sends or not set(metric_entities) >= must):
         fail(f"plots {metric_entities}, expected {sorted(must)} (sends in the trace: {sends})")
-    for cls, _, node in views:
+    for cls, origin, node in views:
         if cls == "TimeSeries" and entities.get(f"{node}/PlotLegend", {}).get("PlotLegend:visible") != [False]:
             fail(f"blueprint: the legend of {node} is not hidden")
+        if cls == "TimeSeries":
+            # A metric that kept one value gets a y range around it (not a lone tick);
+            # one that moved keeps the viewer's automatic range.
+            values = {
+                v
+                for _, _, _, cols in rows.by_entity.get(origin, [])
+                for v in cols.get("Scalars:scalars") or []
+            }
+            axis = entities.get(f"{node}/ScalarAxis", {}).get("ScalarAxis:range")
+            if len(values) == 1:
+                (v,) = values
+                want_axis = [max(v - 1, min(0.0, v)), v + 1]
+                if not axis or max(abs(a - w) for a, w in zip(axis[0], want_axis)) > 1e-9:
+                    fail(f"blueprint: {origin} stays at {v} but its y axis is {axis}, expected {want_axis}")
+            elif axis:
+                fail(f"blueprint: {origin} takes {len(values)} values but has a fixed y axis {axis}")
         if cls == "TextLog":
             columns = entities.get(f"{node}/TextLogColumns", {}).get("TextLogColumns:text_log_columns")
             shown = [c["kind"] for c in columns or [] if c["visible"]]
