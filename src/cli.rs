@@ -27,6 +27,7 @@ use crate::check::{self, CheckArgs};
 use crate::recording::{RecordingError, Target};
 use crate::runner::{self, RunError, RunOptions};
 use crate::scenario::{Overrides, Registry, Source};
+use crate::sweep;
 use clap::{Parser, Subcommand};
 use nekosim_models::{NetworkKind, Strategy};
 
@@ -65,7 +66,34 @@ enum Command {
         /// Stream to a running Rerun viewer (default: the SDK's local viewer URL).
         #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
         connect: Option<String>,
+        /// Set the value at PATH of the scenario to VALUE (RON), e.g. `robots[0].count=200`,
+        /// `network.lambda=10.0` (repeatable; what a sweep's failures.txt replays).
+        #[arg(long = "set", value_name = "PATH=VALUE", value_parser = parse_set)]
+        set: Vec<(String, String)>,
         /// Print nothing on success.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Run a parameter sweep: every point of its axes with every seed (docs/sweeps.md); exit
+    /// 1 when some run failed a check or ended with an error.
+    #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+    Sweep {
+        #[command(subcommand)]
+        command: Option<SweepCommand>,
+        /// The sweep file (RON).
+        #[arg(required = true)]
+        sweep: Option<PathBuf>,
+        /// The directory for runs.csv, summary.csv, failures.txt and plots/.
+        #[arg(long, required = true)]
+        out: Option<PathBuf>,
+        /// Runs at a time [default: the machine's cores].
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Run only shard I of N (0 <= I < N): the runs whose number is I modulo N; the
+        /// directory then holds runs.csv and shard.json, for `nekosim sweep merge`.
+        #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+        shard: Option<(usize, usize)>,
+        /// Print nothing but errors.
         #[arg(long, short)]
         quiet: bool,
     },
@@ -135,6 +163,41 @@ enum Command {
         #[arg(long)]
         symmetry: bool,
     },
+}
+
+#[derive(Subcommand, Debug)]
+enum SweepCommand {
+    /// Merge the directories of `nekosim sweep --shard I/N` into the files of the whole
+    /// sweep (refused when a shard is missing, given twice, or of another sweep or binary).
+    Merge {
+        /// The shard directories.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Where the merged files go.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+fn parse_shard(text: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("{text:?}: expected I/N with 0 <= I < N, e.g. 0/4");
+    let (i, n) = text.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if i < n {
+        Ok((i, n))
+    } else {
+        Err(bad())
+    }
+}
+
+fn parse_set(text: &str) -> Result<(String, String), String> {
+    let (path, value) = text
+        .split_once('=')
+        .ok_or_else(|| format!("{text:?}: expected PATH=VALUE, e.g. robots[0].count=200"))?;
+    Ok((path.trim().to_string(), value.trim().to_string()))
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -286,6 +349,112 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             )?;
             Ok(conclusion.exit_code())
         }
+        Command::Sweep {
+            command: Some(SweepCommand::Merge { dirs, out }),
+            ..
+        } => {
+            let outcome = sweep::merge(&dirs, &out).map_err(sweep_failure)?;
+            println!(
+                "merged {} shards: {} runs, {} failing, {} errors; wrote {}",
+                dirs.len(),
+                outcome.rows.len(),
+                outcome.failing,
+                outcome.errors,
+                out.display()
+            );
+            Ok(u8::from(outcome.failing > 0))
+        }
+        Command::Sweep {
+            sweep: file,
+            out,
+            jobs,
+            shard,
+            quiet,
+            ..
+        } => {
+            let (Some(file), Some(out)) = (file, out) else {
+                return Err(Failure {
+                    code: 2,
+                    message: "nekosim sweep: SWEEP and --out are required".into(),
+                });
+            };
+            let loaded = sweep::Sweep::load(&file, registry).map_err(invalid)?;
+            let plan = loaded.plan.clone();
+            let todo = shard.map_or(plan.runs(), |(i, n)| {
+                (0..plan.runs()).filter(|r| r % n == i).count()
+            });
+            let jobs = jobs
+                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+                .max(1);
+            let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+                let bar = indicatif::ProgressBar::new(todo as u64);
+                bar.set_style(
+                    indicatif::ProgressStyle::with_template(
+                        "{spinner} runs {pos}/{len} [{bar:40}] {msg} ({elapsed}, ETA {eta})",
+                    )
+                    .expect("template")
+                    .progress_chars("=> "),
+                );
+                bar.set_message("0 failing");
+                bar
+            });
+            let stop = Arc::new(AtomicBool::new(false));
+            {
+                let stop = stop.clone();
+                let _ = ctrlc::set_handler(move || {
+                    if stop.swap(true, Ordering::Relaxed) {
+                        std::process::exit(INTERRUPTED);
+                    }
+                });
+            }
+            let started = std::time::Instant::now();
+            let outcome = sweep::run(
+                &loaded,
+                registry,
+                &sweep::SweepOptions {
+                    jobs,
+                    shard,
+                    progress: bar.clone().map(|b| {
+                        Box::new(move |done: usize, _: usize, failing: usize| {
+                            b.set_position(done as u64);
+                            b.set_message(format!("{failing} failing"));
+                        }) as Box<dyn Fn(usize, usize, usize) + Sync>
+                    }),
+                    stop: Some(stop),
+                },
+            );
+            if let Some(b) = bar {
+                b.finish_and_clear();
+            }
+            match shard {
+                Some(s) => sweep::finish_shard(&plan, &outcome.rows, s, &out),
+                None => sweep::finish(&plan, &outcome.rows, &out),
+            }
+            .map_err(sweep_failure)?;
+            if !quiet {
+                println!(
+                    "sweep {}: {} runs ({} points x {} seeds{}), {} failing, {} errors, {} jobs, {:.1} s wall; wrote {}",
+                    file.display(),
+                    outcome.rows.len(),
+                    plan.points(),
+                    plan.seeds.len(),
+                    shard.map_or(String::new(), |(i, n)| format!(", shard {i}/{n}")),
+                    outcome.failing,
+                    outcome.errors,
+                    jobs,
+                    started.elapsed().as_secs_f64(),
+                    out.display()
+                );
+            }
+            if outcome.interrupted {
+                eprintln!(
+                    "interrupted: {} of {todo} runs done; the outputs hold those",
+                    outcome.rows.len()
+                );
+                return Ok(INTERRUPTED as u8);
+            }
+            Ok(u8::from(outcome.failing > 0))
+        }
         Command::Validate { scenario } => {
             let source = Source::load(&scenario).map_err(invalid)?;
             let built = source
@@ -307,6 +476,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             trace,
             rrd,
             connect,
+            set,
             quiet,
         } => {
             if (rrd.is_some() || connect.is_some()) && !cfg!(feature = "rerun") {
@@ -317,7 +487,22 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 connect: connect.map(|u| (!u.is_empty()).then_some(u)),
             };
             let saved = recording.rrd.clone();
-            let source = Source::load(&scenario).map_err(invalid)?;
+            let source = if set.is_empty() {
+                Source::load(&scenario).map_err(invalid)?
+            } else {
+                let file = scenario.display().to_string();
+                let mut text = std::fs::read_to_string(&scenario).map_err(|e| Failure {
+                    code: 2,
+                    message: format!("{file}: cannot read the scenario file: {e}"),
+                })?;
+                for (path, value) in &set {
+                    text = crate::scenario::edit::set(&text, path, value).map_err(|e| Failure {
+                        code: 2,
+                        message: format!("{file}: --set {path}={value}: {e}"),
+                    })?;
+                }
+                Source::parse(&file, &text).map_err(invalid)?
+            };
             let built = source
                 .build(Overrides { seed, until }, registry)
                 .map_err(invalid)?;
@@ -411,6 +596,17 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             }
             Ok(0)
         }
+    }
+}
+
+/// A sweep's output error: the user's input (exit 2) or a write failure (exit 1).
+fn sweep_failure(e: sweep::SweepError) -> Failure {
+    match e {
+        sweep::SweepError::Input(message) => Failure { code: 2, message },
+        other => Failure {
+            code: 1,
+            message: other.to_string(),
+        },
     }
 }
 

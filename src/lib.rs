@@ -11,6 +11,7 @@ pub mod output;
 pub mod recording;
 pub mod runner;
 pub mod scenario;
+pub mod sweep;
 pub mod trace;
 
 /// Extending nekosim with your own protocols: docs/extending.md, whose snippets run as

@@ -76,3 +76,12 @@ impl Drop for AtomicFile {
         }
     }
 }
+
+/// Writes `content` to `target` whole, or leaves the target as it was.
+pub fn write_whole(target: &Path, content: &[u8]) -> io::Result<()> {
+    let mut f = AtomicFile::create(target)?;
+    if let Some(out) = f.out.as_mut() {
+        out.write_all(content)?;
+    }
+    f.commit()
+}

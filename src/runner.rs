@@ -63,6 +63,52 @@ pub struct Summary {
     pub latency: Option<Latency>,
     /// Whether the run was stopped before its end ([`RunOptions::stop`]).
     pub interrupted: bool,
+    /// Messages, deliveries, decisions and crashes counted over the run.
+    pub counts: Counts,
+}
+
+/// What the run's communication and faults amounted to, counted from its records.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Counts {
+    /// Message copies handed to the network (one per receiver), every layer.
+    pub sent: u64,
+    /// Copies the network lost (no arrival time at the send).
+    pub lost: u64,
+    /// Copies received.
+    pub received: u64,
+    /// Deliveries of broadcast layers (one per message per delivering robot).
+    pub delivered: u64,
+    /// Decisions of consensus layers (one per instance per deciding robot).
+    pub decisions: u64,
+    /// Robots that decided at least once.
+    pub decided: u64,
+    /// Suspicions raised by failure detectors.
+    pub suspicions: u64,
+    /// Robots that crashed.
+    pub crashes: u64,
+    deciders: std::collections::BTreeSet<u32>,
+}
+
+impl Counts {
+    fn observe(&mut self, r: &Record) {
+        match &r.obs {
+            Observation::Send { to, arrive, .. } => {
+                self.sent += to.len() as u64;
+                self.lost += arrive.iter().filter(|a| a.is_none()).count() as u64;
+            }
+            Observation::Receive { .. } => self.received += 1,
+            Observation::Deliver { .. } => self.delivered += 1,
+            Observation::Decide { robot, .. } => {
+                self.decisions += 1;
+                if self.deciders.insert(*robot) {
+                    self.decided += 1;
+                }
+            }
+            Observation::Suspect { .. } => self.suspicions += 1,
+            Observation::Crash { .. } => self.crashes += 1,
+            _ => {}
+        }
+    }
 }
 
 /// Delivery latency and throughput of broadcasts (Neko's latency test), in simulated time.
@@ -178,6 +224,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         trace,
         NekoLog::new(),
         LatencyMeter::default(),
+        Counts::default(),
     )));
     let codecs = built.codecs.clone();
     let recorder = recorder
@@ -191,8 +238,9 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
             // Messages render through the stack's codecs.
             let _codecs = install(&codecs);
             let mut o = outputs.borrow_mut();
-            let (log, trace, neko, meter) = &mut *o;
+            let (log, trace, neko, meter, counts) = &mut *o;
             meter.observe(r);
+            counts.observe(r);
             if let Some(rec) = recorder.borrow_mut().as_mut() {
                 rec.record(r);
             }
@@ -232,7 +280,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         .map_or(Ok(()), |r| r.finish(end));
     let out = out?;
     recorded?;
-    let (log, trace, _, meter) = Rc::try_unwrap(outputs)
+    let (log, trace, _, meter, counts) = Rc::try_unwrap(outputs)
         .map_err(|_| SimError::System("an output is still in use".into()))?
         .into_inner();
     for (file, path) in [(log, &opts.log), (trace, &opts.trace)] {
@@ -254,6 +302,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         wall_seconds,
         latency: meter.finish(),
         interrupted: out.stats.interrupted,
+        counts,
     })
 }
 

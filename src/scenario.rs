@@ -4,6 +4,7 @@
 //! Loading checks everything a run would trip on and reports the first problem as
 //! `FILE:LINE:COL: what is wrong and what is expected`.
 
+pub mod edit;
 mod locate;
 
 use std::collections::HashMap;
@@ -24,7 +25,7 @@ use nekosim_protocols::{FieldError, LayerSpec, Protocols, Spec, SpecError, Stack
 use rand::{Rng, SeedableRng};
 use serde::Deserialize;
 
-pub use locate::{locate, Pos};
+pub use locate::{locate, spans, Pos, Spans};
 
 /// A scenario file's content.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -843,7 +844,7 @@ impl Source {
 
 /// ron places errors about a name (an unknown field or variant) just after it; point at the
 /// name itself when it is right before the reported column.
-fn name_start(text: &str, line: usize, col: usize, message: &str) -> Pos {
+pub(crate) fn name_start(text: &str, line: usize, col: usize, message: &str) -> Pos {
     let at = Pos { line, col };
     let Some(src_line) = text.lines().nth(line.saturating_sub(1)) else {
         return at;
@@ -867,7 +868,7 @@ fn name_start(text: &str, line: usize, col: usize, message: &str) -> Pos {
 }
 
 /// ron's error, said as what is wrong and what is expected.
-fn describe_ron(e: &ron::Error) -> String {
+pub(crate) fn describe_ron(e: &ron::Error) -> String {
     let s = e.to_string();
     match e {
         ron::Error::NoSuchStructField { .. } | ron::Error::NoSuchEnumVariant { .. } => {

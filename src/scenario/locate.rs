@@ -22,7 +22,8 @@ enum Tok {
     Punct(char),
 }
 
-fn tokenize(src: &str) -> Vec<(Tok, Pos)> {
+/// Tokens with where they start and their char range.
+fn tokenize(src: &str) -> Vec<(Tok, Pos, std::ops::Range<usize>)> {
     let chars: Vec<char> = src.chars().collect();
     let mut out = Vec::new();
     let (mut i, mut line, mut col) = (0usize, 1usize, 1usize);
@@ -38,6 +39,7 @@ fn tokenize(src: &str) -> Vec<(Tok, Pos)> {
     while i < chars.len() {
         let c = chars[i];
         let pos = Pos { line, col };
+        let at = i;
         if c.is_whitespace() {
             advance(&mut i, &mut line, &mut col, &chars);
         } else if c == '/' && chars.get(i + 1) == Some(&'/') {
@@ -73,7 +75,7 @@ fn tokenize(src: &str) -> Vec<(Tok, Pos)> {
             if i < chars.len() {
                 advance(&mut i, &mut line, &mut col, &chars);
             }
-            out.push((Tok::Scalar, pos));
+            out.push((Tok::Scalar, pos, at..i));
         } else if c == 'r' && matches!(chars.get(i + 1), Some('"') | Some('#')) {
             // Raw string r#"..."#.
             advance(&mut i, &mut line, &mut col, &chars);
@@ -92,7 +94,7 @@ fn tokenize(src: &str) -> Vec<(Tok, Pos)> {
                 }
                 advance(&mut i, &mut line, &mut col, &chars);
             }
-            out.push((Tok::Scalar, pos));
+            out.push((Tok::Scalar, pos, at..i));
         } else if c.is_ascii_digit() || ((c == '-' || c == '+' || c == '.') && i + 1 < chars.len())
         {
             // Numbers, and signed special floats like -inf.
@@ -108,14 +110,14 @@ fn tokenize(src: &str) -> Vec<(Tok, Pos)> {
                 advance(&mut i, &mut line, &mut col, &chars);
             }
             let _ = start;
-            out.push((Tok::Scalar, pos));
+            out.push((Tok::Scalar, pos, at..i));
         } else if c.is_alphabetic() || c == '_' {
             let mut s = String::new();
             while i < chars.len() && (chars[i].is_alphanumeric() || chars[i] == '_') {
                 s.push(chars[i]);
                 advance(&mut i, &mut line, &mut col, &chars);
             }
-            out.push((Tok::Ident(s), pos));
+            out.push((Tok::Ident(s), pos, at..i));
         } else {
             if c == '#' && chars.get(i + 1) == Some(&'!') {
                 // An attribute like #![enable(...)]: skip to the end of the line.
@@ -124,8 +126,8 @@ fn tokenize(src: &str) -> Vec<(Tok, Pos)> {
                 }
                 continue;
             }
-            out.push((Tok::Punct(c), pos));
             advance(&mut i, &mut line, &mut col, &chars);
+            out.push((Tok::Punct(c), pos, at..i));
         }
     }
     out
@@ -140,13 +142,18 @@ fn join(path: &str, name: &str) -> String {
     }
 }
 
-struct Walker<'a> {
-    toks: &'a [(Tok, Pos)],
+struct Walker {
+    toks: Vec<(Tok, Pos, std::ops::Range<usize>)>,
+    chars: Vec<char>,
     i: usize,
     out: HashMap<String, Pos>,
+    /// Each value's char range, by path.
+    spans: HashMap<String, std::ops::Range<usize>>,
+    /// Map keys in the order written: (the map's path, the key, where it starts).
+    keys: Vec<(String, String, Pos)>,
 }
 
-impl Walker<'_> {
+impl Walker {
     fn peek(&self, k: usize) -> Option<&Tok> {
         self.toks.get(self.i + k).map(|t| &t.0)
     }
@@ -161,8 +168,17 @@ impl Walker<'_> {
     }
 
     fn value(&mut self, path: &str) -> Option<()> {
-        let (tok, pos) = self.toks.get(self.i)?.clone();
+        let (tok, pos, range) = self.toks.get(self.i)?.clone();
         self.out.entry(path.to_string()).or_insert(pos);
+        self.one(path, tok)?;
+        let end = self.toks[self.i - 1].2.end;
+        self.spans
+            .entry(path.to_string())
+            .or_insert(range.start..end);
+        Some(())
+    }
+
+    fn one(&mut self, path: &str, tok: Tok) -> Option<()> {
         match tok {
             Tok::Ident(_) => {
                 self.i += 1;
@@ -189,8 +205,16 @@ impl Walker<'_> {
                 while !self.eat('}') {
                     let key = match self.peek(0)? {
                         Tok::Ident(s) => s.clone(),
+                        // A string key, unquoted (no escapes: a path or a name).
+                        Tok::Scalar => {
+                            let r = self.toks[self.i].2.clone();
+                            let text: String = self.chars[r].iter().collect();
+                            text.trim_matches('"').to_string()
+                        }
                         _ => String::new(),
                     };
+                    let at = self.toks[self.i].1;
+                    self.keys.push((path.to_string(), key.clone(), at));
                     self.value(&format!("{path}{{}}"))?;
                     if !self.eat(':') {
                         return None;
@@ -229,14 +253,47 @@ impl Walker<'_> {
 /// Maps each value's path to where it starts. The root is `""`; fields append `.name`,
 /// positional elements `[k]` (so `Script([..])`'s steps are `algorithm[0][k]`).
 pub fn locate(src: &str) -> HashMap<String, Pos> {
-    let toks = tokenize(src);
+    walk(src).out
+}
+
+fn walk(src: &str) -> Walker {
     let mut w = Walker {
-        toks: &toks,
+        toks: tokenize(src),
+        chars: src.chars().collect(),
         i: 0,
         out: HashMap::new(),
+        spans: HashMap::new(),
+        keys: Vec::new(),
     };
     let _ = w.value("");
-    w.out
+    w
+}
+
+/// A RON document's values by path: where each starts and its byte range, and the keys of
+/// its maps in the order written.
+#[derive(Clone, Debug, Default)]
+pub struct Spans {
+    pub starts: HashMap<String, Pos>,
+    pub ranges: HashMap<String, std::ops::Range<usize>>,
+    /// `(map path, key, where the key starts)`, in the document's order.
+    pub keys: Vec<(String, String, Pos)>,
+}
+
+/// [`locate`] with byte ranges and map keys.
+pub fn spans(src: &str) -> Spans {
+    let w = walk(src);
+    // Char index -> byte offset.
+    let mut bytes: Vec<usize> = src.char_indices().map(|(b, _)| b).collect();
+    bytes.push(src.len());
+    Spans {
+        starts: w.out,
+        ranges: w
+            .spans
+            .into_iter()
+            .map(|(k, r)| (k, bytes[r.start]..bytes[r.end]))
+            .collect(),
+        keys: w.keys,
+    }
 }
 
 #[cfg(test)]
@@ -254,5 +311,26 @@ mod tests {
             Pos { line: 4, col: 77 }
         );
         assert_eq!(m["name"], Pos { line: 2, col: 9 });
+        let s = spans(src);
+        assert_eq!(&src[s.ranges["robots[0].at"].clone()], "(1.0, -2.5)");
+        assert_eq!(
+            &src[s.ranges["robots[0].algorithm"].clone()],
+            "Script([Wait(2.0), Turn(angle: -90.0)])"
+        );
+        assert_eq!(&src[s.ranges["name"].clone()], "\"a(b)\"");
+    }
+
+    #[test]
+    fn string_keys_in_order() {
+        let src = "S(axes: {\"b.c[0]\": [1, 2], \"a\": [Some(3)]})";
+        let s = spans(src);
+        let keys: Vec<(&str, &str, usize)> = s
+            .keys
+            .iter()
+            .map(|(m, k, p)| (m.as_str(), k.as_str(), p.col))
+            .collect();
+        assert_eq!(keys, [("axes", "b.c[0]", 10), ("axes", "a", 29)]);
+        assert_eq!(&src[s.ranges["axes.b.c[0][1]"].clone()], "2");
+        assert_eq!(&src[s.ranges["axes.a[0]"].clone()], "Some(3)");
     }
 }
