@@ -131,6 +131,7 @@ struct Raw {
 }
 
 #[derive(Debug, Deserialize)]
+#[serde(untagged)]
 enum Seeds {
     Range { start: u64, count: u64 },
     List(Vec<u64>),
@@ -146,6 +147,14 @@ fn fnv1a(parts: &[&[u8]]) -> u64 {
         }
     }
     h
+}
+
+/// The line and column of byte `at` of `text`.
+fn pos_of(text: &str, at: usize) -> Pos {
+    let before = &text[..at];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+    Pos { line, col }
 }
 
 /// `a/b/../c` as `a/c`, without touching the file system.
@@ -205,7 +214,7 @@ impl Sweep {
                 ),
             )
         })?;
-        let scenario_file = scenario_path.display().to_string();
+        let scenario_file = normalize(&scenario_path).display().to_string();
         let base = Source::parse(&scenario_file, &scenario_text)?;
         base.build(Overrides::default(), registry)?;
 
@@ -223,6 +232,7 @@ impl Sweep {
         }
 
         // Axes, in the order written; each value set alone must give a scenario that builds.
+        let written = spans(&scenario_text).ranges;
         let mut axes = Vec::new();
         for (map, key, key_pos) in &sp.keys {
             if map != "axes" {
@@ -247,13 +257,32 @@ impl Sweep {
                     })?;
                 let edited = edit::set(&scenario_text, key, &value)
                     .map_err(|e| at(Some(*key_pos), format!("axis `{key}`: {e}")))?;
-                let wrong = |e: ScenarioError| {
-                    at(pos(&vp), format!("axis `{key}` = {value}: {}", e.message))
+                // A field the scenario leaves out was added: if it does not parse, the path
+                // is what is wrong, else the value.
+                let place = if written.contains_key(key) {
+                    pos(&vp)
+                } else {
+                    Some(*key_pos)
                 };
+                let wrong =
+                    |e: ScenarioError| at(place, format!("axis `{key}` = {value}: {}", e.message));
                 let source = Source::parse(&scenario_file, &edited).map_err(wrong)?;
-                source
-                    .build(Overrides::default(), registry)
-                    .map_err(wrong)?;
+                // A value wrong on its own (a negative radius) is refused now; one that only
+                // fails beside the scenario's other values (too many robots for its world)
+                // may be right beside another axis' values: its runs say so if not.
+                if let Err(e) = source.build(Overrides::default(), registry) {
+                    let span = spans(&edited).ranges.get(key.as_str()).cloned();
+                    let inside = match (e.pos, span) {
+                        (Some(p), Some(r)) => {
+                            let (a, b) = (pos_of(&edited, r.start), pos_of(&edited, r.end));
+                            (a.line, a.col) <= (p.line, p.col) && (p.line, p.col) < (b.line, b.col)
+                        }
+                        _ => false,
+                    };
+                    if inside {
+                        return Err(wrong(e));
+                    }
+                }
                 values.push(value);
             }
             axes.push(Axis {

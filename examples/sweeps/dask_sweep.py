@@ -108,10 +108,9 @@ def sweep(sweep_path: str, out: str | os.PathLike, shards: int, client,
     exited with neither 0 nor 1, KilledWorker when its workers kept dying.
     """
     if __name__ != "__main__":
-        # Imported (by a test or your own script): ship this module's code to the
-        # workers with the task, since they cannot import it.
-        import cloudpickle
-        cloudpickle.register_pickle_by_value(sys.modules[__name__])
+        # Imported (by a test or your own script), run_shard is sent by reference
+        # to this module: let the workers, present and future, import it too.
+        client.upload_file(__file__)
     nekosim = _nekosim_path(nekosim)
     out = Path(out)
     futures = [

@@ -13,6 +13,7 @@ mod rerun_reader;
 mod scale;
 mod sensors;
 mod smoke;
+mod sweep;
 mod user_network;
 mod user_protocol;
 mod user_sensor;
