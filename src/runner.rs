@@ -80,13 +80,15 @@ pub struct Counts {
     pub delivered: u64,
     /// Decisions of consensus layers (one per instance per deciding robot).
     pub decisions: u64,
-    /// Robots that decided at least once.
+    /// Robots that decided at least once and had not crashed by the end (so that `decided ==
+    /// live_robots` says every correct robot decided).
     pub decided: u64,
     /// Suspicions raised by failure detectors.
     pub suspicions: u64,
     /// Robots that crashed.
     pub crashes: u64,
     deciders: std::collections::BTreeSet<u32>,
+    crashed: std::collections::BTreeSet<u32>,
 }
 
 impl Counts {
@@ -100,14 +102,21 @@ impl Counts {
             Observation::Deliver { .. } => self.delivered += 1,
             Observation::Decide { robot, .. } => {
                 self.decisions += 1;
-                if self.deciders.insert(*robot) {
-                    self.decided += 1;
-                }
+                self.deciders.insert(*robot);
             }
             Observation::Suspect { .. } => self.suspicions += 1,
-            Observation::Crash { .. } => self.crashes += 1,
+            Observation::Crash { robot, .. } => {
+                self.crashes += 1;
+                self.crashed.insert(*robot);
+            }
             _ => {}
         }
+    }
+
+    /// The counts once the run is over.
+    fn settle(mut self) -> Self {
+        self.decided = self.deciders.difference(&self.crashed).count() as u64;
+        self
     }
 }
 
@@ -302,7 +311,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         wall_seconds,
         latency: meter.finish(),
         interrupted: out.stats.interrupted,
-        counts,
+        counts: counts.settle(),
     })
 }
 

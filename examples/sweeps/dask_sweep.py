@@ -16,9 +16,10 @@ Usage (Python 3.11+, `pip install -r tests/sweep/requirements.txt`):
         [--nekosim PATH] [--retries R]
 
 Without --scheduler it starts a LocalCluster of W worker processes (default 2),
-one thread each. The exit code is merge's: 0 all runs passed, 1 some run failed
-a check or errored (the results are still complete), 2 bad input (nekosim's
-message is printed); 3 if a shard could not be run for another reason.
+one thread each. It prints merge's one-line summary and exits with merge's
+code: 0 all runs passed, 1 some run failed a check or errored (the results are
+still complete), 2 bad input (nekosim's message is printed); 3 if a shard could
+not be run for another reason.
 
 Workers run nekosim with the client's working directory as theirs and with the
 sweep path exactly as given (it is recorded in the outputs), so on a real
@@ -100,17 +101,20 @@ def _nekosim_path(nekosim: str) -> str:
 
 
 def sweep(sweep_path: str, out: str | os.PathLike, shards: int, client,
-          nekosim: str = "nekosim", jobs: int | None = None, retries: int = 2) -> int:
+          nekosim: str = "nekosim", jobs: int | None = None, retries: int = 2,
+          quiet: bool = False) -> int:
     """Run SWEEP in SHARDS Dask tasks on CLIENT and merge into OUT.
 
-    Returns merge's exit code (0 all passed, 1 some run failed, 2 refused).
+    Returns merge's exit code (0 all passed, 1 some run failed, 2 refused);
+    merge prints its one-line summary unless QUIET.
     Raises a shard's error if it could not be run: ShardFailed when nekosim
     exited with neither 0 nor 1, KilledWorker when its workers kept dying.
     """
     if __name__ != "__main__":
         # Imported (by a test or your own script), run_shard is sent by reference
-        # to this module: let the workers, present and future, import it too.
-        client.upload_file(__file__)
+        # to this module: put it on the workers' path, present and future ones.
+        from distributed.diagnostics.plugin import UploadFile
+        client.register_plugin(UploadFile(__file__, load=False), name=f"upload-{__name__}")
     nekosim = _nekosim_path(nekosim)
     out = Path(out)
     futures = [
@@ -130,7 +134,8 @@ def sweep(sweep_path: str, out: str | os.PathLike, shards: int, client,
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_bytes(data)
     merge = [nekosim, "sweep", "merge", *map(str, shard_dirs), "--out", str(out)]
-    return subprocess.run(merge, stdin=subprocess.DEVNULL).returncode
+    return subprocess.run(merge, stdin=subprocess.DEVNULL,
+                          stdout=subprocess.DEVNULL if quiet else None).returncode
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -173,13 +178,9 @@ def main(argv: list[str] | None = None) -> int:
         client.close()
         if cluster is not None:
             cluster.close()
-    if code == 0:
-        print(f"dask_sweep: {args.shards} shards merged into {args.out}: all runs passed")
-    elif code == 1:
-        print(f"dask_sweep: {args.shards} shards merged into {args.out}: "
-              f"some runs failed (see {Path(args.out) / 'failures.txt'})")
-    else:
-        print(f"dask_sweep: merge into {args.out} failed with exit code {code}", file=sys.stderr)
+    # On 0 and 1 merge has printed the summary (runs, failing, errors, where).
+    if code not in (0, 1):
+        print(f"dask_sweep: merge into {args.out} exited with {code}", file=sys.stderr)
     return code
 
 

@@ -60,7 +60,11 @@ pub const METRICS: &[Metric] = &[
         "decisions",
         "decisions of consensus layers (one per instance per deciding robot)",
     ),
-    m("decided", "robots", "robots that decided at least once"),
+    m(
+        "decided",
+        "robots",
+        "robots that decided at least once and did not crash",
+    ),
     m(
         "suspicions",
         "suspicions",

@@ -120,6 +120,10 @@ def main() -> int:
     timings = {}
     with tempfile.TemporaryDirectory(prefix="test_dask-") as tmp:
         a, b, c = Path(tmp, "A"), Path(tmp, "B"), Path(tmp, "C")
+        # The workers (started later) make their shard directories in here, so
+        # the one left by the killed worker goes too.
+        Path(tmp, "workers").mkdir()
+        os.environ["TMPDIR"] = str(Path(tmp, "workers"))
 
         start = time.monotonic()
         ref = subprocess.run([nekosim, "sweep", sweep_path, "--out", str(a), "--jobs", "1"],
@@ -135,7 +139,8 @@ def main() -> int:
         cluster, client = new_cluster()
         timings["cluster start"] = time.monotonic() - start
         try:
-            code = launcher.sweep(sweep_path, b, SHARDS, client, nekosim=nekosim, jobs=1)
+            code = launcher.sweep(sweep_path, b, SHARDS, client, nekosim=nekosim, jobs=1,
+                                  quiet=True)
         finally:
             client.close()
             cluster.close()
@@ -153,7 +158,8 @@ def main() -> int:
             killer = threading.Thread(target=kill_worker_running_a_shard,
                                       args=(pids, stop, killed), daemon=True)
             killer.start()
-            code = launcher.sweep(sweep_path, c, SHARDS, client, nekosim=nekosim, jobs=1)
+            code = launcher.sweep(sweep_path, c, SHARDS, client, nekosim=nekosim, jobs=1,
+                                  quiet=True)
         finally:
             stop.set()
             client.close()
