@@ -418,7 +418,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                         Box::new(move |done: usize, _: usize, failing: usize| {
                             b.set_position(done as u64);
                             b.set_message(format!("{failing} failing"));
-                        }) as Box<dyn Fn(usize, usize, usize) + Sync>
+                        }) as sweep::Progress
                     }),
                     stop: Some(stop),
                 },

@@ -391,6 +391,9 @@ impl Row {
     }
 }
 
+/// A sweep's progress report: (runs done, runs to do, failing so far).
+pub type Progress = Box<dyn Fn(usize, usize, usize) + Sync>;
+
 /// How a sweep runs.
 #[derive(Default)]
 pub struct SweepOptions {
@@ -398,8 +401,8 @@ pub struct SweepOptions {
     pub jobs: usize,
     /// Run only the runs `I mod N` (`Some((I, N))`).
     pub shard: Option<(usize, usize)>,
-    /// Called after each run with (runs done, runs to do, failing so far).
-    pub progress: Option<Box<dyn Fn(usize, usize, usize) + Sync>>,
+    /// Called after each run.
+    pub progress: Option<Progress>,
     /// Set (e.g. on Ctrl-C) to stop: runs under way end, none start.
     pub stop: Option<Arc<AtomicBool>>,
 }
@@ -833,12 +836,28 @@ pub struct Manifest {
     pub rows: usize,
 }
 
-/// What identifies this binary: its version and a hash of its executable.
+/// What identifies this binary: its version, and its executable's size with a hash of 64
+/// chunks of 64 KiB spread over it (a different build differs there; reading the whole
+/// executable, hundreds of MB in a debug build, would cost each shard seconds).
 pub fn binary() -> String {
+    fn sample(path: &Path) -> std::io::Result<String> {
+        use std::io::{Read, Seek, SeekFrom};
+        let mut f = std::fs::File::open(path)?;
+        let len = f.metadata()?.len();
+        const CHUNK: u64 = 64 * 1024;
+        let mut buf = vec![0u8; CHUNK as usize];
+        let mut h = fnv1a(&[&len.to_le_bytes()]);
+        for k in 0..64u64 {
+            let at = (len.saturating_sub(CHUNK)) * k / 63;
+            f.seek(SeekFrom::Start(at))?;
+            let n = f.read(&mut buf)?;
+            h ^= fnv1a(&[&buf[..n]]).rotate_left(k as u32);
+        }
+        Ok(format!("{len} bytes, {h:016x}"))
+    }
     let exe = std::env::current_exe()
-        .and_then(std::fs::read)
-        .map(|b| format!("{:016x}", fnv1a(&[&b])))
-        .unwrap_or_else(|_| "unknown".into());
+        .and_then(|p| sample(&p))
+        .unwrap_or_else(|_| "unknown executable".into());
     format!("nekosim {} ({exe})", env!("CARGO_PKG_VERSION"))
 }
 

@@ -3,13 +3,15 @@
 
 use plotters::prelude::*;
 
+/// A point of a line: the index of the first axis' value, the mean, the 95 % interval.
+pub type Point = (usize, f64, Option<(f64, f64)>);
+
 /// One line of a plot: a combination of the other axes' values and its points.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Line {
     /// `path=value, ...` of the other axes; empty with a single axis.
     pub label: String,
-    /// `(index of the first axis' value, mean, 95 % interval)`.
-    pub points: Vec<(usize, f64, Option<(f64, f64)>)>,
+    pub points: Vec<Point>,
 }
 
 /// The SVG text of the plot of `metric` (in `unit`) against the axis `x_name` whose values
@@ -36,7 +38,7 @@ pub fn svg(
         })
     });
     let (mut y0, mut y1) = bounds(ys.filter(|v| v.is_finite()));
-    if !(y1 > y0) {
+    if y1.partial_cmp(&y0) != Some(std::cmp::Ordering::Greater) {
         (y0, y1) = (y0 - 1.0, y1 + 1.0);
     }
     let pad = (y1 - y0) * 0.08;

@@ -6,6 +6,7 @@ mod cli;
 mod collisions;
 mod common;
 mod communication;
+mod dask_sweep;
 mod determinism;
 mod recording;
 #[cfg(feature = "rerun")]
