@@ -1023,11 +1023,11 @@ mod tests {
         assert_eq!(p.run_of(3), (1, 6));
         assert_eq!(
             p.replay(3),
-            "nekosim run sc.ron --seed 6 --set robots[0].count=10 --set network=Lossy --rrd run-3.rrd"
+            "nekosim run sc.ron --seed 6 --set 'robots[0].count=10' --set network=Lossy --rrd run-3.rrd"
         );
         assert_eq!(
             p.replay(0),
-            "nekosim run sc.ron --seed 5 --set robots[0].count=10 --set 'network=Reliable(delay: 1.0)' --rrd run-0.rrd"
+            "nekosim run sc.ron --seed 5 --set 'robots[0].count=10' --set 'network=Reliable(delay: 1.0)' --rrd run-0.rrd"
         );
     }
 

@@ -329,7 +329,7 @@ mod tests {
             .iter()
             .map(|(m, k, p)| (m.as_str(), k.as_str(), p.col))
             .collect();
-        assert_eq!(keys, [("axes", "b.c[0]", 10), ("axes", "a", 29)]);
+        assert_eq!(keys, [("axes", "b.c[0]", 10), ("axes", "a", 28)]);
         assert_eq!(&src[s.ranges["axes.b.c[0][1]"].clone()], "2");
         assert_eq!(&src[s.ranges["axes.a[0]"].clone()], "Some(3)");
     }
