@@ -97,6 +97,33 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Run one node of a cluster file: its stack over TCP to its peers (docs/real-network.md).
+    Node {
+        /// The cluster file (RON).
+        cluster: PathBuf,
+        /// This node's id.
+        #[arg(long)]
+        id: u32,
+        /// Write the Neko-style text log here.
+        #[arg(long)]
+        log: Option<PathBuf>,
+        /// Write the JSON Lines trace here.
+        #[arg(long)]
+        trace: Option<PathBuf>,
+        /// The cluster's start in milliseconds since the Unix epoch (trace times count from
+        /// it; `nekosim cluster` sets it) [default: this node's start].
+        #[arg(long, hide = true)]
+        epoch: Option<u64>,
+    },
+    /// Start every node of a cluster file on this machine, wait, and collect their logs,
+    /// traces and a summary in DIR.
+    Cluster {
+        /// The cluster file (RON).
+        cluster: PathBuf,
+        /// Where pI.log, pI.jsonl and summary.txt go.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Check a scenario file without running it.
     Validate {
         /// The scenario file (RON).
@@ -455,6 +482,67 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             }
             Ok(u8::from(outcome.failing > 0))
         }
+        Command::Validate { scenario } if is_cluster_file(&scenario) => {
+            let c = crate::cluster::Cluster::load(&scenario, registry).map_err(invalid)?;
+            println!(
+                "{}: ok: cluster {:?}, {} nodes, stack {}",
+                scenario.display(),
+                c.name,
+                c.nodes.len(),
+                c.wiring.ids.join(" < ")
+            );
+            Ok(0)
+        }
+        Command::Node {
+            cluster,
+            id,
+            log,
+            trace,
+            epoch,
+        } => {
+            let c = crate::cluster::Cluster::load(&cluster, registry).map_err(invalid)?;
+            if id as usize >= c.nodes.len() {
+                return Err(Failure {
+                    code: 2,
+                    message: format!(
+                        "{}: no node {id}; the cluster has ids 0 to {}",
+                        cluster.display(),
+                        c.nodes.len() - 1
+                    ),
+                });
+            }
+            let s = crate::node::run(
+                &c,
+                id,
+                &crate::node::NodeOptions {
+                    log,
+                    trace,
+                    epoch_ms: epoch,
+                },
+            )
+            .map_err(|e| match e {
+                crate::node::NodeError::Listen { .. } => invalid(e),
+                other => Failure {
+                    code: 1,
+                    message: other.to_string(),
+                },
+            })?;
+            println!(
+                "node {id}: {} deliveries, {} decisions, {} copies sent{}",
+                s.deliveries,
+                s.decisions,
+                s.sent,
+                if s.crashed { ", crashed" } else { "" }
+            );
+            Ok(0)
+        }
+        Command::Cluster { cluster, out } => {
+            let c = crate::cluster::Cluster::load(&cluster, registry).map_err(invalid)?;
+            crate::cluster::run_local(&c, &cluster, &out).map_err(|e| Failure {
+                code: 1,
+                message: e,
+            })
+        }
         Command::Validate { scenario } => {
             let source = Source::load(&scenario).map_err(invalid)?;
             let built = source
@@ -597,6 +685,11 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             Ok(0)
         }
     }
+}
+
+/// Whether `path` holds a cluster file rather than a scenario.
+fn is_cluster_file(path: &std::path::Path) -> bool {
+    std::fs::read_to_string(path).is_ok_and(|t| crate::cluster::is_cluster(&t))
 }
 
 /// A sweep's output error: the user's input (exit 2) or a write failure (exit 1).

@@ -6,7 +6,9 @@ pub use nekosim_actors::*;
 
 pub mod check;
 pub mod cli;
+pub mod cluster;
 pub mod log;
+pub mod node;
 pub mod output;
 pub mod recording;
 pub mod runner;
