@@ -66,6 +66,13 @@ pub enum App {
 pub enum NodeFault {
     /// The node's process exits `at` seconds after the start.
     Crash { node: u32, at: f64 },
+    /// The link between two nodes is cut from `from` to `to` seconds after the start: every
+    /// frame either sends on it is lost (both directions), then it heals.
+    Cut {
+        between: (u32, u32),
+        from: f64,
+        to: f64,
+    },
 }
 
 /// A cluster file read and checked.
@@ -221,15 +228,44 @@ impl Cluster {
             )
         })?;
         for (k, f) in raw.faults.iter().enumerate() {
-            let NodeFault::Crash { node, at: t } = f;
-            if *node as usize >= nodes.len() {
-                return Err(at(&format!("faults[{k}].node"), format!("no node {node}")));
-            }
-            if !(t.is_finite() && *t >= 0.0) {
-                return Err(at(
-                    &format!("faults[{k}].at"),
-                    format!("crash time is {t}; expected a number >= 0"),
-                ));
+            match f {
+                NodeFault::Crash { node, at: t } => {
+                    if *node as usize >= nodes.len() {
+                        return Err(at(&format!("faults[{k}].node"), format!("no node {node}")));
+                    }
+                    if !(t.is_finite() && *t >= 0.0) {
+                        return Err(at(
+                            &format!("faults[{k}].at"),
+                            format!("crash time is {t}; expected a number >= 0"),
+                        ));
+                    }
+                }
+                NodeFault::Cut {
+                    between: (a, b),
+                    from,
+                    to,
+                } => {
+                    for x in [a, b] {
+                        if *x as usize >= nodes.len() {
+                            return Err(at(
+                                &format!("faults[{k}].between"),
+                                format!("no node {x}"),
+                            ));
+                        }
+                    }
+                    if a == b {
+                        return Err(at(
+                            &format!("faults[{k}].between"),
+                            "a link joins two different nodes".into(),
+                        ));
+                    }
+                    if !(from.is_finite() && to.is_finite() && 0.0 <= *from && from < to) {
+                        return Err(at(
+                            &format!("faults[{k}].from"),
+                            format!("the cut lasts from {from} to {to}; expected 0 <= from < to"),
+                        ));
+                    }
+                }
             }
         }
         if !(raw.duration.is_finite() && raw.duration > 0.0) {
@@ -259,10 +295,26 @@ impl Cluster {
     pub fn crash_of(&self, id: u32) -> Option<f64> {
         self.faults
             .iter()
-            .map(|NodeFault::Crash { node, at }| (*node, *at))
-            .filter(|(n, _)| *n == id)
-            .map(|(_, at)| at)
+            .filter_map(|f| match f {
+                NodeFault::Crash { node, at } if *node == id => Some(*at),
+                _ => None,
+            })
             .reduce(f64::min)
+    }
+
+    /// The windows `[from, to)` [s since the start] when the link between `a` and `b` is cut.
+    pub fn cuts(&self, a: u32, b: u32) -> Vec<(f64, f64)> {
+        self.faults
+            .iter()
+            .filter_map(|f| match f {
+                NodeFault::Cut {
+                    between: (x, y),
+                    from,
+                    to,
+                } if (*x, *y) == (a, b) || (*x, *y) == (b, a) => Some((*from, *to)),
+                _ => None,
+            })
+            .collect()
     }
 }
 
@@ -305,6 +357,9 @@ pub fn run_local(cluster: &Cluster, file: &Path, out: &Path) -> Result<u8, Strin
             .map_err(|e| format!("cannot start node {id}: {e}"))?;
         children.push((id, child));
     }
+    // Ctrl-C reaches the children too (one process group): they stop and write their files;
+    // this process waits for them rather than dying first.
+    let _ = ctrlc::set_handler(|| {});
     let mut failed = Vec::new();
     for (id, mut child) in children {
         match child.wait() {

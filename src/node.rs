@@ -42,40 +42,46 @@ type HmacSha256 = Hmac<Sha256>;
 pub const VERSION: u16 = 1;
 /// The largest frame accepted [bytes].
 pub const MAX_FRAME: u32 = 1 << 20;
-const MAGIC: [u8; 4] = *b"NEKO";
+/// The first bytes of a `Hello`.
+pub const MAGIC: [u8; 4] = *b"NEKO";
 /// How long a handshake may take.
 const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(5);
 /// How long a node goes on after its application is done, so its peers get its last
 /// messages (acknowledgements they may still wait for).
 const LINGER: Duration = Duration::from_millis(1500);
 
+/// The dialer's first message.
 #[derive(Debug, Serialize, Deserialize)]
-struct Hello {
-    magic: [u8; 4],
-    version: u16,
-    cluster: String,
-    from: u32,
-    to: u32,
-    nonce: [u8; 16],
+pub struct Hello {
+    pub magic: [u8; 4],
+    pub version: u16,
+    pub cluster: String,
+    pub from: u32,
+    pub to: u32,
+    pub nonce: [u8; 16],
 }
 
+/// The listener's answer: its nonce and its proof of the key.
 #[derive(Debug, Serialize, Deserialize)]
-struct Challenge {
-    nonce: [u8; 16],
-    mac: [u8; 32],
+pub struct Challenge {
+    pub nonce: [u8; 16],
+    pub mac: [u8; 32],
 }
 
+/// The dialer's proof of the key.
 #[derive(Debug, Serialize, Deserialize)]
-struct Auth {
-    mac: [u8; 32],
+pub struct Auth {
+    pub mac: [u8; 32],
 }
 
+/// A message on an authenticated link: `tag` is the HMAC of `(seq, layer, bytes)` under the
+/// session key.
 #[derive(Debug, Serialize, Deserialize)]
-struct Frame {
-    seq: u64,
-    layer: u16,
-    bytes: Vec<u8>,
-    tag: [u8; 32],
+pub struct Frame {
+    pub seq: u64,
+    pub layer: u16,
+    pub bytes: Vec<u8>,
+    pub tag: [u8; 32],
 }
 
 /// HMAC-SHA256 of `parts`, each prefixed by its length.
@@ -88,7 +94,9 @@ fn mac(key: &[u8], parts: &[&[u8]]) -> HmacSha256 {
     m
 }
 
-fn tag(key: &[u8], parts: &[&[u8]]) -> [u8; 32] {
+/// HMAC-SHA256 of `parts` under `key`, each part prefixed by its length: how handshakes and
+/// frames are signed.
+pub fn tag(key: &[u8], parts: &[&[u8]]) -> [u8; 32] {
     mac(key, parts).finalize().into_bytes().into()
 }
 
@@ -242,6 +250,18 @@ async fn accept_handshake(
     Ok((hello.from, tag(key, &t.parts(b"nekosim session")).to_vec()))
 }
 
+/// Whether now falls in one of `cuts` (seconds since `start`).
+fn in_cut(cuts: &[(f64, f64)], start: SystemTime) -> bool {
+    if cuts.is_empty() {
+        return false;
+    }
+    let t = SystemTime::now()
+        .duration_since(start)
+        .unwrap_or_default()
+        .as_secs_f64();
+    cuts.iter().any(|(a, b)| *a <= t && t < *b)
+}
+
 /// What the node's loop reacts to.
 #[derive(Debug)]
 enum Event {
@@ -385,13 +405,17 @@ async fn serve(
     // Incoming links: authenticated frames become events.
     {
         let (tx, key, name) = (tx.clone(), key.clone(), name.clone());
+        let all_cuts: Vec<Vec<(f64, f64)>> = (0..n).map(|p| cluster.cuts(me, p)).collect();
+        let clock = out.start;
         actix::spawn(async move {
             loop {
                 let Ok((mut s, from_addr)) = listener.accept().await else {
                     continue;
                 };
                 let (tx, key, name) = (tx.clone(), key.clone(), name.clone());
+                let all_cuts = all_cuts.clone();
                 actix::spawn(async move {
+                    let cuts_of = |p: u32| all_cuts.get(p as usize).cloned().unwrap_or_default();
                     let r = async {
                         let (peer, session) = tokio::time::timeout(
                             HANDSHAKE_TIMEOUT,
@@ -417,6 +441,9 @@ async fn serve(
                                 )));
                             }
                             next += 1;
+                            if in_cut(&cuts_of(peer), clock) {
+                                continue;
+                            }
                             if tx
                                 .send(Event::Frame {
                                     from: peer,
@@ -451,6 +478,8 @@ async fn serve(
         let (ltx, mut lrx) = mpsc::unbounded_channel::<(u16, Vec<u8>)>();
         links.insert(peer, ltx);
         let (key, name) = (key.clone(), name.clone());
+        let cuts = cluster.cuts(me, peer);
+        let clock = out.start;
         writers.push(actix::spawn(async move {
             let mut pending: Option<(u16, Vec<u8>)> = None;
             let mut backoff = Duration::from_millis(20);
@@ -492,6 +521,10 @@ async fn serve(
                         let _ = s.shutdown().await;
                         return;
                     };
+                    if in_cut(&cuts, clock) {
+                        // The link is cut: the frame is lost.
+                        continue;
+                    }
                     let frame = Frame {
                         seq,
                         layer,
@@ -535,6 +568,19 @@ async fn serve(
         after(at(f64::from(k) * period), Event::App(k), &tx);
     }
     after(at(cluster.duration), Event::Stop, &tx);
+    {
+        // Ctrl-C (or SIGTERM): stop, and write the files of the run so far.
+        let tx = tx.clone();
+        actix::spawn(async move {
+            let mut term =
+                tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()).ok();
+            tokio::select! {
+                _ = tokio::signal::ctrl_c() => {}
+                _ = async { match term.as_mut() { Some(t) => { t.recv().await; } None => std::future::pending::<()>().await } } => {}
+            }
+            let _ = tx.send(Event::Stop);
+        });
+    }
     if let Some(t) = cluster.crash_of(me) {
         after(at(t), Event::Crash, &tx);
     }
@@ -554,7 +600,15 @@ async fn serve(
     let expected = u64::from(n) * u64::from(count);
     let mut done = false;
     let name_of = |ix: u16| nekosim_actors::layer::layer_name(wiring, ix);
-    let mut todo = stack.start_all(wiring, &ctx);
+    // Every layer starts, bottom-up in stack order, as `Stack::start_all` does.
+    let mut todo = Vec::new();
+    for l in 0..stack.layers.len() as u16 {
+        let hop = Routed::Layer {
+            to: l,
+            input: Input::Start,
+        };
+        todo.extend(local(&mut stack, wiring, &ctx, vec![hop], out));
+    }
     loop {
         // Route what the stack produced.
         for r in std::mem::take(&mut todo) {
@@ -674,7 +728,7 @@ async fn serve(
                 };
                 // A message that does not decode as its layer's changes nothing.
                 match stack.step(wiring, &ctx, layer, input) {
-                    Ok(routed) => todo = local(&mut stack, wiring, &ctx, routed),
+                    Ok(routed) => todo = local(&mut stack, wiring, &ctx, routed, out),
                     Err(e) => eprintln!(
                         "node {me}: a message from node {from} that does not decode ({e}); dropped"
                     ),
@@ -683,7 +737,11 @@ async fn serve(
             Event::Timer { layer, timer, gen } => {
                 if timers.get(&(layer, timer.clone())) == Some(&gen) {
                     timers.remove(&(layer, timer.clone()));
-                    todo = stack.step_local(wiring, &ctx, layer, Input::Timer(timer));
+                    let hop = Routed::Layer {
+                        to: layer,
+                        input: Input::Timer(timer),
+                    };
+                    todo = local(&mut stack, wiring, &ctx, vec![hop], out);
                 }
             }
             Event::App(k) => {
@@ -715,7 +773,11 @@ async fn serve(
                     op: op.into(),
                     msg,
                 });
-                todo = stack.step_local(wiring, &ctx, layer, Input::Request { from: APP, req });
+                let hop = Routed::Layer {
+                    to: layer,
+                    input: Input::Request { from: APP, req },
+                };
+                todo = local(&mut stack, wiring, &ctx, vec![hop], out);
             }
             Event::Stop => break,
             Event::Crash => {
@@ -743,28 +805,71 @@ async fn serve(
 }
 
 /// Runs the hops inside the process that `routed` starts, in the FIFO order of
-/// `Stack::step_local`; returns what leaves the process.
+/// `Stack::step_local`; returns what leaves the process. Failure-detector indications that
+/// only other layers hear (a suspicion for the consensus layer) are recorded too, so the
+/// trace shows the detector at work.
 fn local(
     stack: &mut nekosim_protocols::Stack,
     wiring: &nekosim_protocols::Wiring,
     ctx: &Ctx,
     routed: Vec<Routed>,
+    out: &mut Out,
 ) -> Vec<Routed> {
     let mut queue = std::collections::VecDeque::new();
-    let mut out = Vec::new();
-    for r in routed {
-        match r {
-            Routed::Layer { to, input } if to != NET => queue.push_back((to, input)),
-            other => out.push(other),
+    let mut leaving = Vec::new();
+    let mut route = |r: Routed,
+                     queue: &mut std::collections::VecDeque<(u16, Input)>,
+                     heard: &mut Vec<(u16, Indication)>| match r {
+        Routed::Layer { to, input } if to != NET => {
+            if let Input::Indication { from, ind } = &input {
+                if matches!(
+                    ind,
+                    Indication::Suspect(_) | Indication::Trust(_) | Indication::Leader(_)
+                ) && !heard.contains(&(*from, ind.clone()))
+                {
+                    heard.push((*from, ind.clone()));
+                }
+            }
+            queue.push_back((to, input));
         }
+        other => leaving.push(other),
+    };
+    let mut heard = Vec::new();
+    for r in routed {
+        route(r, &mut queue, &mut heard);
     }
     while let Some((l, i)) = queue.pop_front() {
         for r in stack.step(wiring, ctx, l, i).unwrap_or_default() {
-            match r {
-                Routed::Layer { to, input } if to != NET => queue.push_back((to, input)),
-                other => out.push(other),
-            }
+            route(r, &mut queue, &mut heard);
         }
     }
-    out
+    for (from, ind) in heard {
+        // Unless the application hears it too (recorded with what leaves the process).
+        let to_app = leaving
+            .iter()
+            .any(|r| matches!(r, Routed::App { layer, ind: i } if *layer == from && *i == ind));
+        if to_app {
+            continue;
+        }
+        let (robot, layer) = (ctx.me, nekosim_actors::layer::layer_name(wiring, from));
+        out.record(match ind {
+            Indication::Suspect(process) => Observation::Suspect {
+                robot,
+                layer,
+                process,
+            },
+            Indication::Trust(process) => Observation::Trust {
+                robot,
+                layer,
+                process,
+            },
+            Indication::Leader(process) => Observation::Leader {
+                robot,
+                layer,
+                process,
+            },
+            _ => unreachable!("only detector indications are kept"),
+        });
+    }
+    leaving
 }
