@@ -387,6 +387,11 @@ pub fn summarize(dir: &Path, nodes: usize) -> String {
     let mut counts: std::collections::HashMap<u64, u64> = Default::default();
     let mut delivers = Vec::new();
     let mut lines = String::new();
+    // Link delays: each copy's send and its receive, matched in FIFO order per (from, to,
+    // layer, message).
+    let mut sends: std::collections::HashMap<(u64, u64, String, String), std::collections::VecDeque<f64>> =
+        Default::default();
+    let mut receives = Vec::new();
     for id in 0..nodes {
         let path = dir.join(format!("p{id}.jsonl"));
         let text = std::fs::read_to_string(&path).unwrap_or_default();
@@ -403,6 +408,27 @@ pub fn summarize(dir: &Path, nodes: usize) -> String {
                     requests.insert((robot, *n), t);
                     *n += 1;
                 }
+                Some("send") => {
+                    let from = r["robot"].as_u64().unwrap_or(0);
+                    for to in r["to"].as_array().into_iter().flatten() {
+                        let key = (
+                            from,
+                            to.as_u64().unwrap_or(0),
+                            r["layer"].to_string(),
+                            r["msg"].to_string(),
+                        );
+                        sends.entry(key).or_default().push_back(t);
+                    }
+                }
+                Some("receive") => {
+                    let key = (
+                        r["from"].as_u64().unwrap_or(0),
+                        r["robot"].as_u64().unwrap_or(0),
+                        r["layer"].to_string(),
+                        r["msg"].to_string(),
+                    );
+                    receives.push((key, t));
+                }
                 Some("deliver") => {
                     own += 1;
                     let id = r["msg"].as_str().unwrap_or("");
@@ -418,6 +444,17 @@ pub fn summarize(dir: &Path, nodes: usize) -> String {
         lines.push_str(&format!(
             "node {id}: {own} deliveries{}\n",
             if text.is_empty() { " (no trace)" } else { "" }
+        ));
+    }
+    let delays: Vec<f64> = receives
+        .into_iter()
+        .filter_map(|(k, t)| sends.get_mut(&k)?.pop_front().map(|t0| t - t0))
+        .collect();
+    if !delays.is_empty() {
+        lines.push_str(&format!(
+            "link delay (send to receive, other nodes): mean {:.6} s over {} copies\n",
+            delays.iter().sum::<f64>() / delays.len() as f64,
+            delays.len()
         ));
     }
     let mut samples: Vec<f64> = delivers
