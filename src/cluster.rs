@@ -389,13 +389,16 @@ pub fn summarize(dir: &Path, nodes: usize) -> String {
     let mut lines = String::new();
     // Link delays: each copy's send and its receive, matched in FIFO order per (from, to,
     // layer, message).
-    let mut sends: std::collections::HashMap<(u64, u64, String, String), std::collections::VecDeque<f64>> =
-        Default::default();
+    let mut sends: std::collections::HashMap<
+        (u64, u64, String, String),
+        std::collections::VecDeque<f64>,
+    > = Default::default();
     let mut receives = Vec::new();
     for id in 0..nodes {
         let path = dir.join(format!("p{id}.jsonl"));
         let text = std::fs::read_to_string(&path).unwrap_or_default();
         let mut own = 0;
+        let mut decisions = 0;
         for l in text.lines() {
             let Ok(r) = serde_json::from_str::<serde_json::Value>(l) else {
                 continue;
@@ -429,6 +432,7 @@ pub fn summarize(dir: &Path, nodes: usize) -> String {
                     );
                     receives.push((key, t));
                 }
+                Some("decide") => decisions += 1,
                 Some("deliver") => {
                     own += 1;
                     let id = r["msg"].as_str().unwrap_or("");
@@ -442,7 +446,7 @@ pub fn summarize(dir: &Path, nodes: usize) -> String {
             }
         }
         lines.push_str(&format!(
-            "node {id}: {own} deliveries{}\n",
+            "node {id}: {own} deliveries, {decisions} decisions{}\n",
             if text.is_empty() { " (no trace)" } else { "" }
         ));
     }

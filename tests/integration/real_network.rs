@@ -159,6 +159,61 @@ fn three_nodes_of_lamport_abcast_deliver_every_broadcast_in_one_total_order() {
 }
 
 #[test]
+fn consensus_proposals_decide_one_value_per_instance_everywhere() {
+    let dir = tempfile::tempdir().unwrap();
+    let stack =
+        "Layer(id: \"fd\", protocol: Heartbeat(period: 0.1, timeout: 0.5), below: \"net\"), \
+                 Layer(id: \"consensus\", protocol: ChandraToueg, below: \"net\", uses: [\"fd\"])";
+    let (file, _) = cluster(
+        dir.path(),
+        stack,
+        "Proposals(layer: \"consensus\", count: 5)",
+        "",
+        15.0,
+    );
+    let out = dir.path().join("out");
+    let o = nekosim()
+        .arg("cluster")
+        .arg(&file)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let mut decided: std::collections::BTreeMap<u64, BTreeSet<String>> = Default::default();
+    for i in 0..3 {
+        let ds: Vec<Value> = records(&out.join(format!("p{i}.jsonl")))
+            .into_iter()
+            .filter(|r| r["kind"] == "decide")
+            .collect();
+        assert_eq!(ds.len(), 5, "node {i} decided {ds:?}");
+        for d in ds {
+            decided
+                .entry(d["instance"].as_u64().unwrap())
+                .or_default()
+                .insert(d["value"].as_str().unwrap().to_string());
+        }
+    }
+    assert_eq!(decided.len(), 5);
+    for (k, values) in decided {
+        // Agreement, and validity: the value is one a node proposed.
+        assert_eq!(values.len(), 1, "instance {k}: {values:?}");
+        let v = values.into_iter().next().unwrap();
+        assert!(["\"p0\"", "\"p1\"", "\"p2\""].contains(&v.as_str()), "{v}");
+    }
+    let summary = std::fs::read_to_string(out.join("summary.txt")).unwrap();
+    assert!(
+        summary.contains("node 2: 0 deliveries, 5 decisions"),
+        "{summary}"
+    );
+}
+
+#[test]
 fn consensus_abcast_survivors_keep_order_when_a_node_is_killed_and_suspect_it() {
     let dir = tempfile::tempdir().unwrap();
     let stack = "Layer(id: \"fd\", protocol: Heartbeat(period: 0.1, timeout: 0.5), below: \"net\"), \
