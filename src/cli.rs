@@ -513,6 +513,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             }
             let s = crate::node::run(
                 &c,
+                registry,
                 id,
                 &crate::node::NodeOptions {
                     log,

@@ -17,7 +17,8 @@
 use std::net::SocketAddr;
 use std::path::Path;
 
-use nekosim_protocols::{LayerSpec, Stack, Wiring};
+use nekosim_actors::registry::Setting;
+use nekosim_protocols::{LayerSpec, Spec, Stack, Wiring};
 use serde::Deserialize;
 
 use crate::scenario::{locate, Pos, Registry, ScenarioError};
@@ -32,7 +33,7 @@ struct Raw {
     nodes: Vec<RawNode>,
     key_file: String,
     stack: Vec<LayerSpec>,
-    app: App,
+    app: Spec,
     #[serde(default)]
     faults: Vec<NodeFault>,
     duration: f64,
@@ -43,21 +44,6 @@ struct Raw {
 struct RawNode {
     id: u32,
     addr: String,
-}
-
-/// What each node's application does.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub enum App {
-    /// Every node broadcasts `count` messages through `layer`, one every `period` seconds
-    /// from the start.
-    BroadcastLoad {
-        layer: String,
-        count: u32,
-        period: f64,
-    },
-    /// Every node proposes a value to consensus instances `0..count` of `layer`.
-    Proposals { layer: String, count: u32 },
 }
 
 /// A fault injected into a node.
@@ -86,9 +72,10 @@ pub struct Cluster {
     pub wiring: Wiring,
     /// A node's fresh stack.
     pub template: Stack,
-    pub app: App,
-    /// The layer the application drives.
-    pub app_layer: u16,
+    /// The application every node runs (built by [`crate::scenario::Registry::apps`]).
+    pub app: Spec,
+    /// The stack's layers and their services, which the application is checked against.
+    pub setting: Setting,
     pub faults: Vec<NodeFault>,
     pub duration: f64,
 }
@@ -202,31 +189,25 @@ impl Cluster {
         }
         let (wiring, template) = Wiring::check(&raw.stack, &registry.protocols)
             .map_err(|e| at(&format!("stack[{}]", e.layer), e.to_string()))?;
-        let layer = match &raw.app {
-            App::BroadcastLoad {
-                layer,
-                count: _,
-                period,
-            } => {
-                if !(period.is_finite() && *period >= 0.0) {
-                    return Err(at(
-                        "app.period",
-                        format!("period is {period}; expected a number >= 0"),
-                    ));
-                }
-                layer
-            }
-            App::Proposals { layer, .. } => layer,
+        let setting = Setting {
+            layers: wiring
+                .ids
+                .iter()
+                .cloned()
+                .zip(wiring.provides.iter().copied())
+                .collect(),
         };
-        let app_layer = wiring.index(layer).ok_or_else(|| {
-            at(
-                "app.layer",
-                format!(
-                    "unknown layer {layer:?}; the stack has {}",
-                    wiring.ids.join(", ")
-                ),
-            )
-        })?;
+        // Every node's application is built the same way: node 0's stands for all.
+        registry
+            .apps
+            .build(&raw.app, &setting, 0, raw.nodes.len() as u32)
+            .map_err(|e| {
+                let path = match &e.field {
+                    Some(f) if !f.starts_with('[') => format!("app.{f}"),
+                    _ => "app".to_string(),
+                };
+                at(&path, e.message.clone())
+            })?;
         for (k, f) in raw.faults.iter().enumerate() {
             match f {
                 NodeFault::Crash { node, at: t } => {
@@ -285,7 +266,7 @@ impl Cluster {
             wiring,
             template,
             app: raw.app,
-            app_layer,
+            setting,
             faults: raw.faults,
             duration: raw.duration,
         })

@@ -24,16 +24,17 @@ use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_protocols::payload::{install, Payload};
 use nekosim_protocols::service::{Ctx, Indication, Input, Request, APP, NET};
 use nekosim_protocols::stack::Routed;
-use nekosim_protocols::wire::app_payload;
 use serde::{Deserialize, Serialize};
 use sha2::Sha256;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::mpsc;
 
-use crate::cluster::{App, Cluster};
+use crate::apps::{AppAction, AppIo, NodeApp};
+use crate::cluster::Cluster;
 use crate::log::NekoLog;
 use crate::output::AtomicFile;
+use crate::scenario::Registry;
 use crate::trace::to_line;
 
 type HmacSha256 = Hmac<Sha256>;
@@ -275,7 +276,7 @@ enum Event {
         timer: Payload,
         gen: u64,
     },
-    App(u32),
+    App(u64),
     Stop,
     Crash,
 }
@@ -312,6 +313,8 @@ pub enum NodeError {
     Output { path: String, error: io::Error },
     #[error("no node {0} in the cluster")]
     NoNode(u32),
+    #[error("the application: {0}")]
+    App(String),
 }
 
 /// The node's outputs: the Neko log and the JSONL trace, with times since the start.
@@ -345,8 +348,17 @@ impl Out {
 
 /// Runs node `id` of `cluster` until its application is done (plus a moment for its peers),
 /// the cluster's duration, or its crash fault.
-pub fn run(cluster: &Cluster, id: u32, opts: &NodeOptions) -> Result<NodeSummary, NodeError> {
+pub fn run(
+    cluster: &Cluster,
+    registry: &Registry,
+    id: u32,
+    opts: &NodeOptions,
+) -> Result<NodeSummary, NodeError> {
     let n = cluster.nodes.len() as u32;
+    let app = registry
+        .apps
+        .build(&cluster.app, &cluster.setting, id, n)
+        .map_err(|e| NodeError::App(e.message))?;
     let addr = *cluster
         .nodes
         .get(id as usize)
@@ -370,7 +382,7 @@ pub fn run(cluster: &Cluster, id: u32, opts: &NodeOptions) -> Result<NodeSummary
         log: create(&opts.log)?.map(|f| (f, NekoLog::new())),
         trace: create(&opts.trace)?,
     };
-    let summary = actix::System::new().block_on(serve(cluster, id, n, addr, &mut out))?;
+    let summary = actix::System::new().block_on(serve(cluster, app, id, n, addr, &mut out))?;
     let Out { log, trace, .. } = out;
     for (file, path) in [(log.map(|l| l.0), &opts.log), (trace, &opts.trace)] {
         if let (Some(f), Some(p)) = (file, path) {
@@ -385,6 +397,7 @@ pub fn run(cluster: &Cluster, id: u32, opts: &NodeOptions) -> Result<NodeSummary
 
 async fn serve(
     cluster: &Cluster,
+    mut app: Box<dyn NodeApp>,
     me: u32,
     n: u32,
     addr: SocketAddr,
@@ -560,13 +573,6 @@ async fn serve(
             let _ = tx.send(ev);
         });
     };
-    let (count, period) = match &cluster.app {
-        App::BroadcastLoad { count, period, .. } => (*count, *period),
-        App::Proposals { count, .. } => (*count, 0.0),
-    };
-    for k in 0..count {
-        after(at(f64::from(k) * period), Event::App(k), &tx);
-    }
     after(at(cluster.duration), Event::Stop, &tx);
     {
         // Ctrl-C (or SIGTERM): stop, and write the files of the run so far.
@@ -597,8 +603,16 @@ async fn serve(
         sent: 0,
         crashed: false,
     };
-    let expected = u64::from(n) * u64::from(count);
     let mut done = false;
+    let now = |out: &Out| {
+        SystemTime::now()
+            .duration_since(out.start)
+            .unwrap_or_default()
+            .as_secs_f64()
+    };
+    let mut io = AppIo::new(me, n, now(out));
+    app.start(&mut io);
+    let mut actions = io.take();
     let name_of = |ix: u16| nekosim_actors::layer::layer_name(wiring, ix);
     // Every layer starts, bottom-up in stack order, as `Stack::start_all` does.
     let mut todo = Vec::new();
@@ -636,11 +650,12 @@ async fn serve(
                 }
                 Routed::App { layer, ind } => {
                     let name = name_of(layer);
+                    let mut io = AppIo::new(me, n, now(out));
+                    app.indication(&mut io, &name, &ind);
+                    actions.extend(io.take());
                     match ind {
                         Indication::BDeliver { id, msg } => {
-                            if layer == cluster.app_layer {
-                                summary.deliveries += 1;
-                            }
+                            summary.deliveries += 1;
                             out.record(Observation::Deliver {
                                 robot: me,
                                 layer: name,
@@ -649,9 +664,7 @@ async fn serve(
                             });
                         }
                         Indication::Decide { k, value } => {
-                            if layer == cluster.app_layer {
-                                summary.decisions += 1;
-                            }
+                            summary.decisions += 1;
                             out.record(Observation::Decide {
                                 robot: me,
                                 layer: name,
@@ -700,11 +713,43 @@ async fn serve(
                 Routed::Layer { .. } => {}
             }
         }
-        let finished = match cluster.app {
-            App::BroadcastLoad { .. } => summary.deliveries >= expected,
-            App::Proposals { .. } => summary.decisions >= u64::from(count),
-        };
-        if finished && !done {
+        // What the application asked for.
+        for a in std::mem::take(&mut actions) {
+            match a {
+                AppAction::After { seconds, tag } => after(
+                    Duration::from_secs_f64(seconds.max(0.0)),
+                    Event::App(tag),
+                    &tx,
+                ),
+                AppAction::Request { layer, op, req } => {
+                    let Some(ix) = wiring.index(&layer) else {
+                        eprintln!("node {me}: the application asked layer {layer:?}, which the stack does not have");
+                        continue;
+                    };
+                    let msg = match &req {
+                        Request::Broadcast { msg } => msg.clone(),
+                        Request::Propose { value, .. } => value.clone(),
+                        Request::Send { msg, .. } => msg.clone(),
+                        Request::Custom(p) => p.clone(),
+                    };
+                    out.record(Observation::Request {
+                        robot: me,
+                        layer: layer.clone(),
+                        op: op.into(),
+                        msg,
+                    });
+                    let hop = Routed::Layer {
+                        to: ix,
+                        input: Input::Request { from: APP, req },
+                    };
+                    todo.extend(local(&mut stack, wiring, &ctx, vec![hop], out));
+                }
+            }
+        }
+        if !todo.is_empty() {
+            continue;
+        }
+        if app.done() && !done {
             done = true;
             after(LINGER, Event::Stop, &tx);
         }
@@ -744,40 +789,10 @@ async fn serve(
                     todo = local(&mut stack, wiring, &ctx, vec![hop], out);
                 }
             }
-            Event::App(k) => {
-                let layer = cluster.app_layer;
-                let (op, req) = match cluster.app {
-                    App::BroadcastLoad { .. } => {
-                        let msg = app_payload(&format!("p{me}.{k}"));
-                        ("broadcast", Request::Broadcast { msg })
-                    }
-                    App::Proposals { .. } => {
-                        let value = app_payload(&format!("p{me}"));
-                        (
-                            "propose",
-                            Request::Propose {
-                                k: u64::from(k),
-                                value,
-                            },
-                        )
-                    }
-                };
-                let msg = match &req {
-                    Request::Broadcast { msg } => msg.clone(),
-                    Request::Propose { value, .. } => value.clone(),
-                    _ => unreachable!("the application broadcasts or proposes"),
-                };
-                out.record(Observation::Request {
-                    robot: me,
-                    layer: name_of(layer),
-                    op: op.into(),
-                    msg,
-                });
-                let hop = Routed::Layer {
-                    to: layer,
-                    input: Input::Request { from: APP, req },
-                };
-                todo = local(&mut stack, wiring, &ctx, vec![hop], out);
+            Event::App(tag) => {
+                let mut io = AppIo::new(me, n, now(out));
+                app.timer(&mut io, tag);
+                actions = io.take();
             }
             Event::Stop => break,
             Event::Crash => {

@@ -231,6 +231,8 @@ pub struct Registry {
     pub sensors: Sensors,
     /// The protocols for the `stack`.
     pub protocols: Protocols,
+    /// The applications cluster files name (`app: BroadcastLoad(...)`, real-network mode).
+    pub apps: crate::apps::Apps,
 }
 
 impl Default for Registry {
@@ -254,6 +256,7 @@ impl Registry {
             networks: Networks::with_builtins(),
             sensors: Sensors::new(),
             protocols: Protocols::with_builtins(),
+            apps: crate::apps::Apps::with_builtins(),
         }
     }
 
@@ -282,6 +285,13 @@ impl Registry {
     /// scenario's `stack` (see docs/extending.md).
     pub fn protocol<P: nekosim_protocols::Microprotocol>(&mut self, name: &str) -> &mut Self {
         self.protocols.protocol::<P>(name);
+        self
+    }
+
+    /// Registers the application `A` under `name`, for `app: Name(config)` in a cluster file
+    /// (docs/real-network.md).
+    pub fn app<A: crate::apps::ConfiguredApp>(&mut self, name: &str) -> &mut Self {
+        self.apps.app::<A>(name);
         self
     }
 }

@@ -545,7 +545,11 @@ fn bad_cluster_files_are_refused_at_their_place() {
                 "cluster.key",
                 "BroadcastLoad(layer: \"nope\", count: 1, period: 0.1)",
             ),
-            "6:29: unknown layer \"nope\"",
+            "6:29: BroadcastLoad: unknown layer \"nope\"",
+        ),
+        (
+            base(two, "cluster.key", "BroadcastLoad(layer: \"fifo\", count: 1, period: 0.1)"),
+            "6:29: BroadcastLoad: layer \"fifo\" provides FifoP2p; expected a layer providing Broadcast",
         ),
         (
             base("Node(id: 0, addr: \"localhost\")", "cluster.key", load),
@@ -562,4 +566,117 @@ fn bad_cluster_files_are_refused_at_their_place() {
             "expected {says:?}:\n{err}"
         );
     }
+}
+
+/// A user's application, registered like the built-ins.
+#[derive(Debug)]
+struct Hello3 {
+    layer: String,
+    heard: u32,
+    n: u32,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Hello3Config {
+    layer: String,
+}
+
+impl nekosim::apps::ConfiguredApp for Hello3 {
+    type Config = Hello3Config;
+    fn configure(
+        c: Hello3Config,
+        setting: &nekosim::registry::Setting,
+        _: u32,
+        n: u32,
+    ) -> Result<Self, nekosim_protocols::FieldError> {
+        if setting.layer(&c.layer).is_none() {
+            return Err(nekosim_protocols::FieldError::new(
+                "layer",
+                "no such layer",
+                "a layer of the stack",
+            ));
+        }
+        Ok(Self {
+            layer: c.layer,
+            heard: 0,
+            n,
+        })
+    }
+}
+
+impl nekosim::apps::NodeApp for Hello3 {
+    fn start(&mut self, io: &mut nekosim::apps::AppIo) {
+        let text = format!("hello from {}", io.me);
+        io.broadcast(&self.layer, &text);
+    }
+    fn indication(
+        &mut self,
+        _: &mut nekosim::apps::AppIo,
+        layer: &str,
+        ind: &nekosim_protocols::service::Indication,
+    ) {
+        if layer == self.layer
+            && matches!(ind, nekosim_protocols::service::Indication::BDeliver { .. })
+        {
+            self.heard += 1;
+        }
+    }
+    fn done(&self) -> bool {
+        self.heard == self.n
+    }
+}
+
+#[test]
+fn a_registered_application_drives_the_nodes_like_a_builtin() {
+    let dir = tempfile::tempdir().unwrap();
+    let (file, _) = cluster(dir.path(), LAMPORT, "Hello3(layer: \"abcast\")", "", 15.0);
+    let text = std::fs::read_to_string(&file).unwrap();
+    let e: u64 = epoch().parse().unwrap();
+    std::thread::scope(|s| {
+        for id in 0..3u32 {
+            let (text, dir) = (text.clone(), dir.path().to_path_buf());
+            s.spawn(move || {
+                let mut registry = nekosim::scenario::Registry::with_builtins();
+                registry.app::<Hello3>("Hello3");
+                let c = nekosim::cluster::Cluster::parse("cluster.ron", &text, &dir, &registry)
+                    .unwrap();
+                let opts = nekosim::node::NodeOptions {
+                    log: None,
+                    trace: Some(dir.join(format!("p{id}.jsonl"))),
+                    epoch_ms: Some(e),
+                };
+                let summary = nekosim::node::run(&c, &registry, id, &opts).unwrap();
+                assert_eq!(summary.deliveries, 3, "node {id}");
+            });
+        }
+    });
+    let orders: Vec<Vec<Value>> = (0..3)
+        .map(|i| {
+            records(&dir.path().join(format!("p{i}.jsonl")))
+                .into_iter()
+                .filter(|r| r["kind"] == "deliver")
+                .map(|r| r["content"].clone())
+                .collect()
+        })
+        .collect();
+    let mut contents: Vec<String> = orders[0]
+        .iter()
+        .map(|c| c.as_str().unwrap().to_string())
+        .collect();
+    assert_eq!(orders[1], orders[0]);
+    assert_eq!(orders[2], orders[0]);
+    contents.sort();
+    assert_eq!(
+        contents,
+        ["\"hello from 0\"", "\"hello from 1\"", "\"hello from 2\""]
+    );
+    // The built-in's registry does not know it: the binary refuses the file.
+    let o = nekosim().arg("validate").arg(&file).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("Hello3"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
