@@ -1,6 +1,7 @@
 //! One node of a cluster (docs/real-network.md): the cluster file's stack, the very code the
-//! simulator and the model checker run, hosted on the actix runtime with the real clock for
-//! its timers and TCP to its peers.
+//! simulator and the model checker run, hosted on the actix runtime: each layer an actor, a
+//! loop that routes their effects in the order `Stack::step_local` gives (as the simulator's
+//! scheduler routes them in virtual time), the real clock for timers, and TCP to the peers.
 //!
 //! Every peer link is authenticated: the dialing node sends `Hello` (cluster name, both ids, a
 //! fresh nonce); the listening node answers with its own nonce and an HMAC-SHA256 over the
@@ -17,6 +18,7 @@ use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
+use actix::{Actor, Addr, Handler};
 use hmac::{Hmac, Mac};
 use nekosim_actors::world::geometry::Point;
 use nekosim_actors::world::motion::{Kinematics, Pose};
@@ -249,6 +251,46 @@ async fn accept_handshake(
         )));
     }
     Ok((hello.from, tag(key, &t.parts(b"nekosim session")).to_vec()))
+}
+
+/// One layer of the node's stack, hosted as an actor: a protocol instance and its handler.
+struct LayerActor {
+    layer: nekosim_protocols::Layer,
+    ix: u16,
+    wiring: nekosim_protocols::Wiring,
+    ctx: Ctx,
+}
+
+impl Actor for LayerActor {
+    type Context = actix::Context<Self>;
+}
+
+/// An input for a layer; the answer is where its effects go.
+#[derive(actix::Message)]
+#[rtype(result = "Result<Vec<Routed>, String>")]
+struct Step(Input);
+
+impl Handler<Step> for LayerActor {
+    type Result = Result<Vec<Routed>, String>;
+
+    fn handle(&mut self, Step(input): Step, _: &mut Self::Context) -> Self::Result {
+        nekosim_protocols::stack::step_layer(
+            &mut self.layer,
+            &self.wiring,
+            &self.ctx,
+            self.ix,
+            input,
+        )
+        .map_err(|e| e.to_string())
+    }
+}
+
+/// Runs `input` at layer `ix`'s actor; where its effects go, or why the input was refused.
+async fn step(stack: &[Addr<LayerActor>], ix: u16, input: Input) -> Result<Vec<Routed>, String> {
+    match stack.get(ix as usize) {
+        Some(a) => a.send(Step(input)).await.map_err(|e| e.to_string())?,
+        None => Err(format!("no layer {ix}")),
+    }
 }
 
 /// Whether now falls in one of `cuts` (seconds since `start`).
@@ -591,10 +633,26 @@ async fn serve(
         after(at(t), Event::Crash, &tx);
     }
 
-    // The stack.
+    // The stack: each layer an actor; this loop routes their effects, in the FIFO order of
+    // `Stack::step_local`, as the simulator's scheduler does.
     let wiring = &cluster.wiring;
     let ctx = Ctx { me, n };
-    let mut stack = cluster.template.clone();
+    let stack: Vec<Addr<LayerActor>> = cluster
+        .template
+        .clone()
+        .layers
+        .into_iter()
+        .enumerate()
+        .map(|(ix, layer)| {
+            LayerActor {
+                layer,
+                ix: ix as u16,
+                wiring: wiring.clone(),
+                ctx,
+            }
+            .start()
+        })
+        .collect();
     let mut timers: HashMap<(u16, Payload), u64> = HashMap::new();
     let mut generation = 0u64;
     let mut summary = NodeSummary {
@@ -616,12 +674,12 @@ async fn serve(
     let name_of = |ix: u16| nekosim_actors::layer::layer_name(wiring, ix);
     // Every layer starts, bottom-up in stack order, as `Stack::start_all` does.
     let mut todo = Vec::new();
-    for l in 0..stack.layers.len() as u16 {
+    for l in 0..stack.len() as u16 {
         let hop = Routed::Layer {
             to: l,
             input: Input::Start,
         };
-        todo.extend(local(&mut stack, wiring, &ctx, vec![hop], out));
+        todo.extend(local(&stack, wiring, &ctx, vec![hop], out).await);
     }
     loop {
         // Route what the stack produced.
@@ -742,7 +800,7 @@ async fn serve(
                         to: ix,
                         input: Input::Request { from: APP, req },
                     };
-                    todo.extend(local(&mut stack, wiring, &ctx, vec![hop], out));
+                    todo.extend(local(&stack, wiring, &ctx, vec![hop], out).await);
                 }
             }
         }
@@ -756,7 +814,7 @@ async fn serve(
         let Some(ev) = rx.recv().await else { break };
         match ev {
             Event::Frame { from, layer, bytes } => {
-                if layer as usize >= stack.layers.len() {
+                if layer as usize >= stack.len() {
                     eprintln!("node {me}: a frame from node {from} for layer {layer}, which the stack does not have; dropped");
                     continue;
                 }
@@ -772,8 +830,8 @@ async fn serve(
                     ind: Indication::Deliver { from, msg },
                 };
                 // A message that does not decode as its layer's changes nothing.
-                match stack.step(wiring, &ctx, layer, input) {
-                    Ok(routed) => todo = local(&mut stack, wiring, &ctx, routed, out),
+                match step(&stack, layer, input).await {
+                    Ok(routed) => todo = local(&stack, wiring, &ctx, routed, out).await,
                     Err(e) => eprintln!(
                         "node {me}: a message from node {from} that does not decode ({e}); dropped"
                     ),
@@ -786,7 +844,7 @@ async fn serve(
                         to: layer,
                         input: Input::Timer(timer),
                     };
-                    todo = local(&mut stack, wiring, &ctx, vec![hop], out);
+                    todo = local(&stack, wiring, &ctx, vec![hop], out).await;
                 }
             }
             Event::App(tag) => {
@@ -823,8 +881,8 @@ async fn serve(
 /// `Stack::step_local`; returns what leaves the process. Failure-detector indications that
 /// only other layers hear (a suspicion for the consensus layer) are recorded too, so the
 /// trace shows the detector at work.
-fn local(
-    stack: &mut nekosim_protocols::Stack,
+async fn local(
+    stack: &[Addr<LayerActor>],
     wiring: &nekosim_protocols::Wiring,
     ctx: &Ctx,
     routed: Vec<Routed>,
@@ -854,7 +912,7 @@ fn local(
         route(r, &mut queue, &mut heard);
     }
     while let Some((l, i)) = queue.pop_front() {
-        for r in stack.step(wiring, ctx, l, i).unwrap_or_default() {
+        for r in step(stack, l, i).await.unwrap_or_default() {
             route(r, &mut queue, &mut heard);
         }
     }
