@@ -159,6 +159,67 @@ fn three_nodes_of_lamport_abcast_deliver_every_broadcast_in_one_total_order() {
 }
 
 #[test]
+fn ctrl_c_stops_every_node_and_keeps_what_they_wrote() {
+    use std::os::unix::process::CommandExt;
+    let dir = tempfile::tempdir().unwrap();
+    // Far more than can be done before the interrupt.
+    let (file, _) = cluster(
+        dir.path(),
+        LAMPORT,
+        "BroadcastLoad(layer: \"abcast\", count: 100000, period: 0.01)",
+        "",
+        60.0,
+    );
+    let out = dir.path().join("out");
+    let child = nekosim()
+        .arg("cluster")
+        .arg(&file)
+        .arg("--out")
+        .arg(&out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .process_group(0)
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    // A terminal's Ctrl-C: SIGINT to the whole process group.
+    let ok = Command::new("kill")
+        .args(["-s", "INT", "--", &format!("-{}", child.id())])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok);
+    let started = std::time::Instant::now();
+    let o = child.wait_with_output().unwrap();
+    assert!(
+        started.elapsed() < Duration::from_secs(10),
+        "the nodes took {:?} to stop",
+        started.elapsed()
+    );
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let orders: Vec<Vec<String>> = (0..3)
+        .map(|i| delivered(&out.join(format!("p{i}.jsonl"))))
+        .collect();
+    let n = orders.iter().map(Vec::len).min().unwrap();
+    assert!(n > 10, "only {n} deliveries before the interrupt");
+    for (i, o) in orders.iter().enumerate() {
+        assert_eq!(o[..n], orders[0][..n], "node {i}'s order differs");
+        assert!(
+            std::fs::metadata(out.join(format!("p{i}.log")))
+                .unwrap()
+                .len()
+                > 0
+        );
+    }
+    assert!(out.join("summary.txt").exists());
+}
+
+#[test]
 fn consensus_proposals_decide_one_value_per_instance_everywhere() {
     let dir = tempfile::tempdir().unwrap();
     let stack =
