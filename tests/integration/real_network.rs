@@ -333,6 +333,50 @@ fn consensus_abcast_survivors_keep_order_when_a_node_is_killed_and_suspect_it() 
 }
 
 #[test]
+fn a_scripted_crash_ends_a_node_and_the_others_go_on_in_one_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let stack = "Layer(id: \"fd\", protocol: Heartbeat(period: 0.1, timeout: 0.5), below: \"net\"), \
+                 Layer(id: \"rb\", protocol: ReliableBroadcast, below: \"net\"), \
+                 Layer(id: \"consensus\", protocol: ChandraToueg, below: \"net\", uses: [\"fd\"]), \
+                 Layer(id: \"abcast\", protocol: ConsensusAbcast, below: \"rb\", uses: [\"consensus\"])";
+    let (file, _) = cluster(
+        dir.path(),
+        stack,
+        "BroadcastLoad(layer: \"abcast\", count: 10, period: 0.1)",
+        "Crash(node: 2, at: 0.5)",
+        5.0,
+    );
+    let out = dir.path().join("out");
+    let o = nekosim()
+        .arg("cluster")
+        .arg(&file)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // Node 2's trace ends with its crash, about half a second in.
+    let r2 = records(&out.join("p2.jsonl"));
+    let last = r2.last().unwrap();
+    assert_eq!(last["kind"], "crash", "{last}");
+    let t = last["t"].as_f64().unwrap();
+    assert!((0.5..1.0).contains(&t), "crashed at {t}");
+    let (o0, o1) = (
+        delivered(&out.join("p0.jsonl")),
+        delivered(&out.join("p1.jsonl")),
+    );
+    let n = o0.len().min(o1.len());
+    assert_eq!(o0[..n], o1[..n]);
+    let got: BTreeSet<String> = o0.iter().cloned().collect();
+    assert!(got.is_superset(&all_ids(&[0, 1], 10)), "{got:?}");
+}
+
+#[test]
 fn a_cut_link_heals_and_retransmit_and_fifo_recover_the_total_order() {
     let dir = tempfile::tempdir().unwrap();
     let stack = "Layer(id: \"rt\", protocol: Retransmit(period: 0.1), below: \"net\"), \
