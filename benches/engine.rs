@@ -53,6 +53,8 @@ fn ticker_config() -> SimConfig {
         world: WorldConfig {
             size: WorldSize::Infinite,
             ghost_mode: true,
+            walls: true,
+            turn: Default::default(),
             cell_size: None,
         },
         robots,
@@ -153,6 +155,8 @@ fn random_config(n: usize, until: f64) -> SimConfig {
         world: WorldConfig {
             size: WorldSize::from_origin(side, side),
             ghost_mode: false,
+            walls: true,
+            turn: Default::default(),
             cell_size: None,
         },
         robots,

@@ -174,6 +174,8 @@ fn run(obstacle_deg: f64) -> nekosim::scheduler::RunOutput {
         world: WorldConfig {
             size: WorldSize::Infinite,
             ghost_mode: false,
+            walls: true,
+            turn: Default::default(),
             cell_size: None,
         },
         robots: vec![

@@ -27,6 +27,14 @@ use serde::Deserialize;
 
 pub use locate::{locate, spans, Pos, Spans};
 
+/// The largest world extent and coordinate a scenario may use [units]: f64 positions there
+/// are still exact to about 1e-7 units.
+pub const MAX_COORDINATE: f64 = 1e9;
+
+/// The densest packing of equal discs in the plane (hexagonal), the share of an area discs can
+/// cover at most.
+pub const PACKING_DENSITY: f64 = std::f64::consts::PI / (2.0 * 1.732_050_807_568_877_2);
+
 /// A scenario file's content.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -139,9 +147,16 @@ fn one() -> usize {
 #[serde(deny_unknown_fields)]
 pub struct World {
     pub size: Size,
-    /// No robot-robot collisions (the boundary still holds robots in).
+    /// No robot-robot collisions (the boundary still holds robots in unless `walls: false`).
     #[serde(default)]
     pub ghost_mode: bool,
+    /// Whether a bounded world's boundary stops robots like a wall; default true.
+    /// `ghost_mode: true, walls: false` is the seed's ghost mode (no collisions at all).
+    #[serde(default)]
+    pub walls: Option<bool>,
+    /// Which way MOVETO turns: `Shortest` (default) or `Anticlockwise` (the seed's, eq. 4.1).
+    #[serde(default)]
+    pub turn: nekosim_actors::world::motion::TurnRule,
     /// Lower-left corner of a bounded world; by default the world is centred on (0, 0).
     #[serde(default)]
     pub origin: Option<(f64, f64)>,
@@ -404,6 +419,20 @@ impl Source {
         }
     }
 
+    /// `v` must be at most [`MAX_COORDINATE`] in size: beyond, f64 motion is no longer exact
+    /// to a small fraction of a unit.
+    fn within(&self, path: &str, what: &str, v: f64) -> Result<f64, ScenarioError> {
+        if v.abs() <= MAX_COORDINATE {
+            Ok(v)
+        } else {
+            Err(self.err(FieldError::new(
+                path,
+                format!("{what} is {v:e}"),
+                format!("at most {MAX_COORDINATE:e} in size (beyond, positions lose the precision exact motion needs)"),
+            )))
+        }
+    }
+
     fn positive(&self, path: &str, what: &str, v: f64) -> Result<f64, ScenarioError> {
         self.finite(path, what, v)?;
         if v > 0.0 {
@@ -454,10 +483,14 @@ impl Source {
             Size::Bounded { width, height } => {
                 self.positive("world.size.width", "world width", width)?;
                 self.positive("world.size.height", "world height", height)?;
+                self.within("world.size.width", "world width", width)?;
+                self.within("world.size.height", "world height", height)?;
                 match s.world.origin {
                     Some((x, y)) => {
                         self.finite("world.origin[0]", "origin x", x)?;
                         self.finite("world.origin[1]", "origin y", y)?;
+                        self.within("world.origin[0]", "origin x", x)?;
+                        self.within("world.origin[1]", "origin y", y)?;
                         WorldSize::Bounded {
                             min: Point::new(x, y),
                             max: Point::new(x + width, y + height),
@@ -470,9 +503,18 @@ impl Source {
         if let Some(c) = s.world.cell_size {
             self.positive("world.cell_size", "cell size", c)?;
         }
+        if s.world.walls == Some(true) && size == WorldSize::Infinite {
+            return Err(self.err(FieldError::new(
+                "world.walls",
+                "walls: true in an infinite world",
+                "no `walls` (an infinite world has none)",
+            )));
+        }
         let world = WorldConfig {
             size,
             ghost_mode: s.world.ghost_mode,
+            walls: s.world.walls.unwrap_or(true),
+            turn: s.world.turn,
             cell_size: s.world.cell_size,
         };
 
@@ -558,6 +600,9 @@ impl Source {
                 self.positive(&format!("{path}.radius"), "radius", *radius)?;
                 self.finite(&format!("{path}.at[0]"), "x", at.0)?;
                 self.finite(&format!("{path}.at[1]"), "y", at.1)?;
+                self.within(&format!("{path}.at[0]"), "x", at.0)?;
+                self.within(&format!("{path}.at[1]"), "y", at.1)?;
+                self.within(&format!("{path}.radius"), "radius", *radius)?;
                 self.finite(&format!("{path}.angle"), "angle", *angle)?;
                 let spec = RobotSpec {
                     radius: *radius,
@@ -607,6 +652,8 @@ impl Source {
                     let pp = format!("{path}.born[0][{k}]");
                     self.finite(&format!("{pp}[0]"), "x", x)?;
                     self.finite(&format!("{pp}[1]"), "y", y)?;
+                    self.within(&format!("{pp}[0]"), "x", x)?;
+                    self.within(&format!("{pp}[1]"), "y", y)?;
                     let spec = RobotSpec {
                         radius: *radius,
                         pose: Pose {
@@ -620,6 +667,23 @@ impl Source {
                 let rest = count - listed.len();
                 if rest > 0 {
                     let (lo, hi) = nekosim_actors::algorithm::destination_area(size);
+                    // Discs cannot cover more than the hexagonal packing's share of an area:
+                    // refused at once rather than after a long random search.
+                    let area = (hi.x - lo.x) * (hi.y - lo.y);
+                    let disc = |r: f64| std::f64::consts::PI * r * r;
+                    let covered: f64 = placed.iter().flatten().map(|s| disc(s.radius)).sum::<f64>()
+                        + rest as f64 * disc(*radius);
+                    if covered > PACKING_DENSITY * area {
+                        return Err(self.place(
+                            &format!("{path}.count"),
+                            format!(
+                                "{count} robots of radius {radius} cannot fit: with the robots before them they would cover {covered:.0} square units, more than the {:.0} that discs can fill of the {}x{} area where they are born; use a larger world or fewer/smaller robots",
+                                PACKING_DENSITY * area,
+                                hi.x - lo.x,
+                                hi.y - lo.y
+                            ),
+                        ));
+                    }
                     let occupied: Vec<(Point, f64)> = placed
                         .iter()
                         .flatten()

@@ -1,7 +1,7 @@
 //! Statistics of a sweep point's replications: mean, sample standard deviation and the 95 %
 //! confidence interval of the mean (Student's t with n - 1 degrees of freedom).
 
-use statrs::distribution::{ContinuousCDF, StudentsT};
+use statrs::distribution::{Continuous, ContinuousCDF, StudentsT};
 
 /// A metric's statistics over the runs of one point that have a value of it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,7 +33,15 @@ pub fn stats(values: &[f64]) -> Option<Stats> {
     let var = values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1) as f64;
     let sd = var.sqrt();
     let t = StudentsT::new(0.0, 1.0, (n - 1) as f64)
-        .map(|d| d.inverse_cdf(0.975))
+        .map(|d| {
+            // statrs' inverse is good to about 1e-9; Newton steps on its accurate cdf and
+            // density make the quantile exact to rounding.
+            let mut t = d.inverse_cdf(0.975);
+            for _ in 0..3 {
+                t -= (d.cdf(t) - 0.975) / d.pdf(t);
+            }
+            t
+        })
         .unwrap_or(f64::NAN);
     let half = t * sd / (n as f64).sqrt();
     Some(Stats {
@@ -54,12 +62,18 @@ mod tests {
         let s = stats(&[1.0, 2.0, 3.0, 4.0, 5.0]).unwrap();
         assert_eq!(s.mean, 3.0);
         assert!((s.sd.unwrap() - 2.5f64.sqrt()).abs() < 1e-12);
-        let half = 2.776_445_105_197_8 * 2.5f64.sqrt() / 5f64.sqrt();
+        let half = 2.776_445_105_197_799 * 2.5f64.sqrt() / 5f64.sqrt();
         let (lo, hi) = s.ci95.unwrap();
-        assert!((lo - (3.0 - half)).abs() < 1e-9 && (hi - (3.0 + half)).abs() < 1e-9);
-        // Two values: t(0.975, 1) = 12.7062047...
+        assert!((lo - (3.0 - half)).abs() < 1e-12 && (hi - (3.0 + half)).abs() < 1e-12);
+        // Two values: t(0.975, 1) = tan(0.475 pi) = 12.706204736174...
         let (lo, _) = stats(&[0.0, 2.0]).unwrap().ci95.unwrap();
-        assert!((lo - (1.0 - 12.706_204_736 * 2f64.sqrt() / 2f64.sqrt())).abs() < 1e-6);
+        let t1 = (0.475 * std::f64::consts::PI).tan();
+        assert!((lo - (1.0 - t1)).abs() < 1e-12, "{lo}");
+        // Three values: t(0.975, 2) = 0.95 / sqrt(2 * 0.975 * 0.025) exactly.
+        let t2 = 0.95 / (2.0f64 * 0.975 * 0.025).sqrt();
+        let s3 = stats(&[1.0, 2.0, 4.0]).unwrap();
+        let half = t2 * s3.sd.unwrap() / 3f64.sqrt();
+        assert!((s3.ci95.unwrap().0 - (s3.mean - half)).abs() < 1e-12);
         assert_eq!(stats(&[7.0]).unwrap().sd, None);
         assert_eq!(stats(&[]), None);
     }

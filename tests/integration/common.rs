@@ -21,6 +21,8 @@ pub fn infinite() -> WorldConfig {
     WorldConfig {
         size: WorldSize::Infinite,
         ghost_mode: false,
+        walls: true,
+        turn: Default::default(),
         cell_size: None,
     }
 }
@@ -29,6 +31,8 @@ pub fn bounded(w: f64, h: f64) -> WorldConfig {
     WorldConfig {
         size: WorldSize::from_origin(w, h),
         ghost_mode: false,
+        walls: true,
+        turn: Default::default(),
         cell_size: None,
     }
 }

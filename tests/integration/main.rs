@@ -13,6 +13,7 @@ mod recording;
 #[cfg(feature = "rerun")]
 mod rerun_reader;
 mod scale;
+mod seed_semantics;
 mod sensors;
 mod smoke;
 mod sweep;

@@ -311,8 +311,8 @@ fn each_row_is_the_run_its_replay_command_makes_and_the_summary_its_statistics()
         .map(|r| r.unwrap().iter().map(String::from).collect())
         .collect();
     assert_eq!(points.len(), 4);
-    // t(0.975, 2), from a table.
-    let t2 = 4.302_652_729_911_275;
+    // t(0.975, 2), in closed form for 2 degrees of freedom.
+    let t2 = 0.95 / (2.0f64 * 0.975 * 0.025).sqrt();
     for p in &points {
         let of_point: Vec<&Vec<String>> = rows
             .iter()

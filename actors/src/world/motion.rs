@@ -250,6 +250,16 @@ impl Motion {
 
     /// Starts the requested motion at `t0` from `from`.
     pub fn begin(&self, t0: f64, from: Pose) -> Result<Box<dyn MotionPattern>, MotionError> {
+        self.begin_with(t0, from, TurnRule::Shortest)
+    }
+
+    /// [`Motion::begin`] with MOVETO turning as `rule` says.
+    pub fn begin_with(
+        &self,
+        t0: f64,
+        from: Pose,
+        rule: TurnRule,
+    ) -> Result<Box<dyn MotionPattern>, MotionError> {
         Ok(match self {
             Motion::Turn { angle, turn_speed } => Box::new(TurnForward::new(
                 t0,
@@ -296,7 +306,7 @@ impl Motion {
                 let delta = dest - from.pos;
                 let distance = delta.norm();
                 let turn = if distance > 0.0 {
-                    shortest_turn(from.angle, vector_heading(delta))
+                    rule.turn(from.angle, vector_heading(delta))
                 } else {
                     0.0
                 };
@@ -312,6 +322,35 @@ impl Motion {
             }
             Motion::Custom(spec) => spec.begin(t0, from)?,
         })
+    }
+}
+
+/// Which way MOVETO turns towards its destination (a world setting, `turn:` in scenarios).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum TurnRule {
+    /// The shorter way, by at most 180 degrees either way (nekosim's default).
+    #[default]
+    Shortest,
+    /// Always anticlockwise, by `[0, 360)` degrees: the seed's MOVETO (eq. 4.1; its logs show
+    /// turns of 317.529 and 196.105 degrees).
+    Anticlockwise,
+}
+
+impl TurnRule {
+    /// The signed turn [deg] from heading `from` to heading `to`.
+    pub fn turn(self, from: f64, to: f64) -> f64 {
+        match self {
+            TurnRule::Shortest => shortest_turn(from, to),
+            TurnRule::Anticlockwise => {
+                let t = (to - from).rem_euclid(360.0);
+                // A heading already reached up to rounding is not a full turn.
+                if 360.0 - t < 1e-9 {
+                    0.0
+                } else {
+                    t
+                }
+            }
+        }
     }
 }
 
@@ -489,6 +528,30 @@ mod tests {
         Pose {
             pos: Point::new(x, y),
             angle,
+        }
+    }
+
+    #[test]
+    fn the_seeds_anticlockwise_turn_is_the_positive_remainder() {
+        // The seed's logged turns (eq. 4.1): always anticlockwise, in [0, 360).
+        for (from, to, want) in [
+            (90.0, 45.0, 315.0),
+            (0.0, 317.529, 317.529),
+            (350.0, 10.0, 20.0),
+            (-30.0, 166.105, 196.105),
+            (45.0, 45.0, 0.0),
+            (10.0, 10.0 - 1e-12, 0.0),
+        ] {
+            let got = TurnRule::Anticlockwise.turn(from, to);
+            assert!(
+                (got - want).abs() < 1e-9,
+                "{from} -> {to}: {got}, expected {want}"
+            );
+            assert!((0.0..360.0).contains(&got));
+            // Shortest: the same heading reached, by at most 180 degrees.
+            let s = TurnRule::Shortest.turn(from, to);
+            assert!(s.abs() <= 180.0);
+            assert!(((got - s).rem_euclid(360.0)).min(360.0 - (got - s).rem_euclid(360.0)) < 1e-9);
         }
     }
 

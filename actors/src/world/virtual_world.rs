@@ -70,8 +70,14 @@ impl WorldSize {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WorldConfig {
     pub size: WorldSize,
-    /// No robot-robot collisions at all (seed 6.1). The boundary still holds robots in.
+    /// No robot-robot collisions at all (seed 6.1). The boundary still holds robots in unless
+    /// `walls` is false.
     pub ghost_mode: bool,
+    /// Whether a bounded world's boundary stops robots like a wall (`ghost_mode: true, walls:
+    /// false` is the seed's ghost mode: no collisions at all).
+    pub walls: bool,
+    /// Which way MOVETO turns.
+    pub turn: super::motion::TurnRule,
     /// Width of the spatial index's cells [units]; by default four times the largest radius.
     /// Raised automatically to the largest interaction distance.
     pub cell_size: Option<f64>,
@@ -407,7 +413,7 @@ impl VirtualWorld {
     /// All predictions of a robot whose path just changed.
     fn predict_all(&mut self, id: RobotId, out: &mut Outbox) {
         let now = out.now();
-        if let WorldSize::Bounded { min, max } = self.cfg.size {
+        if let (WorldSize::Bounded { min, max }, true) = (self.cfg.size, self.cfg.walls) {
             let r = self.radius(id);
             let wall = predict_wall(&self.track(id), r, min, max, now);
             if let Some((t, contact)) = wall {

@@ -82,7 +82,7 @@ impl VirtualWorld {
             motion: motion.name().to_string(),
             params: motion.params(),
         });
-        match motion.begin(now, from) {
+        match motion.begin_with(now, from, self.cfg.turn) {
             Err(e) => {
                 let outcome = MotionOutcome::Rejected(e.to_string());
                 out.record(Observation::MotionFinish {
