@@ -571,11 +571,6 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             if (rrd.is_some() || connect.is_some()) && !cfg!(feature = "rerun") {
                 return Err(invalid(RecordingError::Unsupported));
             }
-            let recording = Target {
-                rrd,
-                connect: connect.map(|u| (!u.is_empty()).then_some(u)),
-            };
-            let saved = recording.rrd.clone();
             let source = if set.is_empty() {
                 Source::load(&scenario).map_err(invalid)?
             } else {
@@ -592,6 +587,21 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 }
                 Source::parse(&file, &text).map_err(invalid)?
             };
+            // The scenario's `outputs`, unless the command line says.
+            let outputs = source.scenario.outputs.clone();
+            let (log, trace, rrd) = (
+                log.or(outputs.log),
+                trace.or(outputs.trace),
+                rrd.or(outputs.rrd),
+            );
+            if rrd.is_some() && !cfg!(feature = "rerun") {
+                return Err(invalid(RecordingError::Unsupported));
+            }
+            let recording = Target {
+                rrd,
+                connect: connect.map(|u| (!u.is_empty()).then_some(u)),
+            };
+            let saved = recording.rrd.clone();
             let built = source
                 .build(Overrides { seed, until }, registry)
                 .map_err(invalid)?;

@@ -335,10 +335,7 @@ fn start_recording(built: &Built, target: &Target) -> Result<Option<Recorder>, R
         built.until,
         built.robots.len()
     );
-    let world = match built.world.size {
-        nekosim_actors::world::virtual_world::WorldSize::Bounded { min, max } => Some((min, max)),
-        nekosim_actors::world::virtual_world::WorldSize::Infinite => None,
-    };
+    let world = built.view;
     let layout = crate::recording::rerun_canvas::Layout::run(
         world,
         built.robots.len(),

@@ -64,6 +64,13 @@ pub struct Scenario {
     /// Animation settings of recordings (seed 6.1); default 25 frames per simulated second.
     #[serde(default)]
     pub animation: Option<Animation>,
+    /// Every robot's radius unless its entry gives one (seed 6.1 `robot.size`).
+    #[serde(default)]
+    pub robot_size: Option<f64>,
+    /// Where `nekosim run` writes its outputs unless the command line says (seed 6.1
+    /// `animation.logpath`); paths are relative to the working directory.
+    #[serde(default)]
+    pub outputs: Outputs,
     /// How `nekosim check` explores the stack; the command line overrides each field.
     #[serde(default)]
     pub check: Option<CheckSettings>,
@@ -109,12 +116,42 @@ pub enum CheckNetwork {
     Lossy,
 }
 
+/// Output paths a scenario sets for `nekosim run` (its `--log`, `--trace`, `--rrd` win).
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Outputs {
+    #[serde(default)]
+    pub log: Option<std::path::PathBuf>,
+    #[serde(default)]
+    pub trace: Option<std::path::PathBuf>,
+    #[serde(default)]
+    pub rrd: Option<std::path::PathBuf>,
+}
+
+fn default_framerate() -> f64 {
+    crate::recording::DEFAULT_FRAMERATE
+}
+
+fn yes() -> bool {
+    true
+}
+
 /// How recordings animate robots between events (the seed's animation settings, 6.1).
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Animation {
     /// Frames per simulated second sampled from the motion formulas; 0: event instants only.
+    #[serde(default = "default_framerate")]
     pub framerate: f64,
+    /// `false`: no animation frames, the recording draws event instants only (seed
+    /// `animation = false`).
+    #[serde(default = "yes")]
+    pub enabled: bool,
+    /// The 2D view's extent `(width, height)` from the world's lower-left corner (an infinite
+    /// world: centred on the origin), the seed's `animation.panel.width/height`; default the
+    /// world's bounds.
+    #[serde(default)]
+    pub panel: Option<(f64, f64)>,
     /// Robot labels in recordings; default: shown up to 20 robots.
     #[serde(default)]
     pub labels: Option<bool>,
@@ -179,7 +216,9 @@ pub enum Size {
 pub enum RobotEntry {
     Robot {
         id: u32,
-        radius: f64,
+        /// Default: the scenario's `robot_size`.
+        #[serde(default)]
+        radius: Option<f64>,
         at: (f64, f64),
         /// Heading [deg], anticlockwise from +x.
         #[serde(default)]
@@ -189,7 +228,9 @@ pub enum RobotEntry {
     },
     Group {
         count: usize,
-        radius: f64,
+        /// Default: the scenario's `robot_size`.
+        #[serde(default)]
+        radius: Option<f64>,
         #[serde(default)]
         born: Born,
         /// Heading of every robot of the group [deg]; by default each draws one at random.
@@ -336,6 +377,10 @@ pub struct Built {
     pub framerate: f64,
     /// Robot labels in recordings (`animation.labels`; `None`: by the robot count).
     pub labels: Option<bool>,
+    /// What the recording's 2D view frames (`animation.panel`, else a bounded world's box).
+    pub view: Option<(Point, Point)>,
+    /// The scenario's output paths (`outputs`).
+    pub outputs: Outputs,
     /// Whether robots can exchange messages: the scenario names a network or a stack (what
     /// decides whether a recording plots messages).
     pub messages: bool,
@@ -417,6 +462,17 @@ impl Source {
                 "a finite number",
             )))
         }
+    }
+
+    /// A robot entry's radius, or the scenario's `robot_size` (seed 6.1 `robot.size`).
+    fn radius(&self, path: &str, radius: Option<f64>) -> Result<f64, ScenarioError> {
+        radius.or(self.scenario.robot_size).ok_or_else(|| {
+            self.err(FieldError::new(
+                path,
+                "no radius",
+                "`radius: R` in the entry, or `robot_size: R` for every robot",
+            ))
+        })
     }
 
     /// `v` must be at most [`MAX_COORDINATE`] in size: beyond, f64 motion is no longer exact
@@ -597,6 +653,7 @@ impl Source {
             } = r
             {
                 let path = format!("robots[{i}]");
+                let radius = &self.radius(&path, *radius)?;
                 self.positive(&format!("{path}.radius"), "radius", *radius)?;
                 self.finite(&format!("{path}.at[0]"), "x", at.0)?;
                 self.finite(&format!("{path}.at[1]"), "y", at.1)?;
@@ -632,6 +689,7 @@ impl Source {
             } = r
             {
                 let path = format!("robots[{i}]");
+                let radius = &self.radius(&path, *radius)?;
                 self.positive(&format!("{path}.radius"), "radius", *radius)?;
                 if let Some(a) = angle {
                     self.finite(&format!("{path}.angle"), "angle", *a)?;
@@ -751,8 +809,31 @@ impl Source {
                         ),
                     )));
                 }
-                a.framerate
+                if a.enabled {
+                    a.framerate
+                } else {
+                    0.0
+                }
             }
+        };
+        // The 2D view: the panel from the world's lower-left corner (centred on the origin in
+        // an infinite world), or the world itself.
+        let view = match s.animation.as_ref().and_then(|a| a.panel) {
+            Some((w, h)) => {
+                self.positive("animation.panel[0]", "panel width", w)?;
+                self.positive("animation.panel[1]", "panel height", h)?;
+                self.within("animation.panel[0]", "panel width", w)?;
+                self.within("animation.panel[1]", "panel height", h)?;
+                let lo = match world.size {
+                    WorldSize::Bounded { min, .. } => min,
+                    WorldSize::Infinite => Point::new(-w / 2.0, -h / 2.0),
+                };
+                Some((lo, Point::new(lo.x + w, lo.y + h)))
+            }
+            None => match world.size {
+                WorldSize::Bounded { min, max } => Some((min, max)),
+                WorldSize::Infinite => None,
+            },
         };
         let name = s.name.clone().unwrap_or_else(|| {
             Path::new(&self.file)
@@ -765,6 +846,8 @@ impl Source {
             sensors: registry.sensors.clone(),
             framerate,
             labels: s.animation.as_ref().and_then(|a| a.labels),
+            view,
+            outputs: s.outputs.clone(),
             messages: s.network.is_some() || !s.stack.is_empty(),
             deliveries: !s.stack.is_empty(),
             name,

@@ -136,3 +136,82 @@ fn a_crowd_that_cannot_fit_is_refused_by_the_packing_bound_not_a_random_search()
     );
     assert!(!err.contains("could not place"), "{err}");
 }
+
+fn built(text: &str) -> Result<nekosim::scenario::Built, String> {
+    let source = nekosim::scenario::Source::parse("s.ron", text).map_err(|e| e.to_string())?;
+    source
+        .build(
+            Default::default(),
+            &nekosim::scenario::Registry::with_builtins(),
+        )
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn the_seeds_chapter_6_1_settings_robot_size_animation_and_panel() {
+    // robot.size: every robot's radius unless its entry gives one.
+    let b = built("Scenario(robot_size: 7.0, world: (size: Bounded(width: 400.0, height: 300.0)), robots: [Group(count: 3), Robot(id: 3, radius: 2.0, at: (0.0, 0.0))])").unwrap();
+    let radii: Vec<f64> = b.robots.iter().map(|r| r.0.radius).collect();
+    assert_eq!(radii, [7.0, 7.0, 7.0, 2.0]);
+    let e = built("Scenario(world: (size: Infinite), robots: [Group(count: 3)])").unwrap_err();
+    assert!(e.starts_with("s.ron:1:44: no radius"), "{e}");
+    // Animation on by default at 25 frames per simulated second; off: event instants only.
+    assert_eq!(b.framerate, 25.0);
+    let off = built("Scenario(robot_size: 1.0, world: (size: Infinite), animation: (enabled: false), robots: [Group(count: 1)])").unwrap();
+    assert_eq!(off.framerate, 0.0);
+    // The panel: the 2D view from the world's lower-left corner; by default the world.
+    use nekosim::world::geometry::Point;
+    assert_eq!(
+        b.view,
+        Some((Point::new(-200.0, -150.0), Point::new(200.0, 150.0)))
+    );
+    let panel = built("Scenario(robot_size: 1.0, world: (size: Bounded(width: 400.0, height: 300.0), origin: (0.0, 0.0)), animation: (panel: (100.0, 50.0)), robots: [Group(count: 1)])").unwrap();
+    assert_eq!(
+        panel.view,
+        Some((Point::new(0.0, 0.0), Point::new(100.0, 50.0)))
+    );
+    let e = built("Scenario(robot_size: 1.0, world: (size: Infinite), animation: (panel: (0.0, 50.0)), robots: [])").unwrap_err();
+    assert!(e.contains("panel width is 0"), "{e}");
+}
+
+#[test]
+fn a_scenarios_outputs_are_written_unless_the_command_line_says_otherwise() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("s.ron");
+    std::fs::write(
+        &file,
+        "Scenario(until: 5.0, robot_size: 5.0, world: (size: Bounded(width: 200.0, height: 200.0)), outputs: (log: \"out/s.log\", trace: \"out/s.jsonl\"), robots: [Group(count: 3, algorithm: RandomMovement())])",
+    )
+    .unwrap();
+    let run = |extra: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+            .arg("run")
+            .arg(&file)
+            .arg("--quiet")
+            .args(extra)
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    run(&[]);
+    let log = std::fs::read_to_string(dir.path().join("out/s.log")).unwrap();
+    let trace = std::fs::read_to_string(dir.path().join("out/s.jsonl")).unwrap();
+    assert_eq!(
+        log.lines().count(),
+        trace.lines().count(),
+        "one log line per trace record"
+    );
+    assert!(log.lines().count() > 3);
+    // --log wins over the file's log; the file's trace is still written.
+    std::fs::remove_dir_all(dir.path().join("out")).unwrap();
+    run(&["--log", "mine.log"]);
+    assert!(dir.path().join("mine.log").exists());
+    assert!(!dir.path().join("out/s.log").exists());
+    assert!(dir.path().join("out/s.jsonl").exists());
+}
