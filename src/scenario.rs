@@ -18,7 +18,9 @@ use nekosim_actors::world::geometry::Point;
 use nekosim_actors::world::motion::Pose;
 use nekosim_actors::world::network::{ConfiguredNetwork, Networks, Partition};
 use nekosim_actors::world::sensor::{SensorModel, Sensors};
-use nekosim_actors::world::virtual_world::{RobotSpec, VirtualWorld, WorldConfig, WorldSize};
+#[cfg(debug_assertions)]
+use nekosim_actors::world::virtual_world::VirtualWorld;
+use nekosim_actors::world::virtual_world::{RobotSpec, WorldConfig, WorldSize};
 use nekosim_actors::{Algorithm, Comms, Fault};
 use nekosim_protocols::payload::Codecs;
 use nekosim_protocols::{FieldError, LayerSpec, Protocols, Spec, SpecError, StackError, Wiring};
@@ -792,9 +794,14 @@ impl Source {
                 )
             })
             .collect();
-        // The kernel's own checks, as a second net.
-        let specs: Vec<RobotSpec> = robots.iter().map(|r| r.0).collect();
-        VirtualWorld::new(world, &specs).map_err(|e| self.place("robots", e.to_string()))?;
+        // The checks above are the kernel's (`VirtualWorld::new`, which the run applies again
+        // as it builds its world): debug builds, the tests', make sure they agree; release
+        // builds do not pay twice for every run of a sweep.
+        #[cfg(debug_assertions)]
+        {
+            let specs: Vec<RobotSpec> = robots.iter().map(|r| r.0).collect();
+            VirtualWorld::new(world, &specs).map_err(|e| self.place("robots", e.to_string()))?;
+        }
         let framerate = match &s.animation {
             None => crate::recording::DEFAULT_FRAMERATE,
             Some(a) => {
