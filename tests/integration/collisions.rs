@@ -33,8 +33,19 @@ fn born(n: usize, w: f64, h: f64, radius: f64, seed: u64) -> Vec<RobotSpec> {
 }
 
 fn random_run(seed: u64, n: usize, world: WorldConfig, until: f64) -> Vec<Record> {
-    let (w, h) = (200.0, 200.0);
-    let robots = born(n, w, h, 4.0, seed)
+    sized_run(seed, n, 200.0, 4.0, world, until)
+}
+
+/// `n` robots of `radius` born at random in a `side` x `side` world, moving at random.
+fn sized_run(
+    seed: u64,
+    n: usize,
+    side: f64,
+    radius: f64,
+    world: WorldConfig,
+    until: f64,
+) -> Vec<Record> {
+    let robots = born(n, side, side, radius, seed)
         .into_iter()
         .map(|s| (s, Box::new(RandomMovement::default()) as Box<dyn Algorithm>))
         .collect();
@@ -130,6 +141,11 @@ fn brute_force(records: &[Record], end: f64) -> Vec<(f64, u32, u32)> {
 }
 
 fn check_run(records: &[Record], end: f64) -> usize {
+    check_sized_run(records, end, 200.0)
+}
+
+/// [`check_run`] in a `side` x `side` world.
+fn check_sized_run(records: &[Record], end: f64, side: f64) -> usize {
     let mut engine = reported(records);
     engine.sort_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2).cmp(&(y.1, y.2))));
     let brute = brute_force(records, end);
@@ -152,10 +168,7 @@ fn check_run(records: &[Record], end: f64) -> usize {
         for s in path {
             let p = s.p;
             assert!(
-                p.x >= r - TOL
-                    && p.y >= r - TOL
-                    && p.x <= 200.0 - r + TOL
-                    && p.y <= 200.0 - r + TOL,
+                p.x >= r - TOL && p.y >= r - TOL && p.x <= side - r + TOL && p.y <= side - r + TOL,
                 "robot {id} outside the world at {p:?}"
             );
         }
@@ -171,9 +184,9 @@ fn check_run(records: &[Record], end: f64) -> usize {
             let r = radii[robot as usize];
             let gap = (pos.x - r)
                 .abs()
-                .min((200.0 - r - pos.x).abs())
+                .min((side - r - pos.x).abs())
                 .min((pos.y - r).abs())
-                .min((200.0 - r - pos.y).abs());
+                .min((side - r - pos.y).abs());
             assert!(gap < TOL, "boundary collision away from the wall: {pos:?}");
         }
     }
@@ -190,6 +203,20 @@ fn brute_force_finds_exactly_the_reported_collisions() {
     }
     // The setting is dense enough that the oracle is exercised, not vacuous.
     assert!(total > 50, "only {total} collisions in all runs");
+}
+
+/// The whole-run oracle at scale: 2,000 robots at the seed's density (100 of radius 5 per
+/// 800 x 800), every pair of rebuilt path pieces checked (O(n^2) pairs).
+#[test]
+fn brute_force_agrees_at_two_thousand_robots() {
+    let side = 800.0 * 20f64.sqrt();
+    let records = sized_run(11, 2000, side, 5.0, bounded(side, side), 20.0);
+    let end = records.last().map_or(0.0, |r| r.t);
+    let collisions = check_sized_run(&records, end, side);
+    assert!(
+        collisions > 20,
+        "only {collisions} collisions: the oracle is barely exercised"
+    );
 }
 
 #[test]
