@@ -602,9 +602,35 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 connect: connect.map(|u| (!u.is_empty()).then_some(u)),
             };
             let saved = recording.rrd.clone();
+            // Start-up (placing and spawning the robots) shows on the terminal too: a large
+            // run is not silent until its first event.
+            let starting = (!quiet && std::io::stderr().is_terminal()).then(|| {
+                let s = indicatif::ProgressBar::new_spinner();
+                s.set_message("building the scenario (placing the robots)");
+                s.enable_steady_tick(std::time::Duration::from_millis(200));
+                s
+            });
             let built = source
                 .build(Overrides { seed, until }, registry)
-                .map_err(invalid)?;
+                .map_err(invalid);
+            let built = match built {
+                Ok(b) => b,
+                Err(e) => {
+                    if let Some(s) = &starting {
+                        s.finish_and_clear();
+                    }
+                    return Err(e);
+                }
+            };
+            let startup: Option<Box<dyn FnMut(usize, usize)>> = starting.clone().map(|s| {
+                Box::new(move |done: usize, all: usize| {
+                    if done < all {
+                        s.set_message(format!("spawning the robots' actors: {done} of {all}"));
+                    } else {
+                        s.finish_and_clear();
+                    }
+                }) as Box<dyn FnMut(usize, usize)>
+            });
             let horizon = built.until;
             let bar =
                 (!quiet && std::io::stderr().is_terminal() && horizon.is_finite()).then(|| {
@@ -643,6 +669,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                     trace,
                     recording,
                     progress,
+                    startup,
                     stop: Some(stop),
                 },
             );

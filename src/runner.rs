@@ -29,6 +29,8 @@ pub struct RunOptions {
     pub recording: Target,
     /// Called with the virtual time now and then.
     pub progress: Option<Box<dyn FnMut(f64)>>,
+    /// Called while the run starts with the robots spawned so far and their number.
+    pub startup: Option<Box<dyn FnMut(usize, usize)>>,
     /// Set (e.g. on Ctrl-C) to end the run at the virtual time reached; the outputs are then
     /// written as for a run that ended there, and [`Summary::interrupted`] says so.
     pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
@@ -274,6 +276,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
             keep: false,
             sink: Some(sink),
             progress: opts.progress,
+            startup: opts.startup,
             stop: opts.stop,
         },
         comms: built.comms,

@@ -125,6 +125,9 @@ pub struct Scheduler {
 /// Receives every observation of a run, in order.
 pub type Sink = Box<dyn FnMut(&Record)>;
 
+/// How many robots spawn between two calls of [`Observers::startup`].
+pub const STARTUP_EVERY: usize = 10_000;
+
 /// Who sees a run while it goes on.
 #[derive(Default)]
 pub struct Observers {
@@ -134,6 +137,10 @@ pub struct Observers {
     pub sink: Option<Sink>,
     /// Called with the virtual time every [`PROGRESS_EVERY`] events.
     pub progress: Option<Box<dyn FnMut(f64)>>,
+    /// Called while the run starts, before its first event, with the robots spawned so far and
+    /// their number (every [`STARTUP_EVERY`] robots, and when all are), so a large run is not
+    /// silent while it starts.
+    pub startup: Option<Box<dyn FnMut(usize, usize)>>,
     /// Set from outside the simulation (the user's Ctrl-C) to end the run before its next
     /// event, at the virtual time reached, as if `until` had come then: the run finishes
     /// normally and [`RunStats::interrupted`] says so.
@@ -146,6 +153,7 @@ impl std::fmt::Debug for Observers {
             .field("keep", &self.keep)
             .field("sink", &self.sink.is_some())
             .field("progress", &self.progress.is_some())
+            .field("startup", &self.startup.is_some())
             .field("stop", &self.stop)
             .finish()
     }

@@ -182,6 +182,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     let until = cfg.until;
     let mut observers = cfg.observers;
     observers.keep = cfg.record;
+    let mut startup = observers.startup.take();
     let world_cfg = cfg.world;
     let robots = cfg.robots;
     // Every robot's instances: fresh copies of the checked stack's.
@@ -209,6 +210,11 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             .into_iter()
             .enumerate()
             .map(|(i, (spec, algorithm))| {
+                if let Some(f) = startup.as_mut() {
+                    if i % crate::scheduler::STARTUP_EVERY == 0 && i > 0 {
+                        f(i, count);
+                    }
+                }
                 let info = RobotInfo {
                     id: i as RobotId,
                     count,
@@ -222,6 +228,9 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
                 .recipient()
             })
             .collect();
+        if let Some(f) = startup.as_mut() {
+            f(count, count);
+        }
         let layers: Vec<Vec<Recipient<Deliver>>> = (0..count as RobotId)
             .map(|r| {
                 std::mem::take(&mut instances[r as usize])

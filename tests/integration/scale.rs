@@ -45,3 +45,61 @@ fn ten_thousand_robots_run() {
     assert!(out.stats.collisions > 0, "{:?}", out.stats);
     assert_eq!(out.stats.end_time, 20.0);
 }
+
+/// Start-up is reported: every 10,000 robots spawned, and once when all are, before the
+/// first event.
+#[test]
+fn start_up_reports_the_robots_spawned() {
+    let side = 4000.0;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let points = random_born_points(25_000, 5.0, side, side, &[], &mut rng).expect("born points");
+    let robots = points
+        .into_iter()
+        .map(|p| {
+            let spec = RobotSpec {
+                radius: 5.0,
+                pose: Pose { pos: p, angle: 0.0 },
+            };
+            (
+                spec,
+                Box::new(nekosim::algorithm::Idle) as Box<dyn Algorithm>,
+            )
+        })
+        .collect();
+    let calls = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+    let seen = calls.clone();
+    let first_event = std::rc::Rc::new(std::cell::Cell::new(None::<usize>));
+    let at_first = first_event.clone();
+    let calls_at_event = calls.clone();
+    nekosim::run(SimConfig {
+        sensors: Default::default(),
+        seed: 7,
+        until: 1.0,
+        world: bounded(side, side),
+        robots,
+        arbiters: 1,
+        record: false,
+        observers: nekosim::scheduler::Observers {
+            startup: Some(Box::new(move |done, all| {
+                seen.borrow_mut().push((done, all))
+            })),
+            sink: Some(Box::new(move |_| {
+                if at_first.get().is_none() {
+                    at_first.set(Some(calls_at_event.borrow().len()));
+                }
+            })),
+            ..Default::default()
+        },
+        comms: Default::default(),
+    })
+    .expect("run");
+    assert_eq!(
+        *calls.borrow(),
+        [(10_000, 25_000), (20_000, 25_000), (25_000, 25_000)]
+    );
+    assert_eq!(
+        first_event.get(),
+        Some(3),
+        "all reported before the first record"
+    );
+}
