@@ -340,8 +340,8 @@ impl Ord for Key {
 #[derive(Debug, Default)]
 pub struct EventQueue {
     heap: BinaryHeap<Key>,
-    live: HashMap<EventId, Event>,
-    by_robot: HashMap<RobotId, BTreeSet<(u64, EventId)>>,
+    live: HashMap<EventId, Event, super::grid::FixedHash>,
+    by_robot: HashMap<RobotId, BTreeSet<(u64, EventId)>, super::grid::FixedHash>,
 }
 
 impl EventQueue {

@@ -21,9 +21,7 @@ pub type Cell = [i64; 2];
 #[derive(Clone, Debug)]
 pub struct Grid {
     size: f64,
-    /// Hashed with aHash under fixed keys: several times faster than the standard SipHash on
-    /// these small keys, and the same on every run (nothing may depend on the map's order).
-    cells: HashMap<Cell, Vec<RobotId>, ahash::RandomState>,
+    cells: HashMap<Cell, Vec<RobotId>, FixedHash>,
 }
 
 impl Grid {
@@ -32,12 +30,7 @@ impl Grid {
         assert!(size.is_finite() && size > 0.0, "cell size must be > 0");
         Self {
             size,
-            cells: HashMap::with_hasher(ahash::RandomState::with_seeds(
-                0x6e65_6b6f,
-                0x7369_6d75,
-                0x6c61_746f,
-                0x7267_7269,
-            )),
+            cells: HashMap::default(),
         }
     }
 
@@ -100,5 +93,30 @@ impl Grid {
             }
         }
         Some(out)
+    }
+}
+
+/// The engine's hash maps' hasher: aHash under fixed keys, several times faster than the
+/// standard SipHash on small keys (cells, ids), and the same on every run (nothing may depend
+/// on a map's order anyway).
+#[derive(Clone, Debug)]
+pub struct FixedHash(ahash::RandomState);
+
+impl Default for FixedHash {
+    fn default() -> Self {
+        Self(ahash::RandomState::with_seeds(
+            0x6e65_6b6f,
+            0x7369_6d75,
+            0x6c61_746f,
+            0x7267_7269,
+        ))
+    }
+}
+
+impl std::hash::BuildHasher for FixedHash {
+    type Hasher = ahash::AHasher;
+
+    fn build_hasher(&self) -> ahash::AHasher {
+        self.0.build_hasher()
     }
 }
