@@ -104,17 +104,7 @@ impl Cluster {
         dir: &Path,
         registry: &Registry,
     ) -> Result<Self, ScenarioError> {
-        let opts = ron::Options::default()
-            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-        let raw: Raw = opts.from_str(text).map_err(|e| {
-            let message = crate::scenario::describe_ron(&e.code);
-            let pos = crate::scenario::name_start(text, e.position.line, e.position.col, &message);
-            ScenarioError {
-                file: file.to_string(),
-                pos: Some(pos),
-                message,
-            }
-        })?;
+        let raw: Raw = crate::scenario::read_ron(file, text)?;
         let starts = locate(text);
         let at = |path: &str, message: String| ScenarioError {
             file: file.to_string(),

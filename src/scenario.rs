@@ -390,6 +390,24 @@ pub struct Built {
     pub deliveries: bool,
 }
 
+/// Reads RON `text` (named `file` in errors) into a `T`, with implicit `Some`; a syntax or
+/// type error is reported at its FILE:LINE:COL (scenario, sweep and cluster files alike).
+pub fn read_ron<T: serde::de::DeserializeOwned>(
+    file: &str,
+    text: &str,
+) -> Result<T, ScenarioError> {
+    let opts =
+        ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
+    opts.from_str(text).map_err(|e| {
+        let message = describe_ron(&e.code);
+        ScenarioError {
+            file: file.to_string(),
+            pos: Some(name_start(text, e.position.line, e.position.col, &message)),
+            message,
+        }
+    })
+}
+
 /// A scenario file read and parsed, with the positions of its values.
 #[derive(Debug)]
 pub struct Source {
@@ -412,16 +430,7 @@ impl Source {
 
     /// Parses scenario text; `file` names it in errors.
     pub fn parse(file: &str, text: &str) -> Result<Self, ScenarioError> {
-        let opts = ron::Options::default()
-            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-        let scenario: Scenario = opts.from_str(text).map_err(|e| {
-            let message = describe_ron(&e.code);
-            ScenarioError {
-                file: file.to_string(),
-                pos: Some(name_start(text, e.position.line, e.position.col, &message)),
-                message,
-            }
-        })?;
+        let scenario: Scenario = read_ron(file, text)?;
         Ok(Self {
             file: file.to_string(),
             scenario,

@@ -82,6 +82,14 @@ impl Plan {
         (run / self.seeds.len(), self.seeds[run % self.seeds.len()])
     }
 
+    /// The checks, parsed (they were checked when the sweep file was loaded).
+    pub fn parsed_checks(&self) -> Vec<Check> {
+        self.checks
+            .iter()
+            .filter_map(|c| Check::parse(c).ok())
+            .collect()
+    }
+
     /// The command that replays `run`, writing a recording to watch.
     pub fn replay(&self, run: usize) -> String {
         let (point, seed) = self.run_of(run);
@@ -193,13 +201,7 @@ impl Sweep {
             pos,
             message,
         };
-        let opts = ron::Options::default()
-            .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-        let raw: Raw = opts.from_str(&text).map_err(|e| {
-            let message = crate::scenario::describe_ron(&e.code);
-            let pos = crate::scenario::name_start(&text, e.position.line, e.position.col, &message);
-            at(Some(pos), message)
-        })?;
+        let raw: Raw = crate::scenario::read_ron(&file, &text)?;
         let sp = spans(&text);
         let pos = |p: &str| sp.starts.get(p).copied();
 
@@ -432,11 +434,7 @@ pub struct Outcome {
 /// Runs `sweep`'s runs (or its shard's), `jobs` at a time.
 pub fn run(sweep: &Sweep, registry: &Registry, opts: &SweepOptions) -> Outcome {
     let plan = &sweep.plan;
-    let checks: Vec<Check> = plan
-        .checks
-        .iter()
-        .filter_map(|c| Check::parse(c).ok())
-        .collect();
+    let checks = plan.parsed_checks();
     let todo: Vec<usize> = (0..plan.runs())
         .filter(|r| opts.shard.is_none_or(|(i, n)| r % n == i))
         .collect();
@@ -800,11 +798,7 @@ fn plots(plan: &Plan, rows: &[Row]) -> Result<Vec<(String, String)>, String> {
 /// Writes the whole sweep's files into `out`: runs.csv, summary.csv, failures.txt and
 /// plots/METRIC.svg.
 pub fn finish(plan: &Plan, rows: &[Row], out: &Path) -> Result<(), SweepError> {
-    let checks: Vec<Check> = plan
-        .checks
-        .iter()
-        .filter_map(|c| Check::parse(c).ok())
-        .collect();
+    let checks = plan.parsed_checks();
     write(&out.join("runs.csv"), &runs_csv(plan, rows, &checks))?;
     write(&out.join("summary.csv"), &summary_csv(plan, rows, &checks))?;
     write(
@@ -868,11 +862,7 @@ pub fn finish_shard(
     (shard, of): (usize, usize),
     out: &Path,
 ) -> Result<(), SweepError> {
-    let checks: Vec<Check> = plan
-        .checks
-        .iter()
-        .filter_map(|c| Check::parse(c).ok())
-        .collect();
+    let checks = plan.parsed_checks();
     write(&out.join("runs.csv"), &runs_csv(plan, rows, &checks))?;
     let m = Manifest {
         plan: plan.clone(),
@@ -973,11 +963,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Outcome, SweepError> {
     }
     rows.sort_by_key(|r| r.run);
     finish(plan, &rows, out)?;
-    let checks: Vec<Check> = plan
-        .checks
-        .iter()
-        .filter_map(|c| Check::parse(c).ok())
-        .collect();
+    let checks = plan.parsed_checks();
     Ok(Outcome {
         failing: rows.iter().filter(|r| !r.ok(plan, &checks)).count(),
         errors: rows.iter().filter(|r| r.error.is_some()).count(),

@@ -98,6 +98,25 @@ fn stderr_of(child: Child) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// `nekosim cluster FILE --out DIR/out`, which must succeed; the output directory.
+fn run_cluster(file: &Path, dir: &Path) -> PathBuf {
+    let out = dir.join("out");
+    let o = nekosim()
+        .arg("cluster")
+        .arg(file)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    out
+}
+
 const LAMPORT: &str = "Layer(id: \"fifo\", protocol: Fifo, below: \"net\"), Layer(id: \"abcast\", protocol: LamportAbcast, below: \"fifo\")";
 
 #[test]
@@ -110,20 +129,7 @@ fn three_nodes_of_lamport_abcast_deliver_every_broadcast_in_one_total_order() {
         "",
         20.0,
     );
-    let out = dir.path().join("out");
-    let o = nekosim()
-        .arg("cluster")
-        .arg(&file)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let out = run_cluster(&file, dir.path());
     let orders: Vec<Vec<String>> = (0..3)
         .map(|i| delivered(&out.join(format!("p{i}.jsonl"))))
         .collect();
@@ -232,20 +238,7 @@ fn consensus_proposals_decide_one_value_per_instance_everywhere() {
         "",
         15.0,
     );
-    let out = dir.path().join("out");
-    let o = nekosim()
-        .arg("cluster")
-        .arg(&file)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let out = run_cluster(&file, dir.path());
     let mut decided: std::collections::BTreeMap<u64, BTreeSet<String>> = Default::default();
     for i in 0..3 {
         let ds: Vec<Value> = records(&out.join(format!("p{i}.jsonl")))
@@ -346,20 +339,7 @@ fn a_scripted_crash_ends_a_node_and_the_others_go_on_in_one_order() {
         "Crash(node: 2, at: 0.5)",
         5.0,
     );
-    let out = dir.path().join("out");
-    let o = nekosim()
-        .arg("cluster")
-        .arg(&file)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let out = run_cluster(&file, dir.path());
     // Node 2's trace ends with its crash, about half a second in.
     let r2 = records(&out.join("p2.jsonl"));
     let last = r2.last().unwrap();
@@ -389,20 +369,7 @@ fn a_cut_link_heals_and_retransmit_and_fifo_recover_the_total_order() {
         "Cut(between: (0, 1), from: 0.2, to: 1.2)",
         15.0,
     );
-    let out = dir.path().join("out");
-    let o = nekosim()
-        .arg("cluster")
-        .arg(&file)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let out = run_cluster(&file, dir.path());
     let orders: Vec<Vec<String>> = (0..3)
         .map(|i| delivered(&out.join(format!("p{i}.jsonl"))))
         .collect();
