@@ -83,12 +83,7 @@ pub struct Cluster {
 impl Cluster {
     /// Reads and checks the cluster file at `path`; problems are reported at FILE:LINE:COL.
     pub fn load(path: &Path, registry: &Registry) -> Result<Self, ScenarioError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError {
-            file: file.clone(),
-            pos: None,
-            message: format!("cannot read the cluster file: {e}"),
-        })?;
+        let (file, text) = crate::scenario::read_file(path, "cluster")?;
         Self::parse(
             &file,
             &text,

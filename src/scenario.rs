@@ -390,6 +390,17 @@ pub struct Built {
     pub deliveries: bool,
 }
 
+/// The text of the `what` file (scenario, sweep, cluster) at `path`, and its name for errors.
+pub fn read_file(path: &Path, what: &str) -> Result<(String, String), ScenarioError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| ScenarioError {
+        file: file.clone(),
+        pos: None,
+        message: format!("cannot read the {what} file: {e}"),
+    })?;
+    Ok((file, text))
+}
+
 /// Reads RON `text` (named `file` in errors) into a `T`, with implicit `Some`; a syntax or
 /// type error is reported at its FILE:LINE:COL (scenario, sweep and cluster files alike).
 pub fn read_ron<T: serde::de::DeserializeOwned>(
@@ -419,12 +430,7 @@ pub struct Source {
 impl Source {
     /// Reads and parses a scenario file.
     pub fn load(path: &Path) -> Result<Self, ScenarioError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError {
-            file: file.clone(),
-            pos: None,
-            message: format!("cannot read the scenario file: {e}"),
-        })?;
+        let (file, text) = read_file(path, "scenario")?;
         Self::parse(&file, &text)
     }
 

@@ -190,12 +190,7 @@ impl Sweep {
     /// and value (each set alone into the scenario, which must then build), the seeds, the
     /// metrics and the checks. Every problem is reported at FILE:LINE:COL before any run.
     pub fn load(path: &Path, registry: &Registry) -> Result<Self, ScenarioError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError {
-            file: file.clone(),
-            pos: None,
-            message: format!("cannot read the sweep file: {e}"),
-        })?;
+        let (file, text) = crate::scenario::read_file(path, "sweep")?;
         let at = |pos: Option<Pos>, message: String| ScenarioError {
             file: file.clone(),
             pos,

@@ -117,6 +117,13 @@ fn run_cluster(file: &Path, dir: &Path) -> PathBuf {
     out
 }
 
+/// Consensus-based atomic broadcast with a heartbeat detector (seed fig. 3.10).
+const CONSENSUS_ABCAST: &str =
+    "Layer(id: \"fd\", protocol: Heartbeat(period: 0.1, timeout: 0.5), below: \"net\"), \
+    Layer(id: \"rb\", protocol: ReliableBroadcast, below: \"net\"), \
+    Layer(id: \"consensus\", protocol: ChandraToueg, below: \"net\", uses: [\"fd\"]), \
+    Layer(id: \"abcast\", protocol: ConsensusAbcast, below: \"rb\", uses: [\"consensus\"])";
+
 const LAMPORT: &str = "Layer(id: \"fifo\", protocol: Fifo, below: \"net\"), Layer(id: \"abcast\", protocol: LamportAbcast, below: \"fifo\")";
 
 #[test]
@@ -270,10 +277,7 @@ fn consensus_proposals_decide_one_value_per_instance_everywhere() {
 #[test]
 fn consensus_abcast_survivors_keep_order_when_a_node_is_killed_and_suspect_it() {
     let dir = tempfile::tempdir().unwrap();
-    let stack = "Layer(id: \"fd\", protocol: Heartbeat(period: 0.1, timeout: 0.5), below: \"net\"), \
-                 Layer(id: \"rb\", protocol: ReliableBroadcast, below: \"net\"), \
-                 Layer(id: \"consensus\", protocol: ChandraToueg, below: \"net\", uses: [\"fd\"]), \
-                 Layer(id: \"abcast\", protocol: ConsensusAbcast, below: \"rb\", uses: [\"consensus\"])";
+    let stack = CONSENSUS_ABCAST;
     let (file, _) = cluster(
         dir.path(),
         stack,
@@ -328,10 +332,7 @@ fn consensus_abcast_survivors_keep_order_when_a_node_is_killed_and_suspect_it() 
 #[test]
 fn a_scripted_crash_ends_a_node_and_the_others_go_on_in_one_order() {
     let dir = tempfile::tempdir().unwrap();
-    let stack = "Layer(id: \"fd\", protocol: Heartbeat(period: 0.1, timeout: 0.5), below: \"net\"), \
-                 Layer(id: \"rb\", protocol: ReliableBroadcast, below: \"net\"), \
-                 Layer(id: \"consensus\", protocol: ChandraToueg, below: \"net\", uses: [\"fd\"]), \
-                 Layer(id: \"abcast\", protocol: ConsensusAbcast, below: \"rb\", uses: [\"consensus\"])";
+    let stack = CONSENSUS_ABCAST;
     let (file, _) = cluster(
         dir.path(),
         stack,
