@@ -43,6 +43,8 @@ use nekosim_protocols::payload::type_word;
 use crate::log::NekoLog;
 
 #[cfg(feature = "rerun")]
+pub mod names;
+#[cfg(feature = "rerun")]
 pub mod rerun_canvas;
 #[cfg(feature = "rerun")]
 pub mod rrd_file;

@@ -57,6 +57,12 @@ pub const EVENT_FLUSH_INSTANCES: usize = 1536;
 /// cover the middle of the world.
 pub const LABELLED_ROBOTS: usize = 20;
 
+/// The colour of robots' names: a light grey, readable on the black background.
+pub const NAME_COLOUR: Rgb = [200, 200, 200];
+
+/// The opacity of a run's message arrows (their packets are opaque).
+pub const MESSAGE_ALPHA: u8 = 100;
+
 /// The colour of collision crosses (amber).
 pub const COLLISION_COLOUR: Rgb = [255, 176, 0];
 
@@ -355,6 +361,8 @@ struct GroupRows {
     /// Each robot's current leg, from its last kinematic record to where it is: the trail
     /// growing behind it (completed legs are `world/paths`).
     trails: Col<[[f32; 2]; 2]>,
+    /// Robots' names in world units ([`super::names`]), on every row when names are drawn.
+    names: Col<Vec<[f32; 2]>>,
     /// Push sensor circles, on rows where one is active or one was switched off.
     centres: Col<[f32; 2]>,
     half_sizes: Col<[f32; 2]>,
@@ -466,6 +474,15 @@ impl GroupRows {
             out.push((group_entity("destinations", first), times.clone(), dests));
         }
 
+        let names = rows.names.columns(|v, n| {
+            archetypes::LineStrips2D::update_fields()
+                .with_strips(v)
+                .columns(n)
+        })?;
+        if !names.is_empty() {
+            out.push((group_entity("names", first), times.clone(), names));
+        }
+
         let mut sensors = rows
             .centres
             .columns(|v, n| vec2_column(v, archetypes::Ellipses2D::descriptor_centers(), n))?;
@@ -495,6 +512,8 @@ struct Group {
     /// The headings last drawn and their arrows.
     angle: Vec<f64>,
     vector: Vec<[f32; 2]>,
+    /// Each robot's name relative to its centre, when names are drawn (`Some`).
+    names: Option<Vec<Vec<Vec<[f32; 2]>>>>,
     /// What changed since the group's last row.
     style_changed: bool,
     dests_changed: bool,
@@ -513,6 +532,9 @@ impl Group {
             self.corner.resize(n, None);
             self.angle.resize(n, f64::NAN);
             self.vector.resize(n, [0.0; 2]);
+            if let Some(names) = &mut self.names {
+                names.resize(n, Vec::new());
+            }
         }
     }
 
@@ -550,6 +572,17 @@ impl Group {
         }
         rows.vectors
             .push(self.vector[..poses.len()].iter().copied());
+        if let Some(names) = &self.names {
+            rows.names
+                .push(poses.iter().zip(names).flat_map(|((p, _), strokes)| {
+                    let c = p32(*p);
+                    strokes
+                        .iter()
+                        .map(move |s| s.iter().map(|q| [q[0] + c[0], q[1] + c[1]]).collect())
+                }));
+        } else {
+            rows.names.skip();
+        }
         if std::mem::take(&mut self.style_changed) {
             let n = poses.len();
             rows.radii.push(self.radius[..n].iter().map(|r| *r as f32));
@@ -1562,11 +1595,19 @@ impl RerunCanvas {
         if self.groups.len() <= g {
             let new = self.groups.len()..=g;
             self.groups.resize_with(g + 1, Group::default);
-            if !self.labels {
-                for n in new {
-                    let entity = group_entity("robots", n as RobotId * ROBOT_GROUP);
-                    self.row(&entity, None, &hidden_labels());
+            // Markers never show Rerun's labels (a fixed screen size, larger than the
+            // robots); names are drawn in world units instead, up to LABELLED_ROBOTS robots.
+            for n in new {
+                if self.labels {
+                    self.groups[n].names = Some(Vec::new());
+                    let style = archetypes::LineStrips2D::update_fields()
+                        .with_colors([NAME_COLOUR])
+                        .with_radii([rerun::Radius::new_ui_points(0.6)]);
+                    let entity = group_entity("names", n as RobotId * ROBOT_GROUP);
+                    self.row(&entity, None, &style);
                 }
+                let entity = group_entity("robots", n as RobotId * ROBOT_GROUP);
+                self.row(&entity, None, &hidden_labels());
             }
         }
         let i = (robot % ROBOT_GROUP) as usize;
@@ -1712,6 +1753,9 @@ impl Canvas for RerunCanvas {
         group.radius[i] = radius;
         group.colour[i] = colour;
         group.angle[i] = f64::NAN;
+        if let Some(names) = &mut group.names {
+            names[i] = super::names::robot_name(&format!("p{robot}"), radius as f32);
+        }
         group.style_changed = true;
     }
 
@@ -1801,7 +1845,15 @@ impl Canvas for RerunCanvas {
             [v.x as f32, v.y as f32]
         }))
         .with_origins(ends.iter().map(|(a, _)| p32(*a)))
-        .with_colors([colour])
+        // A run's arrows are thin and translucent: a broadcast to every robot draws dozens at
+        // once, and the packets travelling along them (full colour) show where each message
+        // is. A counterexample has a few, drawn in full.
+        .with_colors([if full {
+            rerun::Color::from_rgb(colour[0], colour[1], colour[2])
+        } else {
+            rerun::Color::from_unmultiplied_rgba(colour[0], colour[1], colour[2], MESSAGE_ALPHA)
+        }])
+        .with_radii([rerun::Radius::new_ui_points(if full { 1.5 } else { 0.75 })])
         .with_labels(flights.iter().map(|f| {
             if full {
                 f.text.clone()
@@ -1882,7 +1934,7 @@ impl Canvas for RerunCanvas {
             // The layer's colour and size, once.
             let style = archetypes::Points2D::update_fields()
                 .with_colors([colour])
-                .with_radii([self.marker * 0.5]);
+                .with_radii([rerun::Radius::new_ui_points(3.0)]);
             self.row(&format!("world/packets/{layer}"), None, &style);
         }
         // On `sim_time` only: packets move with frames, between events.

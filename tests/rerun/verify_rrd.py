@@ -24,8 +24,8 @@ Independently of nekosim's code, it checks that:
 - every view or proximity query is a circle of its range around the robot from its request
   to its reply; the last metric samples count the trace's collisions and deliveries, and every
   `events_per_second` sample the trace's records in the simulated second before it;
-- with more than 20 robots, robot markers have a static `show_labels: false`, and with 20 or
-  fewer none has;
+- robot markers have a static `show_labels: false`; with 20 robots or fewer, each robot's
+  name is drawn in world units beside it, smaller than it, on every row of its group;
 - every `send` record has a message-arrow row at its event with at least one arrow per receiver;
 - the text log has one line per trace record, at level WARN for collisions and suspicions,
   ERROR for crashes and INFO otherwise;
@@ -58,6 +58,9 @@ TOLERANCE = 1e-6
 GROUP = 16
 # Runs with more robots than this have no marker labels (src/recording/rerun_canvas.rs).
 LABELLED_ROBOTS = 20
+# A robot's name (src/recording/names.rs) ends at most this many radii right of its centre:
+# 1.25 + 0.75 per character after the first + 0.5 for the last, for names up to p99.
+NAME_REACH = 1.25 + 2 * 0.75 + 0.5
 # The 2D view frames the world with this margin, a fraction of its larger side.
 WORLD_MARGIN = 0.03
 # Collision markers stay this long [s].
@@ -656,15 +659,43 @@ def main() -> None:
         if last != [float(want)]:
             fail(f"{entity} ends at {last}, the trace has {want}")
 
-    # Labels: drawn for runs of at most LABELLED_ROBOTS robots; beyond, every robot group has
-    # a static `show_labels: false`.
+    # Names: robot markers never show Rerun's labels (a fixed screen size); runs of at most
+    # LABELLED_ROBOTS robots draw each robot's name as strokes in world units beside it and
+    # smaller than it: on every row of a group's names, every stroke lies between one and
+    # NAME_REACH radii right of a robot of the group (at the row's instant, on the rebuilt
+    # path) and within half a radius (descender: 0.8) above or below its centre.
     robots = sum(1 for r in trace if r["kind"] == "spawn")
-    labelled = [e for e in rows.by_entity if e.startswith("/world/robots/")]
-    hidden = [e for e in labelled if rows.static.get(e, {}).get("Points2D:show_labels") == [False]]
-    if robots > LABELLED_ROBOTS and sorted(hidden) != sorted(labelled):
-        fail(f"{robots} robots: labels shown on {sorted(set(labelled) - set(hidden))}")
-    if robots <= LABELLED_ROBOTS and hidden:
-        fail(f"{robots} robots: labels hidden on {hidden}")
+    radius = {r["robot"]: r["radius"] for r in trace if r["kind"] == "spawn"}
+    markers_entities = [e for e in rows.by_entity if e.startswith("/world/robots/")]
+    hidden = [e for e in markers_entities if rows.static.get(e, {}).get("Points2D:show_labels") == [False]]
+    if sorted(hidden) != sorted(markers_entities):
+        fail(f"labels shown on {sorted(set(markers_entities) - set(hidden))}")
+    names = [e for e in rows.by_entity if e.startswith("/world/names/")]
+    if robots > LABELLED_ROBOTS and names:
+        fail(f"{robots} robots: names drawn in {names}")
+    if robots <= LABELLED_ROBOTS and len(names) != len(markers_entities):
+        fail(f"{robots} robots: names {names}, marker groups {markers_entities}")
+    name_strokes = 0
+    for entity in names:
+        first = int(entity.rsplit("/", 1)[1].split("-")[0])
+        members = [k for k in paths if first <= k < first + GROUP]
+        for sim, _, _, cols in rows.by_entity[entity]:
+            if sim is None:
+                continue
+            t = sim / 1e9
+            centres = [(k, pos_at(paths[k], t)) for k in members if paths[k][0][0] <= t]
+            for stroke in cols.get("LineStrips2D:strips", []):
+                def beside(k, c):
+                    r = radius[k]
+                    return all(
+                        r * (1 - 1e-3) <= x - c[0] <= NAME_REACH * r and -0.5 * r - 1e-3 <= y - c[1] <= 0.8 * r + 1e-3
+                        for x, y in stroke
+                    )
+                if not any(beside(k, c) for k, c in centres):
+                    fail(f"{entity} at {t}: stroke {stroke} is beside no robot")
+                name_strokes += 1
+    if robots <= LABELLED_ROBOTS and name_strokes == 0:
+        fail("no robot name drawn")
 
     # Events per second: at each sample, the trace's records in the last simulated second.
     times = sorted(r["t"] for r in trace)
@@ -707,7 +738,7 @@ def main() -> None:
         f"{moves} legs, {trail_points} trail points, {markers} collision markers, {spacetime} space-time arrows, {ends} arrows ending at the receive, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, {queries} queries, "
         f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views, "
-        f"labels {'hidden' if hidden else 'shown'}, "
+        f"{name_strokes} name strokes, "
         f"plots {','.join(sorted(e.rsplit('/', 1)[1] for e in rows.by_entity if e.startswith('/metrics/')))}"
     )
 
