@@ -782,6 +782,14 @@ impl Source {
                         });
                     }
                 }
+                if ids.is_empty() {
+                    continue;
+                }
+                let algorithm_path = format!("{path}.algorithm");
+                let build = registry
+                    .algorithms
+                    .builder(algorithm)
+                    .map_err(|e| self.spec_err(&algorithm_path, &e))?;
                 for id in &ids {
                     let heading = match angle {
                         Some(a) => *a,
@@ -790,12 +798,8 @@ impl Source {
                     if let Some(spec) = placed[*id].as_mut() {
                         spec.pose.angle = heading;
                     }
-                    algorithms[*id] = Some(self.algorithm(
-                        &format!("{path}.algorithm"),
-                        algorithm,
-                        &setting,
-                        registry,
-                    )?);
+                    let built = build(&setting).map_err(|e| self.spec_err(&algorithm_path, &e))?;
+                    algorithms[*id] = Some(built);
                 }
             }
         }

@@ -98,7 +98,17 @@ impl Algorithms {
     /// Reads `spec`'s configuration and builds the algorithm for a robot of `setting`.
     /// Positions in the error are in `spec`'s text.
     pub fn build(&self, spec: &Spec, setting: &Setting) -> Result<Box<dyn Algorithm>, SpecError> {
-        (self.entries.get(spec)?)(spec, setting)
+        (self.builder(spec)?)(setting)
+    }
+
+    /// What builds `spec`'s algorithm for a robot of a setting, with the name looked up once:
+    /// for a group of robots sharing one spec.
+    pub fn builder<'a>(
+        &self,
+        spec: &'a Spec,
+    ) -> Result<impl Fn(&Setting) -> Result<Box<dyn Algorithm>, SpecError> + 'a, SpecError> {
+        let build = *self.entries.get(spec)?;
+        Ok(move |setting: &Setting| build(spec, setting))
     }
 }
 

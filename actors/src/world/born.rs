@@ -4,7 +4,6 @@
 use rand::Rng;
 
 use super::geometry::Point;
-use super::grid::Grid;
 
 /// Why born points could not be drawn.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -46,10 +45,10 @@ pub fn random_born_points(
         return Err(fail(0));
     }
     let max_r = occupied.iter().map(|o| o.1).fold(radius, f64::max);
-    let mut grid = Grid::new(2.0 * max_r);
+    let mut grid = Cells::new(width, height, 2.0 * max_r, occupied.len() + count);
     let mut discs: Vec<(Point, f64)> = Vec::with_capacity(occupied.len() + count);
     for &(p, r) in occupied {
-        grid.insert(discs.len() as u32, grid.cell_of(p));
+        grid.insert(p);
         discs.push((p, r));
     }
     let mut out = Vec::with_capacity(count);
@@ -64,16 +63,76 @@ pub fn random_born_points(
             rng.gen_range(radius..=width - radius),
             rng.gen_range(radius..=height - radius),
         );
-        let clear = grid
-            .neighbours(grid.cell_of(p))
-            .all(|i| (discs[i as usize].0 - p).norm() >= discs[i as usize].1 + radius);
-        if clear {
-            grid.insert(discs.len() as u32, grid.cell_of(p));
+        if grid.clear(p, |i| {
+            let (q, r) = discs[i as usize];
+            (q - p).norm() >= r + radius
+        }) {
+            grid.insert(p);
             discs.push((p, radius));
             out.push(p);
         }
     }
     Ok(out)
+}
+
+/// A dense grid over the area for the rejection sampling: cells at least `min_cell` wide
+/// (the largest diameter, so overlapping discs are in neighbouring cells) and about as many
+/// as discs, each a linked list of the discs in it (`head`, `next`): two flat arrays, no
+/// allocation per cell. Discs outside the area (an explicit robot may sit anywhere in the
+/// world) go to the nearest border cell, which keeps overlapping discs in neighbouring cells.
+struct Cells {
+    size: f64,
+    cols: usize,
+    rows: usize,
+    head: Vec<u32>,
+    next: Vec<u32>,
+}
+
+const NONE: u32 = u32::MAX;
+
+impl Cells {
+    fn new(width: f64, height: f64, min_cell: f64, discs: usize) -> Self {
+        let size = min_cell.max((width * height / discs.max(1) as f64).sqrt());
+        let count = |extent: f64| ((extent / size).ceil() as usize).max(1);
+        let (cols, rows) = (count(width), count(height));
+        Self {
+            size,
+            cols,
+            rows,
+            head: vec![NONE; cols * rows],
+            next: Vec::with_capacity(discs),
+        }
+    }
+
+    fn cell(&self, p: Point) -> (usize, usize) {
+        let index = |v: f64, n: usize| ((v / self.size).floor().max(0.0) as usize).min(n - 1);
+        (index(p.x, self.cols), index(p.y, self.rows))
+    }
+
+    /// Adds the next disc (numbered in insertion order) at `p`.
+    fn insert(&mut self, p: Point) {
+        let (c, r) = self.cell(p);
+        let k = r * self.cols + c;
+        self.next.push(self.head[k]);
+        self.head[k] = (self.next.len() - 1) as u32;
+    }
+
+    /// Whether `ok` holds for every disc in the 3 × 3 cells around `p`.
+    fn clear(&self, p: Point, mut ok: impl FnMut(u32) -> bool) -> bool {
+        let (c, r) = self.cell(p);
+        for row in r.saturating_sub(1)..=(r + 1).min(self.rows - 1) {
+            for col in c.saturating_sub(1)..=(c + 1).min(self.cols - 1) {
+                let mut i = self.head[row * self.cols + col];
+                while i != NONE {
+                    if !ok(i) {
+                        return false;
+                    }
+                    i = self.next[i as usize];
+                }
+            }
+        }
+        true
+    }
 }
 
 #[cfg(test)]
@@ -113,5 +172,42 @@ mod tests {
         let e = random_born_points(50, 5.0, 40.0, 40.0, &[], &mut rng).unwrap_err();
         assert!(matches!(e, BornError::DoesNotFit { count: 50, .. }));
         assert!(e.to_string().contains("could not place 50 robots"));
+    }
+
+    /// The same rejection sampling checked against every disc (O(n^2)): the grid changes the
+    /// cost, never a point. Occupied discs of several sizes, one outside the area.
+    #[test]
+    fn the_grid_accepts_exactly_what_a_brute_force_check_accepts() {
+        let occupied = [
+            (Point::new(50.0, 50.0), 20.0),
+            (Point::new(-8.0, 100.0), 12.0),
+            (Point::new(390.0, 290.0), 3.0),
+        ];
+        // The last case is dense enough that the cells are as wide as a diameter.
+        for (seed, count, radius, occupied) in [
+            (1, 400, 5.0, &occupied[..]),
+            (2, 40, 9.0, &occupied[..]),
+            (3, 900, 3.0, &occupied[..]),
+            (4, 2000, 2.0, &occupied[..]),
+            (5, 3000, 2.0, &[][..]),
+        ] {
+            let (w, h) = (400.0, 300.0);
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let got = random_born_points(count, radius, w, h, occupied, &mut rng).unwrap();
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+            let mut discs = occupied.to_vec();
+            let mut want = Vec::new();
+            while want.len() < count {
+                let p = Point::new(
+                    rng.gen_range(radius..=w - radius),
+                    rng.gen_range(radius..=h - radius),
+                );
+                if discs.iter().all(|(q, r)| (q - p).norm() >= r + radius) {
+                    discs.push((p, radius));
+                    want.push(p);
+                }
+            }
+            assert_eq!(got, want, "seed {seed}");
+        }
     }
 }
