@@ -3,6 +3,7 @@
 
 use std::collections::HashMap;
 
+use nekosim_actors::world::geometry::Point;
 use nekosim_actors::world::motion::StepKind;
 use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_actors::world::sensor::SensorQuery;
@@ -100,10 +101,16 @@ pub fn round_numbers(text: &str) -> String {
     out
 }
 
-/// Turns observations into log lines; remembers each robot's current motion pattern.
+/// Turns observations into log lines; remembers each robot's current motion pattern, where its
+/// current motion ends, and whether its last line closed a motion.
 #[derive(Debug, Default)]
 pub struct NekoLog {
     motions: HashMap<RobotId, String>,
+    /// The destination of each robot's motion in progress (a `CollisionEvent` shows it).
+    moving: HashMap<RobotId, Point>,
+    /// Robots whose latest line was a finishing step (`Finish_MoveTo`, `Finish_Turn`): the
+    /// arrival that follows it has no line of its own, as in the seed.
+    finished: HashMap<RobotId, f64>,
 }
 
 impl NekoLog {
@@ -112,14 +119,47 @@ impl NekoLog {
         Self::default()
     }
 
-    /// The log line of an observation.
-    pub fn line(&mut self, r: &Record) -> String {
+    /// The log line of an observation, or `None` for the one observation the seed's log has
+    /// no line for: a motion's arrival right after the step that finished it (the seed writes
+    /// `Finish_MoveTo` and nothing more; the trace has both).
+    pub fn line(&mut self, r: &Record) -> Option<String> {
+        let robot = r.obs.robot();
+        let finished = self.finished.remove(&robot);
+        if let Observation::MotionFinish {
+            outcome: MotionOutcome::Arrived,
+            ..
+        } = &r.obs
+        {
+            self.moving.remove(&robot);
+            if finished == Some(r.t) {
+                return None;
+            }
+        }
+        Some(self.text(r))
+    }
+
+    fn text(&mut self, r: &Record) -> String {
         let t = num(r.t);
         match &r.obs {
-            Observation::Spawn { robot, pos, angle, radius } => {
-                format!("{t} p{robot} Born: ROBOT# {robot} | {} | {} | radius {}", pt(*pos), num(*angle), num(*radius))
+            Observation::Spawn {
+                robot,
+                pos,
+                angle,
+                radius,
+            } => {
+                format!(
+                    "{t} p{robot} Born: ROBOT# {robot} | {} | {} | radius {}",
+                    pt(*pos),
+                    num(*angle),
+                    num(*radius)
+                )
             }
-            Observation::MotionRequest { robot, ticket, motion, params } => {
+            Observation::MotionRequest {
+                robot,
+                ticket,
+                motion,
+                params,
+            } => {
                 self.motions.insert(*robot, motion.clone());
                 let get = |k: &str| params.iter().find(|(n, _)| n == k).map_or(0.0, |(_, v)| *v);
                 let what = match motion.as_str() {
@@ -130,25 +170,73 @@ impl NekoLog {
                         num(get("turn_speed")),
                         num(get("move_speed"))
                     ),
-                    "turn" => format!("Turn: angle = {} with turnSpeed = {}", num(get("angle")), num(get("turn_speed"))),
-                    "forward" => format!("Forward: distance = {} with moveSpeed = {}", num(get("distance")), num(get("move_speed"))),
+                    "turn" => format!(
+                        "Turn: angle = {} with turnSpeed = {}",
+                        num(get("angle")),
+                        num(get("turn_speed"))
+                    ),
+                    "forward" => format!(
+                        "Forward: distance = {} with moveSpeed = {}",
+                        num(get("distance")),
+                        num(get("move_speed"))
+                    ),
                     other => {
-                        let ps: Vec<String> = params.iter().map(|(k, v)| format!("{k} = {}", num(*v))).collect();
+                        let ps: Vec<String> = params
+                            .iter()
+                            .map(|(k, v)| format!("{k} = {}", num(*v)))
+                            .collect();
                         format!("{other}: {}", ps.join(" "))
                     }
                 };
-                format!("{t} p{robot} MotionRequest: TIME: {t} | ROBOT# {robot} Task ID = {ticket} | {what}")
+                // The seed's Task ID is the request's place in the robot's queue of motion tasks:
+                // a robot runs one motion at a time, so every request is task 1 (as in every
+                // MotionRequest line of the seed's logs); the trace's `ticket` counts them.
+                let _ = ticket;
+                format!(
+                    "{t} p{robot} MotionRequest: TIME: {t} | ROBOT# {robot} Task ID = 1 | {what}"
+                )
             }
-            Observation::MotionStep { robot, step, state, progress } => {
+            Observation::MotionStep {
+                robot,
+                step,
+                state,
+                progress,
+            } => {
                 let name = pattern(self.motions.get(robot).map_or("motion", String::as_str));
-                let seq = if name == "MoveTo" { "MoveTo_Sequence".to_string() } else { name.clone() };
+                let seq = if name == "MoveTo" {
+                    "MoveTo_Sequence".to_string()
+                } else {
+                    name.clone()
+                };
                 // As in the seed, each line shows the phase it starts: during a turn the
                 // destination is the robot's own position and only the turn is counted.
+                self.moving.insert(*robot, progress.dest);
+                if matches!(step, StepKind::FinishTurn | StepKind::FinishForward) {
+                    self.finished.insert(*robot, r.t);
+                }
                 let (dest, turn, dist, ts, ms, cond) = match step {
-                    StepKind::StartTurn => (state.pos, progress.turn_left, 0.0, progress.turn_speed, 0.0, format!("Do_{seq}")),
-                    StepKind::FinishTurn => (state.pos, 0.0, 0.0, 0.0, 0.0, format!("Finish_{seq}")),
-                    StepKind::StartForward => (progress.dest, 0.0, progress.distance_left, 0.0, progress.move_speed, format!("Do_{seq}")),
-                    StepKind::FinishForward => (state.pos, 0.0, 0.0, 0.0, 0.0, format!("Finish_{name}")),
+                    StepKind::StartTurn => (
+                        state.pos,
+                        progress.turn_left,
+                        0.0,
+                        progress.turn_speed,
+                        0.0,
+                        format!("Do_{seq}"),
+                    ),
+                    StepKind::FinishTurn => {
+                        (state.pos, 0.0, 0.0, 0.0, 0.0, format!("Finish_{seq}"))
+                    }
+                    StepKind::StartForward => (
+                        progress.dest,
+                        0.0,
+                        progress.distance_left,
+                        0.0,
+                        progress.move_speed,
+                        format!("Do_{seq}"),
+                    ),
+                    StepKind::FinishForward => {
+                        (state.pos, 0.0, 0.0, 0.0, 0.0, format!("Finish_{name}"))
+                    }
                     StepKind::Custom(s) => (
                         progress.dest,
                         progress.turn_left,
@@ -169,11 +257,18 @@ impl NekoLog {
                     num(ms)
                 )
             }
-            Observation::MotionFinish { robot, state, outcome } => {
+            Observation::MotionFinish {
+                robot,
+                state,
+                outcome,
+            } => {
+                self.moving.remove(robot);
                 let name = pattern(self.motions.get(robot).map_or("motion", String::as_str));
                 let cond = match outcome {
                     MotionOutcome::Arrived => format!("Arrived_{name}"),
-                    MotionOutcome::Collided { with } => format!("Collided_{name}({})", obstacle(*with)),
+                    MotionOutcome::Collided { with } => {
+                        format!("Collided_{name}({})", obstacle(*with))
+                    }
                     MotionOutcome::Replaced => format!("Replaced_{name}"),
                     MotionOutcome::Rejected(m) => format!("Rejected_{name}({m})"),
                     MotionOutcome::Crashed => format!("Crashed_{name}"),
@@ -185,19 +280,50 @@ impl NekoLog {
                     num(state.angle)
                 )
             }
-            Observation::Collision { robot, other, pos, angle, other_pos } => format!(
-                "{t} p{robot} CollisionEvent: | {t} | {robot} | {} | {} | {} | 0.000 | 0.000 | 0.000 | 0.000 | Collision({})",
-                pt(*pos),
-                pt(*other_pos),
-                num(*angle),
-                obstacle(*other)
-            ),
+            // The seed's shape: the fourth column is where the robot was going, the condition
+            // the phase the collision interrupted. A robot at rest, hit by another, shows its
+            // own position and `Collision`; who hit whom is in the moving robot's
+            // `Collided_...(pM)` line that follows, and in the trace.
+            Observation::Collision {
+                robot, pos, angle, ..
+            } => {
+                let (dest, cond) = match self.moving.get(robot) {
+                    Some(dest) => {
+                        let name =
+                            pattern(self.motions.get(robot).map_or("motion", String::as_str));
+                        let seq = if name == "MoveTo" {
+                            "MoveTo_Sequence".to_string()
+                        } else {
+                            name
+                        };
+                        (*dest, format!("Do_{seq}(Collision)"))
+                    }
+                    None => (*pos, "Collision".to_string()),
+                };
+                format!(
+                    "{t} p{robot} CollisionEvent: | {t} | {robot} | {} | {} | {} | 0.000 | 0.000 | 0.000 | 0.000 | {cond}",
+                    pt(*pos),
+                    pt(dest),
+                    num(*angle)
+                )
+            }
             Observation::SensorRequest { robot, query, .. } => {
-                format!("{t} p{robot} SensorRequest: ROBOT# {robot} | {}", query_text(query))
+                format!(
+                    "{t} p{robot} SensorRequest: ROBOT# {robot} | {}",
+                    query_text(query)
+                )
             }
             Observation::Log { robot, text } => format!("{t} p{robot} Info: {text}"),
-            Observation::Request { robot, layer, op, msg } => {
-                format!("{t} p{robot} Request: layer {layer} | {op} | {}", wire_text(msg))
+            Observation::Request {
+                robot,
+                layer,
+                op,
+                msg,
+            } => {
+                format!(
+                    "{t} p{robot} Request: layer {layer} | {op} | {}",
+                    wire_text(msg)
+                )
             }
             Observation::Send {
                 robot,
@@ -208,27 +334,76 @@ impl NekoLog {
             } => {
                 let dests: Vec<String> = to.iter().map(|d| format!("p{d}")).collect();
                 let (ty, rest) = type_and_rest(msg);
-                format!("{t} p{robot} messages e s p{robot} {} {ty} {rest} [{layer}]", dests.join(","))
+                format!(
+                    "{t} p{robot} messages e s p{robot} {} {ty} {rest} [{layer}]",
+                    dests.join(",")
+                )
             }
-            Observation::Receive { robot, from, layer, msg } => {
+            Observation::Receive {
+                robot,
+                from,
+                layer,
+                msg,
+            } => {
                 let (ty, rest) = type_and_rest(msg);
                 format!("{t} p{robot} messages e r p{from} p{robot} {ty} {rest} [{layer}]")
             }
-            Observation::Deliver { robot, layer, id, msg } => {
-                format!("{t} p{robot} Deliver: layer {layer} | {id} | {}", wire_text(msg))
+            Observation::Deliver {
+                robot,
+                layer,
+                id,
+                msg,
+            } => {
+                format!(
+                    "{t} p{robot} Deliver: layer {layer} | {id} | {}",
+                    wire_text(msg)
+                )
             }
-            Observation::Decide { robot, layer, k, value } => {
-                format!("{t} p{robot} Decide: layer {layer} | instance {k} | {}", wire_text(value))
+            Observation::Decide {
+                robot,
+                layer,
+                k,
+                value,
+            } => {
+                format!(
+                    "{t} p{robot} Decide: layer {layer} | instance {k} | {}",
+                    wire_text(value)
+                )
             }
-            Observation::Suspect { robot, layer, process } => format!("{t} p{robot} Suspect: layer {layer} | p{process}"),
-            Observation::Trust { robot, layer, process } => format!("{t} p{robot} Trust: layer {layer} | p{process}"),
-            Observation::Leader { robot, layer, process } => format!("{t} p{robot} Leader: layer {layer} | p{process}"),
+            Observation::Suspect {
+                robot,
+                layer,
+                process,
+            } => format!("{t} p{robot} Suspect: layer {layer} | p{process}"),
+            Observation::Trust {
+                robot,
+                layer,
+                process,
+            } => format!("{t} p{robot} Trust: layer {layer} | p{process}"),
+            Observation::Leader {
+                robot,
+                layer,
+                process,
+            } => format!("{t} p{robot} Leader: layer {layer} | p{process}"),
             Observation::Crash { robot, state } => {
-                format!("{t} p{robot} Crash: ROBOT# {robot} | {} | {}", pt(state.pos), num(state.angle))
+                format!(
+                    "{t} p{robot} Crash: ROBOT# {robot} | {} | {}",
+                    pt(state.pos),
+                    num(state.angle)
+                )
             }
-            Observation::SensorReply { robot, sensor, value, interrupt } => format!(
+            Observation::SensorReply {
+                robot,
+                sensor,
+                value,
+                interrupt,
+            } => format!(
                 "{t} p{robot} {}: ROBOT# {robot} | {} | {}",
-                if *interrupt { "SensorInterrupt" } else { "SensorReply" },
+                if *interrupt {
+                    "SensorInterrupt"
+                } else {
+                    "SensorReply"
+                },
                 sensor.name(),
                 value.text()
             ),

@@ -380,7 +380,9 @@ impl Out {
             obs,
         };
         if let Some((f, neko)) = self.log.as_mut() {
-            f.line(&neko.line(&r));
+            if let Some(line) = neko.line(&r) {
+                f.line(&line);
+            }
         }
         if let Some(f) = self.trace.as_mut() {
             f.line(&to_line(&r));

@@ -794,8 +794,9 @@ impl<C: Canvas> Recorder<C> {
     }
 
     fn log_line(&mut self, at: Stamp, rec: &Record) {
-        let line = self.log.line(rec);
-        self.canvas.log(at, level_of(&rec.obs), &line);
+        if let Some(line) = self.log.line(rec) {
+            self.canvas.log(at, level_of(&rec.obs), &line);
+        }
     }
 
     fn draw_messages(&mut self, at: Stamp, layer: &str) {

@@ -256,7 +256,9 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
                 rec.record(r);
             }
             if let Some(f) = log.as_mut() {
-                f.line(&neko.line(r));
+                if let Some(line) = neko.line(r) {
+                    f.line(&line);
+                }
             }
             if let Some(f) = trace.as_mut() {
                 f.line(&to_line(r));

@@ -245,7 +245,7 @@ fn an_algorithm_can_list_another_robots_future_events_and_log_what_it_saw() {
         .find(|r| matches!(r.obs, Observation::Log { .. }))
         .unwrap();
     assert_eq!(
-        nekosim::log::NekoLog::new().line(log),
+        nekosim::log::NekoLog::new().line(log).unwrap(),
         "1.000 p1 Info: robot 0 arrives at Some(50.0); 0 events of mine"
     );
     let json = nekosim::trace::to_json(log);

@@ -121,3 +121,22 @@ pub fn radii(records: &[Record]) -> Vec<f64> {
         })
         .collect()
 }
+
+/// The trace records (JSON objects) the Neko log has no line for: an arrival right after the
+/// step that finished its motion (docs/log.md), counted from the trace alone.
+pub fn silent_arrivals(trace: &[serde_json::Value]) -> usize {
+    let mut last: std::collections::HashMap<u64, (String, f64)> = Default::default();
+    let mut silent = 0;
+    for r in trace {
+        let (robot, t) = (r["robot"].as_u64().unwrap(), r["t"].as_f64().unwrap());
+        let kind = r["kind"].as_str().unwrap().to_string();
+        let after_finish = last
+            .get(&robot)
+            .is_some_and(|(k, lt)| (k == "finish_turn" || k == "finish_forward") && *lt == t);
+        if kind == "motion_finish" && r["outcome"] == "arrived" && after_finish {
+            silent += 1;
+        }
+        last.insert(robot, (kind, t));
+    }
+    silent
+}

@@ -215,3 +215,100 @@ fn a_scenarios_outputs_are_written_unless_the_command_line_says_otherwise() {
     assert!(!dir.path().join("out/s.log").exists());
     assert!(dir.path().join("out/s.jsonl").exists());
 }
+
+/// The log's lines in the seed's shape (seed 4.5.1 fig. 4.12, 5.2): a `CollisionEvent` shows
+/// where the robot was going and `Do_MoveTo_Sequence(Collision)`; an arrival has no line after
+/// the `Finish_MoveTo` that ends it; every MotionRequest is `Task ID = 1`. Checked line by line
+/// against the trace of the seed's random movement (100 robots, collisions included).
+#[test]
+fn log_lines_have_the_seeds_shape() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, trace) = (dir.path().join("l.log"), dir.path().join("t.jsonl"));
+    let o = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .args(["run", "examples/scenarios/random_movement.ron", "--quiet"])
+        .args(["--until", "120", "--log"])
+        .arg(&log)
+        .arg("--trace")
+        .arg(&trace)
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let log = std::fs::read_to_string(log).unwrap();
+    let records: Vec<Value> = std::fs::read_to_string(trace)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+
+    // Walk the trace: each robot's destination while a motion is in progress.
+    let mut going: std::collections::HashMap<u64, (f64, f64)> = Default::default();
+    let mut expected_collisions = Vec::new();
+    for r in &records {
+        let robot = r["robot"].as_u64().unwrap();
+        match r["kind"].as_str().unwrap() {
+            "motion_request" => {
+                assert_eq!(r["motion"], "move_to");
+                going.insert(robot, (r["x"].as_f64().unwrap(), r["y"].as_f64().unwrap()));
+            }
+            "collision" => {
+                let pos = (r["pos"][0].as_f64().unwrap(), r["pos"][1].as_f64().unwrap());
+                let (dest, cond) = match going.get(&robot) {
+                    Some(d) => (*d, "Do_MoveTo_Sequence(Collision)"),
+                    None => (pos, "Collision"),
+                };
+                expected_collisions.push((robot, dest, cond));
+            }
+            "motion_finish" => {
+                going.remove(&robot);
+            }
+            _ => {}
+        }
+    }
+    let silent = crate::common::silent_arrivals(&records);
+    assert!(silent > 20, "{silent} arrivals");
+    assert!(
+        expected_collisions.len() >= 2,
+        "{} collisions",
+        expected_collisions.len()
+    );
+    let lines: Vec<&str> = log.lines().collect();
+    assert_eq!(lines.len(), records.len() - silent);
+    assert!(!log.contains("Arrived_MoveTo"));
+
+    let num = |v: f64| format!("{v:.3}");
+    let collisions: Vec<&str> = lines
+        .iter()
+        .copied()
+        .filter(|l| l.contains(" CollisionEvent: "))
+        .collect();
+    assert_eq!(collisions.len(), expected_collisions.len());
+    for (line, (robot, dest, cond)) in collisions.iter().zip(&expected_collisions) {
+        let fields: Vec<&str> = line.split('|').map(str::trim).collect();
+        assert_eq!(fields[2], robot.to_string(), "{line}");
+        assert_eq!(
+            fields[4],
+            format!("[{},{}]", num(dest.0), num(dest.1)),
+            "{line}"
+        );
+        assert_eq!(fields[10], *cond, "{line}");
+    }
+    let requests: Vec<&str> = lines
+        .iter()
+        .copied()
+        .filter(|l| l.contains(" MotionRequest: "))
+        .collect();
+    assert_eq!(
+        requests.len(),
+        records
+            .iter()
+            .filter(|r| r["kind"] == "motion_request")
+            .count()
+    );
+    assert!(requests.iter().all(|l| l.contains("Task ID = 1 |")));
+}

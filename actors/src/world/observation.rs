@@ -160,6 +160,32 @@ pub enum Observation {
     },
 }
 
+impl Observation {
+    /// The robot the observation is about (every observation has one).
+    pub fn robot(&self) -> RobotId {
+        use Observation::*;
+        match self {
+            Spawn { robot, .. }
+            | MotionRequest { robot, .. }
+            | MotionFinish { robot, .. }
+            | Collision { robot, .. }
+            | SensorRequest { robot, .. }
+            | Log { robot, .. }
+            | Request { robot, .. }
+            | Send { robot, .. }
+            | Receive { robot, .. }
+            | Deliver { robot, .. }
+            | Decide { robot, .. }
+            | Suspect { robot, .. }
+            | Trust { robot, .. }
+            | Leader { robot, .. }
+            | Crash { robot, .. }
+            | SensorReply { robot, .. }
+            | MotionStep { robot, .. } => *robot,
+        }
+    }
+}
+
 /// How the fields that are not plain data reach the trace.
 mod ser {
     use serde::ser::{SerializeMap, Serializer};
