@@ -12,6 +12,7 @@ pub mod grid;
 pub mod motion;
 pub mod network;
 pub mod observation;
+pub mod obstacle;
 pub mod sensor;
 pub mod virtual_world;
 
