@@ -177,6 +177,7 @@ fn run(obstacle_deg: f64) -> nekosim::scheduler::RunOutput {
             walls: true,
             turn: Default::default(),
             cell_size: None,
+            obstacles: Default::default(),
         },
         robots: vec![
             (

@@ -662,17 +662,14 @@ impl<C: Canvas> Recorder<C> {
                 ..
             } => {
                 let point = match other {
-                    Obstacle::Boundary => *other_pos,
+                    Obstacle::Boundary | Obstacle::Object(_) => *other_pos,
                     Obstacle::Robot(o) => {
                         let r1 = self.robots.get(*robot as usize).map_or(1.0, |r| r.radius);
                         let r2 = self.robots.get(*o as usize).map_or(1.0, |r| r.radius);
                         pos + (other_pos - pos) * (r1 / (r1 + r2))
                     }
                 };
-                let label = match other {
-                    Obstacle::Boundary => format!("p{robot} × boundary"),
-                    Obstacle::Robot(o) => format!("p{robot} × p{o}"),
-                };
+                let label = format!("p{robot} × {other}");
                 self.canvas
                     .collision(at, self.metrics.collisions, point, &label);
                 self.metrics.collisions += 1;

@@ -13,10 +13,11 @@ use std::path::Path;
 use std::sync::Arc;
 
 use nekosim_actors::registry::{Algorithms, Configured, Setting};
-use nekosim_actors::world::born::random_born_points;
+use nekosim_actors::world::born::random_born_points_clear;
 use nekosim_actors::world::geometry::Point;
 use nekosim_actors::world::motion::Pose;
 use nekosim_actors::world::network::{ConfiguredNetwork, Networks, Partition};
+use nekosim_actors::world::obstacle::Shape;
 use nekosim_actors::world::sensor::{SensorModel, Sensors};
 #[cfg(debug_assertions)]
 use nekosim_actors::world::virtual_world::VirtualWorld;
@@ -52,6 +53,10 @@ pub struct Scenario {
     pub until: f64,
     pub world: World,
     pub robots: Vec<RobotEntry>,
+    /// Static obstacles (seed 7.2): `Segment(from, to)`, `Rect(min, max)`, `Polygon([..])`,
+    /// `Circle(center, radius)`; numbered by their place in the list.
+    #[serde(default)]
+    pub obstacles: Vec<Shape>,
     /// actix arbiters (threads) hosting robots and sensors; the results do not depend on it.
     #[serde(default = "one")]
     pub arbiters: usize,
@@ -583,12 +588,27 @@ impl Source {
                 "no `walls` (an infinite world has none)",
             )));
         }
+        for (k, o) in s.obstacles.iter().enumerate() {
+            if let Err(e) = o.check() {
+                let path = match e.field.as_str() {
+                    "" => format!("obstacles[{k}]"),
+                    f if f.starts_with('[') => format!("obstacles[{k}][0]{f}"),
+                    f => format!("obstacles[{k}].{f}"),
+                };
+                return Err(self.err(FieldError::new(
+                    &path,
+                    format!("obstacle {k}: {}", e.message),
+                    e.expected,
+                )));
+            }
+        }
         let world = WorldConfig {
             size,
             ghost_mode: s.world.ghost_mode,
             walls: s.world.walls.unwrap_or(true),
             turn: s.world.turn,
             cell_size: s.world.cell_size,
+            obstacles: s.obstacles.clone().into(),
         };
 
         // Ids: explicit ones first, groups take the next free ids in order.
@@ -643,6 +663,16 @@ impl Source {
                 if p.x < min.x + r || p.y < min.y + r || p.x > max.x - r || p.y > max.y - r {
                     return Err(self.err(FieldError::new(path, format!("robot {id} at ({}, {}) with radius {r} is not inside the world [{}, {}] x [{}, {}]", p.x, p.y, min.x, max.x, min.y, max.y), "a born point at least one radius inside")));
                 }
+            }
+            if let Some(k) = s.obstacles.iter().position(|o| o.distance(p) < r) {
+                return Err(self.err(FieldError::new(
+                    path,
+                    format!(
+                        "robot {id} at ({}, {}) with radius {r} overlaps obstacle {k}",
+                        p.x, p.y
+                    ),
+                    "a born point at least one radius away from every obstacle",
+                )));
             }
             for (other, o) in placed.iter().enumerate() {
                 if let Some(o) = o {
@@ -764,12 +794,18 @@ impl Source {
                         .flatten()
                         .map(|s| (s.pose.pos - lo.coords, s.radius))
                         .collect();
-                    let drawn = random_born_points(
+                    let r = *radius;
+                    let clear = |q: Point| {
+                        let q = q + lo.coords;
+                        s.obstacles.iter().all(|o| o.distance(q) >= r)
+                    };
+                    let drawn = random_born_points_clear(
                         rest,
                         *radius,
                         hi.x - lo.x,
                         hi.y - lo.y,
                         &occupied,
+                        &clear,
                         &mut rng,
                     )
                     .map_err(|e| self.place(&format!("{path}.count"), e.to_string()))?;
@@ -819,7 +855,8 @@ impl Source {
         #[cfg(debug_assertions)]
         {
             let specs: Vec<RobotSpec> = robots.iter().map(|r| r.0).collect();
-            VirtualWorld::new(world, &specs).map_err(|e| self.place("robots", e.to_string()))?;
+            VirtualWorld::new(world.clone(), &specs)
+                .map_err(|e| self.place("robots", e.to_string()))?;
         }
         let framerate = match &s.animation {
             None => crate::recording::DEFAULT_FRAMERATE,

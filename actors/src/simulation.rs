@@ -132,7 +132,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     }
     let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
     let sensors = Arc::new(cfg.sensors);
-    let world = VirtualWorld::new(cfg.world, &specs)?;
+    let world = VirtualWorld::new(cfg.world.clone(), &specs)?;
     let sensing = Sensing::new(sensors.clone(), specs.len());
     let (wiring, template) = Wiring::check(&cfg.comms.stack, &cfg.comms.protocols)?;
     let wiring = std::sync::Arc::new(wiring);

@@ -24,6 +24,7 @@ pub fn infinite() -> WorldConfig {
         walls: true,
         turn: Default::default(),
         cell_size: None,
+        obstacles: Default::default(),
     }
 }
 
@@ -34,6 +35,7 @@ pub fn bounded(w: f64, h: f64) -> WorldConfig {
         walls: true,
         turn: Default::default(),
         cell_size: None,
+        obstacles: Default::default(),
     }
 }
 

@@ -8,6 +8,7 @@ mod common;
 mod communication;
 mod dask_sweep;
 mod determinism;
+mod obstacles;
 mod real_network;
 mod recording;
 #[cfg(feature = "rerun")]

@@ -298,7 +298,7 @@ impl SensorModel for Bumper {
     fn sense(_: &(), world: &dyn WorldView) -> Self::Reading {
         world.contact().map(|o| match o {
             nekosim::world::Obstacle::Robot(r) => (o, world.position(r)),
-            nekosim::world::Obstacle::Boundary => (o, world.position(world.robot())),
+            _ => (o, world.position(world.robot())),
         })
     }
 

@@ -31,6 +31,20 @@ pub fn random_born_points(
     occupied: &[(Point, f64)],
     rng: &mut impl Rng,
 ) -> Result<Vec<Point>, BornError> {
+    random_born_points_clear(count, radius, width, height, occupied, &|_| true, rng)
+}
+
+/// [`random_born_points`] keeping only centres where `clear` holds as well (clear of the
+/// world's obstacles): the same draws, a candidate is refused when it fails `clear`.
+pub fn random_born_points_clear(
+    count: usize,
+    radius: f64,
+    width: f64,
+    height: f64,
+    occupied: &[(Point, f64)],
+    clear: &dyn Fn(Point) -> bool,
+    rng: &mut impl Rng,
+) -> Result<Vec<Point>, BornError> {
     let fail = |placed| BornError::DoesNotFit {
         count,
         radius,
@@ -66,7 +80,8 @@ pub fn random_born_points(
         if grid.clear(p, |i| {
             let (q, r) = discs[i as usize];
             (q - p).norm() >= r + radius
-        }) {
+        }) && clear(p)
+        {
             grid.insert(p);
             discs.push((p, radius));
             out.push(p);

@@ -25,6 +25,19 @@ pub enum Obstacle {
     Robot(RobotId),
     /// The boundary of a bounded world.
     Boundary,
+    /// Obstacle number K of the world's list (`"obstacle:K"` in the trace).
+    Object(u32),
+}
+
+impl std::fmt::Display for Obstacle {
+    /// `p7`, `boundary`, `obstacle:2`: as logs name what a robot touched.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Obstacle::Robot(id) => write!(f, "p{id}"),
+            Obstacle::Boundary => f.write_str("boundary"),
+            Obstacle::Object(k) => write!(f, "obstacle:{k}"),
+        }
+    }
 }
 
 impl Serialize for Obstacle {
@@ -32,6 +45,7 @@ impl Serialize for Obstacle {
         match self {
             Obstacle::Robot(id) => s.serialize_u32(*id),
             Obstacle::Boundary => s.serialize_str("boundary"),
+            Obstacle::Object(k) => s.serialize_str(&format!("obstacle:{k}")),
         }
     }
 }
@@ -47,8 +61,16 @@ impl<'de> Deserialize<'de> for Obstacle {
         match Form::deserialize(d)? {
             Form::Robot(id) => Ok(Obstacle::Robot(id)),
             Form::Named(n) if n == "boundary" => Ok(Obstacle::Boundary),
+            Form::Named(n)
+                if n.strip_prefix("obstacle:")
+                    .is_some_and(|k| k.parse::<u32>().is_ok()) =>
+            {
+                Ok(Obstacle::Object(
+                    n["obstacle:".len()..].parse().expect("checked"),
+                ))
+            }
             Form::Named(n) => Err(serde::de::Error::custom(format!(
-                "expected a robot id or \"boundary\", got {n:?}"
+                "expected a robot id, \"boundary\" or \"obstacle:K\", got {n:?}"
             ))),
         }
     }

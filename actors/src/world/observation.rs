@@ -322,10 +322,7 @@ pub fn point_text(p: Point) -> String {
     format!("[{},{}]", num(p.x), num(p.y))
 }
 
-/// What a robot touched, as the Neko log writes it: `pK` or `boundary`.
+/// What a robot touched, as the Neko log writes it: `pK`, `boundary` or `obstacle:K`.
 pub fn obstacle_text(o: Obstacle) -> String {
-    match o {
-        Obstacle::Robot(id) => format!("p{id}"),
-        Obstacle::Boundary => "boundary".into(),
-    }
+    o.to_string()
 }

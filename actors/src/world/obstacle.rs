@@ -327,7 +327,11 @@ pub fn first_contact(
             let (s0, vn) = ((p0 - a).dot(&n), v.dot(&n));
             // The face: the centre's signed distance to the line reaches ±radius while
             // approaching it, with the foot inside the segment.
-            let face = if s0 > radius && vn < 0.0 {
+            let face = if s0.abs() <= radius {
+                // Touching the line already (a robot stopped against the face, to rounding):
+                // a contact now if it moves towards it.
+                (s0 * vn < 0.0).then_some(0.0)
+            } else if s0 > radius && vn < 0.0 {
                 Some((s0 - radius) / -vn)
             } else if s0 < -radius && vn > 0.0 {
                 Some((-radius - s0) / vn)
@@ -640,6 +644,25 @@ mod tests {
             100.0,
         );
         assert_eq!(hit.map(|h| h.1), Some(Point::new(5.0, 0.0)));
+        // Resting against a wall (one radius away, to rounding) and moving into it: a contact
+        // at once; moving along it: none.
+        let wall = seg((10.0, -5.0), (10.0, 5.0));
+        let into = first_contact(
+            Point::new(9.0 + 1e-15, 0.0),
+            Vector::new(1.0, 0.1),
+            1.0,
+            &wall,
+            100.0,
+        );
+        assert_eq!(into.map(|h| h.0), Some(0.0));
+        let along = first_contact(
+            Point::new(9.0 - 1e-15, 0.0),
+            Vector::new(0.0, 1.0),
+            1.0,
+            &wall,
+            100.0,
+        );
+        assert_eq!(along, None);
         // Moving away from a wall already touched: no contact.
         let away = first_contact(
             Point::new(9.0, 0.0),

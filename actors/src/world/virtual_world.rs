@@ -28,6 +28,7 @@ use super::geometry::Point;
 use super::grid::{Cell, Grid};
 use super::motion::{Kinematics, Motion, MotionPattern, MotionStep, Pose};
 use super::observation::Observation;
+use super::obstacle::{predict_obstacle, ObstacleIndex, Shape, ShapeError};
 use super::sensor::{Datum, SensorKind, SensorQuery, SensorValue, Sensors, Trigger, WorldView};
 use super::{MotionOutcome, Obstacle, RobotId};
 
@@ -67,7 +68,7 @@ impl WorldSize {
 }
 
 /// Settings of a world.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct WorldConfig {
     pub size: WorldSize,
     /// No robot-robot collisions at all (seed 6.1). The boundary still holds robots in unless
@@ -81,6 +82,8 @@ pub struct WorldConfig {
     /// Width of the spatial index's cells [units]; by default four times the largest radius.
     /// Raised automatically to the largest interaction distance.
     pub cell_size: Option<f64>,
+    /// Static obstacles (seed 7.2), numbered by their place in the list.
+    pub obstacles: std::sync::Arc<[Shape]>,
 }
 
 /// Why a world cannot be built.
@@ -106,6 +109,16 @@ pub enum WorldError {
     Overlap { a: RobotId, b: RobotId },
     #[error("world width and height must be finite numbers > 0")]
     BadSize,
+    #[error("obstacle {obstacle}: {error}")]
+    BadObstacle { obstacle: usize, error: ShapeError },
+    #[error("robot {robot} at ({x}, {y}) with radius {radius} overlaps obstacle {obstacle}")]
+    InObstacle {
+        robot: RobotId,
+        x: f64,
+        y: f64,
+        radius: f64,
+        obstacle: usize,
+    },
 }
 
 /// A robot's initial settings.
@@ -128,6 +141,9 @@ struct RobotState {
     next_step: usize,
     /// Own conditional events: motion steps, cell crossings, boundary contact.
     own: Vec<EventId>,
+    /// The first obstacle contact predicted against the obstacles around the robot's cell
+    /// (predicted again whenever it changes cell).
+    obstacle: Option<EventId>,
     /// Partner -> pair events predicted under the current motions of both.
     pairs: BTreeMap<RobotId, Vec<EventId>>,
     cell: Cell,
@@ -147,6 +163,7 @@ pub struct VirtualWorld {
     robots: Vec<RobotState>,
     grid: Grid,
     max_radius: f64,
+    obstacles: ObstacleIndex,
 }
 
 impl VirtualWorld {
@@ -193,11 +210,29 @@ impl VirtualWorld {
             .unwrap_or(4.0 * max_radius)
             .max(2.0 * max_radius * (1.0 + 1e-9))
             .max(1e-9);
+        for (k, o) in cfg.obstacles.iter().enumerate() {
+            o.check()
+                .map_err(|error| WorldError::BadObstacle { obstacle: k, error })?;
+        }
+        let obstacles = ObstacleIndex::new(cfg.obstacles.to_vec(), size);
+        for (i, s) in specs.iter().enumerate() {
+            let p = s.pose.pos;
+            if let Some(k) = cfg.obstacles.iter().position(|o| o.distance(p) < s.radius) {
+                return Err(WorldError::InObstacle {
+                    robot: i as RobotId,
+                    x: p.x,
+                    y: p.y,
+                    radius: s.radius,
+                    obstacle: k,
+                });
+            }
+        }
         let mut world = Self {
             cfg,
             robots: Vec::with_capacity(specs.len()),
             grid: Grid::new(size),
             max_radius,
+            obstacles,
         };
         for (i, s) in specs.iter().enumerate() {
             let id = i as RobotId;
@@ -220,6 +255,7 @@ impl VirtualWorld {
                 steps: Vec::new(),
                 next_step: 0,
                 own: Vec::new(),
+                obstacle: None,
                 pairs: BTreeMap::new(),
                 cell,
                 entry: Vec::new(),
@@ -335,6 +371,9 @@ impl VirtualWorld {
     fn invalidate(&mut self, id: RobotId, out: &mut Outbox) {
         let own = std::mem::take(&mut self.robots[id as usize].own);
         own.into_iter().for_each(|e| out.cancel(e));
+        if let Some(e) = self.robots[id as usize].obstacle.take() {
+            out.cancel(e);
+        }
         self.cancel_pairs(id, out);
     }
 
@@ -432,7 +471,50 @@ impl VirtualWorld {
             }
         }
         self.predict_neighbours(id, out);
+        self.predict_obstacles(id, out);
         self.predict_crossing(id, out);
+    }
+
+    /// Predicts `id`'s first contact with the obstacles around its cell (replacing the
+    /// earlier prediction): a contact farther away happens after a cell crossing, which
+    /// predicts again.
+    fn predict_obstacles(&mut self, id: RobotId, out: &mut Outbox) {
+        if let Some(e) = self.robots[id as usize].obstacle.take() {
+            out.cancel(e);
+        }
+        if self.obstacles.is_empty() || self.robots[id as usize].motion.is_none() {
+            return;
+        }
+        let now = out.now();
+        let (track, r) = (self.track(id), self.radius(id));
+        let mut first: Option<(f64, Point, u32)> = None;
+        for i in self.obstacles.around(self.robots[id as usize].cell) {
+            let (k, prim) = self.obstacles.get(i);
+            if let Some((t, c)) = predict_obstacle(&track, r, &prim, now) {
+                if first.is_none_or(|f| t < f.0) {
+                    first = Some((t, c, k));
+                }
+            }
+        }
+        if let Some((t, contact, k)) = first {
+            let e = out.schedule(
+                t,
+                Target::MotionManager,
+                EventClass::Conditional,
+                [Some(id), None],
+                Payload::Collision {
+                    a: id,
+                    b: Obstacle::Object(k),
+                    contact: Some(contact),
+                },
+            );
+            self.robots[id as usize].obstacle = Some(e);
+        }
+    }
+
+    /// The world's obstacles with their index.
+    pub fn obstacles(&self) -> &ObstacleIndex {
+        &self.obstacles
     }
 
     /// Widens the grid's cells to at least `reach` (re-registering every robot and redoing every
@@ -444,6 +526,7 @@ impl VirtualWorld {
         let now = out.now();
         tracing::debug!(reach, "widening the spatial index's cells");
         self.grid = Grid::new(reach * (1.0 + 1e-9));
+        self.obstacles.reindex(self.grid.cell_size());
         for id in 0..self.robots.len() as RobotId {
             self.invalidate(id, out);
             // Motion steps were cancelled with the other own events: schedule them again.

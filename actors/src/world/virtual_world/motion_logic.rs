@@ -65,6 +65,7 @@ impl VirtualWorld {
                 self.grid.remove(robot, old);
                 self.grid.insert(robot, new);
                 self.predict_neighbours(robot, out);
+                self.predict_obstacles(robot, out);
                 self.predict_crossing(robot, out);
             }
             other => tracing::warn!(?other, "motion manager ignores an event it does not serve"),
@@ -208,6 +209,16 @@ impl VirtualWorld {
                 }
             }
         }
+        for i in self.obstacles.around(self.robots[x as usize].cell) {
+            let (k, prim) = self.obstacles.get(i);
+            if listed(Obstacle::Object(k)) || out.iter().any(|(o, _)| *o == Obstacle::Object(k)) {
+                continue;
+            }
+            let c = prim.nearest(kx.pos);
+            if prim.distance(kx.pos) - rx <= TOUCH && (c - kx.pos).dot(&kx.vel) > 0.0 {
+                out.push((Obstacle::Object(k), Some(c)));
+            }
+        }
         out
     }
 
@@ -224,7 +235,7 @@ impl VirtualWorld {
             let kx = self.state_at(x, now);
             let other_pos = match y {
                 Obstacle::Robot(y) => self.state_at(y, now).pos,
-                Obstacle::Boundary => c.unwrap_or(kx.pos),
+                Obstacle::Boundary | Obstacle::Object(_) => c.unwrap_or(kx.pos),
             };
             out.record(Observation::Collision {
                 robot: x,
@@ -257,7 +268,7 @@ impl VirtualWorld {
             .iter()
             .filter_map(|&(x, y, _)| match y {
                 Obstacle::Robot(y) => Some((x, y)),
-                Obstacle::Boundary => None,
+                Obstacle::Boundary | Obstacle::Object(_) => None,
             })
             .collect();
         for &(x, y) in &pairs {
