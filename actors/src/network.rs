@@ -52,7 +52,8 @@ impl Handler<Deliver> for NetworkActor {
         {
             let world = self.world.lock().expect("world lock");
             let pos = |id| world.state_at(id, m.now).pos;
-            let copies = self.net.transmit(m.now, from, &to, &pos);
+            let blocked = |a, b| world.obstacles().blocks(a, b);
+            let copies = self.net.transmit_among(m.now, from, &to, &pos, &blocked);
             drop(world);
             out.record(Observation::Send {
                 robot: from,

@@ -424,7 +424,13 @@ impl Robot {
     /// Positions of the other robots whose centres are within `range` (view sensor).
     pub async fn robots_in_view(&self, range: f64) -> Vec<(RobotId, Point)> {
         let seen = self
-            .read::<sensors::View>("view", &ViewQuery { range })
+            .read::<sensors::View>(
+                "view",
+                &ViewQuery {
+                    range,
+                    line_of_sight: None,
+                },
+            )
             .await;
         seen.unwrap_or_default()
             .into_iter()
@@ -436,7 +442,13 @@ impl Robot {
     /// sensor, pull).
     pub async fn proximity(&self, range: f64) -> Vec<(RobotId, f64)> {
         let gaps = self
-            .read::<sensors::Proximity>("proximity", &ProximityQuery { range })
+            .read::<sensors::Proximity>(
+                "proximity",
+                &ProximityQuery {
+                    range,
+                    line_of_sight: None,
+                },
+            )
             .await;
         gaps.unwrap_or_default()
             .into_iter()

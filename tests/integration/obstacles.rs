@@ -221,3 +221,162 @@ fn random_born_points_avoid_obstacles() {
         assert!(shapes[0].distance(p) >= r, "{p} in the box");
     }
 }
+
+/// Robot 0 at the origin looks (view and proximity) and sends one message to everyone.
+#[derive(Debug)]
+struct Looker;
+
+impl nekosim::Algorithm for Looker {
+    fn name(&self) -> &str {
+        "Looker"
+    }
+    fn run(&self, robot: nekosim::robot::Robot) -> nekosim::robot::AlgorithmFuture {
+        Box::pin(async move {
+            let seen: Vec<u32> = robot
+                .robots_in_view(500.0)
+                .await
+                .iter()
+                .map(|s| s.0)
+                .collect();
+            robot.log(format!("view {seen:?}"));
+            let near: Vec<u32> = robot.proximity(500.0).await.iter().map(|g| g.0).collect();
+            robot.log(format!("proximity {near:?}"));
+            let everyone: Vec<u32> = (1..robot.info().count as u32).collect();
+            robot.send(everyone, &1u8);
+        })
+    }
+}
+
+/// Whether the segment from `a` to `b` meets the box `[lo, hi]` (Liang-Barsky clipping) or the
+/// disc of radius `r` around `c` (closest point of the segment): the oracle, written apart
+/// from the simulator's geometry.
+fn crosses(
+    a: (f64, f64),
+    b: (f64, f64),
+    lo: (f64, f64),
+    hi: (f64, f64),
+    c: (f64, f64),
+    r: f64,
+) -> bool {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    let mut inside = true;
+    for (p, q) in [
+        (-dx, a.0 - lo.0),
+        (dx, hi.0 - a.0),
+        (-dy, a.1 - lo.1),
+        (dy, hi.1 - a.1),
+    ] {
+        if p == 0.0 {
+            inside &= q >= 0.0;
+        } else {
+            let t = q / p;
+            if p < 0.0 {
+                t0 = t0.max(t);
+            } else {
+                t1 = t1.min(t);
+            }
+        }
+    }
+    let in_box = inside && t0 <= t1;
+    let u = (((c.0 - a.0) * dx + (c.1 - a.1) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+    let in_disc = (a.0 + u * dx - c.0).hypot(a.1 + u * dy - c.1) < r;
+    in_box || in_disc
+}
+
+/// View and proximity leave out the robots hidden behind a box or a pillar, and a Radio with
+/// `line_of_sight: true` drops exactly the copies whose straight line crosses one: checked
+/// robot by robot against the clipping oracle.
+#[test]
+fn sensors_and_radio_do_not_see_through_obstacles() {
+    let mut robots = String::from("Robot(id: 0, radius: 1.0, at: (0.0, 0.0), algorithm: Idle),");
+    let mut at = Vec::new();
+    for k in 0..36 {
+        let a = f64::from(k) * 10.0_f64.to_radians() + 0.05;
+        let d = 40.0 + 30.0 * f64::from(k % 5);
+        let p = (d * a.cos(), d * a.sin());
+        // Born points clear of the box and the pillar.
+        let to_box = (30.0 - p.0)
+            .max(p.0 - 45.0)
+            .max(0.0)
+            .hypot((-25.0 - p.1).max(p.1 - 35.0).max(0.0));
+        if to_box < 2.0 || (p.0 + 20.0).hypot(p.1 - 40.0) < 14.0 {
+            continue;
+        }
+        at.push(p);
+        robots.push_str(&format!(
+            "Robot(id: {}, radius: 1.0, at: ({}, {}), algorithm: Idle),",
+            at.len(),
+            p.0,
+            p.1
+        ));
+    }
+    let text = format!(
+        "Scenario(seed: 1, until: 10.0, world: (size: Infinite),
+           network: Radio(range: 1000.0, over: Reliable(delay: 1.0), line_of_sight: true),
+           obstacles: [Rect(min: (30.0, -25.0), max: (45.0, 35.0)), Circle(center: (-20.0, 40.0), radius: 12.0)],
+           robots: [{robots}])"
+    );
+    let source = Source::parse("sight.ron", &text).expect("parses");
+    let mut built = source
+        .build(Overrides::default(), &Registry::with_builtins())
+        .expect("builds");
+    built.robots[0].1 = Box::new(Looker);
+    let out = nekosim::run(nekosim::SimConfig {
+        seed: built.seed,
+        until: built.until,
+        world: built.world,
+        robots: built.robots,
+        arbiters: 1,
+        record: true,
+        observers: Default::default(),
+        comms: built.comms,
+        sensors: built.sensors,
+    })
+    .expect("runs");
+    let visible: Vec<u32> = at
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| {
+            !crosses(
+                (0.0, 0.0),
+                **p,
+                (30.0, -25.0),
+                (45.0, 35.0),
+                (-20.0, 40.0),
+                12.0,
+            )
+        })
+        .map(|(k, _)| k as u32 + 1)
+        .collect();
+    assert!(
+        visible.len() >= 10 && visible.len() <= 30,
+        "{} visible: a weak setting",
+        visible.len()
+    );
+    let logs: Vec<String> = out
+        .records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::Log { text, .. } => Some(text.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        logs,
+        [
+            format!("view {visible:?}"),
+            format!("proximity {visible:?}")
+        ]
+    );
+    let mut received: Vec<u32> = out
+        .records
+        .iter()
+        .filter_map(|r| match r.obs {
+            Observation::Receive { robot, .. } => Some(robot),
+            _ => None,
+        })
+        .collect();
+    received.sort_unstable();
+    assert_eq!(received, visible);
+}

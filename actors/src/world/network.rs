@@ -38,6 +38,8 @@ pub struct Send<'a> {
     pub to: &'a [RobotId],
     /// Exact positions of the robots at `now` (the motion formulas, seed 3.1).
     pub pos: &'a dyn Fn(RobotId) -> Point,
+    /// Whether the straight line between two points crosses an obstacle of the world.
+    pub blocked: &'a dyn Fn(Point, Point) -> bool,
 }
 
 /// A network model: decides the arrival time of each copy of a message, or its loss.
@@ -287,20 +289,26 @@ impl ConfiguredNetwork for Lossy {
     }
 }
 
-/// `Radio(range: R, over: NET)`: `over`, but only destinations within `range` of the sender
-/// at the send instant receive.
+/// `Radio(range: R, over: NET, line_of_sight: B)`: `over`, but only destinations within
+/// `range` of the sender at the send instant receive; with `line_of_sight: true`, only those
+/// whose straight line from the sender crosses no obstacle (seed 7.2: "communication ranges
+/// tied to obstacles").
 #[derive(Debug)]
 pub struct Radio {
     range: f64,
     over: Box<dyn NetworkModel>,
+    line_of_sight: bool,
 }
 
-/// `Radio(range: R, over: NET)`.
+/// `Radio(range: R, over: NET, line_of_sight: false)`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RadioConfig {
     pub range: f64,
     pub over: Spec,
+    /// Drop copies whose straight line crosses an obstacle; default false.
+    #[serde(default)]
+    pub line_of_sight: bool,
 }
 
 impl NetworkModel for Radio {
@@ -308,7 +316,8 @@ impl NetworkModel for Radio {
         let me = (s.pos)(s.from);
         let mut v = self.over.transmit(s, rng);
         for (d, t) in v.iter_mut() {
-            if ((s.pos)(*d) - me).norm() > self.range {
+            let there = (s.pos)(*d);
+            if (there - me).norm() > self.range || (self.line_of_sight && (s.blocked)(me, there)) {
                 *t = None;
             }
         }
@@ -322,6 +331,7 @@ impl ConfiguredNetwork for Radio {
         Ok(Self {
             range: nonneg("range", c.range)?,
             over: networks.build_in("over", &c.over)?,
+            line_of_sight: c.line_of_sight,
         })
     }
 }
@@ -371,7 +381,26 @@ impl Network {
         to: &[RobotId],
         pos: &dyn Fn(RobotId) -> Point,
     ) -> Vec<(RobotId, Option<f64>)> {
-        let send = Send { now, from, to, pos };
+        self.transmit_among(now, from, to, pos, &|_, _| false)
+    }
+
+    /// [`Network::transmit`] in a world with obstacles: `blocked` says whether the straight
+    /// line between two points crosses one.
+    pub fn transmit_among(
+        &mut self,
+        now: f64,
+        from: RobotId,
+        to: &[RobotId],
+        pos: &dyn Fn(RobotId) -> Point,
+        blocked: &dyn Fn(Point, Point) -> bool,
+    ) -> Vec<(RobotId, Option<f64>)> {
+        let send = Send {
+            now,
+            from,
+            to,
+            pos,
+            blocked,
+        };
         let mut out = self.model.transmit(&send, &mut self.rng);
         for (d, t) in out.iter_mut() {
             if self.partitions.iter().any(|p| p.separates(from, *d, now)) {

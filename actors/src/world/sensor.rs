@@ -365,6 +365,11 @@ pub trait WorldView {
     fn near(&self, gap: f64) -> Vec<(RobotId, f64)>;
     /// What the robot touches, when the sensing was triggered by a contact ([`Trigger::Contact`]).
     fn contact(&self) -> Option<Obstacle>;
+    /// Whether the straight line from this robot's centre to `other`'s crosses no obstacle
+    /// (seed 7.2). Default: always (a world without obstacles).
+    fn in_sight(&self, _other: RobotId) -> bool {
+        true
+    }
 }
 
 /// A sensor written against the seed's split (4.2.2): [`SensorModel::sense`] gathers exact

@@ -164,6 +164,9 @@ pub struct View;
 #[serde(tag = "query", rename = "view")]
 pub struct ViewQuery {
     pub range: f64,
+    /// Only robots in sight (no obstacle on the line between the centres); default true.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line_of_sight: Option<bool>,
 }
 
 impl SensorModel for View {
@@ -176,9 +179,11 @@ impl SensorModel for View {
     }
 
     fn sense(q: &ViewQuery, world: &dyn WorldView) -> Vec<Seen> {
+        let sight = q.line_of_sight.unwrap_or(true);
         world
             .within(q.range)
             .into_iter()
+            .filter(|(robot, _, _)| !sight || world.in_sight(*robot))
             .map(|(robot, pos, _)| Seen { robot, pos })
             .collect()
     }
@@ -209,6 +214,9 @@ pub struct Proximity;
 #[serde(tag = "query", rename = "proximity")]
 pub struct ProximityQuery {
     pub range: f64,
+    /// Only robots in sight (no obstacle on the line between the centres); default true.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub line_of_sight: Option<bool>,
 }
 
 impl SensorModel for Proximity {
@@ -221,7 +229,7 @@ impl SensorModel for Proximity {
     }
 
     fn sense(q: &ProximityQuery, world: &dyn WorldView) -> Vec<Gap> {
-        gaps(world, q.range)
+        gaps(world, q.range, q.line_of_sight.unwrap_or(true))
     }
 
     fn reply(_: &ProximityQuery, gaps: Vec<Gap>, _: &mut ChaCha8Rng) -> Vec<Gap> {
@@ -241,10 +249,13 @@ impl SensorModel for Proximity {
     }
 }
 
-fn gaps(world: &dyn WorldView, range: f64) -> Vec<Gap> {
+/// The robots within `range` (free distance), those hidden by obstacles left out when
+/// `sight` asks for it.
+fn gaps(world: &dyn WorldView, range: f64, sight: bool) -> Vec<Gap> {
     world
         .near(range)
         .into_iter()
+        .filter(|(robot, _)| !sight || world.in_sight(*robot))
         .map(|(robot, distance)| Gap { robot, distance })
         .collect()
 }
@@ -290,7 +301,9 @@ impl SensorModel for PushProximity {
 
     fn sense(q: &PushProximityQuery, world: &dyn WorldView) -> Vec<Gap> {
         match *q {
-            PushProximityQuery::ActivateProximity { range, .. } => gaps(world, range),
+            // Entries are predicted without obstacles; one hidden behind an obstacle senses
+            // nobody, so it does not interrupt.
+            PushProximityQuery::ActivateProximity { range, .. } => gaps(world, range, true),
             PushProximityQuery::DeactivateProximity => Vec::new(),
         }
     }

@@ -455,4 +455,8 @@ impl WorldView for View<'_> {
     fn contact(&self) -> Option<Obstacle> {
         self.contact
     }
+    fn in_sight(&self, other: RobotId) -> bool {
+        let obstacles = self.world.obstacles();
+        obstacles.is_empty() || !obstacles.blocks(self.position(self.robot), self.position(other))
+    }
 }
