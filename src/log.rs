@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use nekosim_actors::world::geometry::Point;
 use nekosim_actors::world::motion::StepKind;
 use nekosim_actors::world::observation::{Observation, Record};
+use nekosim_actors::world::obstacle::Shape;
 use nekosim_actors::world::sensor::SensorQuery;
 use nekosim_actors::world::{MotionOutcome, RobotId};
 use nekosim_protocols::payload::type_word;
@@ -99,6 +100,31 @@ pub fn round_numbers(text: &str) -> String {
         }
     }
     out
+}
+
+/// The lines a log starts with in a world with obstacles (nekosim's; the seed had none): one
+/// per obstacle, `0.000 Obstacle: K | Rect | [x,y] [x,y]` with its shape's points (a circle's
+/// centre and radius).
+pub fn obstacle_lines(shapes: &[Shape]) -> Vec<String> {
+    let p = |v: &(f64, f64)| pt(Point::new(v.0, v.1));
+    shapes
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let (kind, what) = match s {
+                Shape::Segment { from, to } => ("Segment", format!("{} {}", p(from), p(to))),
+                Shape::Rect { min, max } => ("Rect", format!("{} {}", p(min), p(max))),
+                Shape::Polygon(points) => (
+                    "Polygon",
+                    points.iter().map(p).collect::<Vec<_>>().join(" "),
+                ),
+                Shape::Circle { center, radius } => {
+                    ("Circle", format!("{} radius {}", p(center), num(*radius)))
+                }
+            };
+            format!("{} Obstacle: {k} | {kind} | {what}", num(0.0))
+        })
+        .collect()
 }
 
 /// Turns observations into log lines; remembers each robot's current motion pattern, where its

@@ -227,7 +227,12 @@ fn create(path: &Option<PathBuf>) -> Result<Option<AtomicFile>, RunError> {
 
 /// Runs `built`, writing the requested outputs.
 pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
-    let log = create(&opts.log)?;
+    let mut log = create(&opts.log)?;
+    if let Some(f) = log.as_mut() {
+        for line in crate::log::obstacle_lines(&built.world.obstacles) {
+            f.line(&line);
+        }
+    }
     let trace = create(&opts.trace)?;
     let recorder = start_recording(&built, &opts.recording)?;
     let outputs = Rc::new(RefCell::new((

@@ -380,3 +380,113 @@ fn sensors_and_radio_do_not_see_through_obstacles() {
     received.sort_unstable();
     assert_eq!(received, visible);
 }
+
+/// Drives east into a wall with its contact sensor on, and logs the interrupt.
+#[derive(Debug)]
+struct Bumper;
+
+impl nekosim::Algorithm for Bumper {
+    fn name(&self) -> &str {
+        "Bumper"
+    }
+    fn run(&self, robot: nekosim::robot::Robot) -> nekosim::robot::AlgorithmFuture {
+        Box::pin(async move {
+            robot.activate_contact().await;
+            robot.forward(100.0, 2.0).await;
+            let notice = robot.next_notice().await;
+            robot.log(format!("{:.6} {notice:?}", robot.now()));
+        })
+    }
+}
+
+/// The contact sensor fires when its robot touches an obstacle, at the contact instant.
+#[test]
+fn the_contact_sensor_fires_on_an_obstacle() {
+    let source = Source::parse(
+        "bump.ron",
+        "Scenario(seed: 1, until: 100.0, world: (size: Infinite),
+           obstacles: [Segment(from: (30.0, -10.0), to: (30.0, 10.0))],
+           robots: [Robot(id: 0, radius: 2.0, at: (0.0, 0.0), angle: 0.0, algorithm: Idle)])",
+    )
+    .unwrap();
+    let mut built = source
+        .build(Overrides::default(), &Registry::with_builtins())
+        .unwrap();
+    built.robots[0].1 = Box::new(Bumper);
+    let out = nekosim::run(nekosim::SimConfig {
+        seed: built.seed,
+        until: built.until,
+        world: built.world,
+        robots: built.robots,
+        arbiters: 1,
+        record: true,
+        observers: Default::default(),
+        comms: built.comms,
+        sensors: built.sensors,
+    })
+    .unwrap();
+    let replies: Vec<(f64, String)> = out
+        .records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::SensorReply {
+                value,
+                interrupt: true,
+                ..
+            } => Some((r.t, value.text())),
+            _ => None,
+        })
+        .collect();
+    // Contact when the centre reaches x = 28 at 2 units/s.
+    assert_eq!(replies.len(), 1, "{replies:?}");
+    assert!((replies[0].0 - 14.0).abs() < 1e-9, "{replies:?}");
+    assert_eq!(replies[0].1, "contact obstacle:0");
+}
+
+/// The Neko log lists the obstacles first and names the obstacle a robot collided with, as the
+/// trace does.
+#[test]
+fn the_log_lists_obstacles_and_names_them_in_collisions() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, trace) = (dir.path().join("o.log"), dir.path().join("o.jsonl"));
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .args([
+            "run",
+            "examples/scenarios/obstacles.ron",
+            "--quiet",
+            "--log",
+        ])
+        .arg(&log)
+        .arg("--trace")
+        .arg(&trace)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0));
+    let log = std::fs::read_to_string(log).unwrap();
+    let head: Vec<&str> = log.lines().take(5).collect();
+    assert_eq!(
+        head[..4],
+        [
+            "0.000 Obstacle: 0 | Segment | [100.000,600.000] [500.000,700.000]",
+            "0.000 Obstacle: 1 | Rect | [300.000,300.000] [450.000,380.000]",
+            "0.000 Obstacle: 2 | Polygon | [550.000,100.000] [700.000,150.000] [600.000,260.000]",
+            "0.000 Obstacle: 3 | Circle | [180.000,250.000] radius 60.000",
+        ]
+    );
+    assert!(head[4].contains(" Born: "));
+    let trace = std::fs::read_to_string(trace).unwrap();
+    for k in 0..4 {
+        let name = format!("obstacle:{k}");
+        let in_trace = trace
+            .lines()
+            .filter(|l| {
+                l.contains("\"kind\":\"motion_finish\"")
+                    && l.contains(&format!("\"other\":\"{name}\""))
+            })
+            .count();
+        let in_log = log.matches(&format!("Collided_MoveTo({name})")).count();
+        assert_eq!(in_log, in_trace, "{name}");
+        assert!(in_trace > 0, "nobody touched {name}");
+    }
+}
