@@ -189,6 +189,9 @@ pub enum Mark {
 pub trait Canvas {
     /// The world's bounds (`None`: an infinite world). Called once, first.
     fn world(&mut self, bounds: Option<(Point, Point)>);
+    /// The world's obstacles, each as the closed (or open, for a segment) line that draws it;
+    /// called once, before the run.
+    fn obstacles(&mut self, _outlines: &[Vec<Point>]) {}
     /// A robot exists: its radius and colour.
     fn spawn(&mut self, robot: RobotId, radius: f64, colour: Rgb);
     /// A robot's colour changes (grey when it crashed).
@@ -414,6 +417,14 @@ impl<C: Canvas> Recorder<C> {
             flights: BTreeMap::new(),
             last_t: 0.0,
             poses: Vec::new(),
+        }
+    }
+
+    /// Draws the world's obstacles (before the run).
+    pub fn obstacles(&mut self, shapes: &[nekosim_actors::world::obstacle::Shape]) {
+        if !shapes.is_empty() {
+            let outlines: Vec<Vec<Point>> = shapes.iter().map(|s| s.outline()).collect();
+            self.canvas.obstacles(&outlines);
         }
     }
 

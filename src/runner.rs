@@ -355,11 +355,9 @@ fn start_recording(built: &Built, target: &Target) -> Result<Option<Recorder>, R
     );
     let canvas =
         crate::recording::rerun_canvas::RerunCanvas::start(&built.name, &id, target, &layout)?;
-    Ok(Some(crate::recording::Recorder::new(
-        canvas,
-        &built.world.size,
-        built.framerate,
-    )))
+    let mut recorder = crate::recording::Recorder::new(canvas, &built.world.size, built.framerate);
+    recorder.obstacles(&built.world.obstacles);
+    Ok(Some(recorder))
 }
 
 #[cfg(not(feature = "rerun"))]

@@ -60,6 +60,9 @@ pub const LABELLED_ROBOTS: usize = 20;
 /// The colour of robots' names: a light grey, readable on the black background.
 pub const NAME_COLOUR: Rgb = [200, 200, 200];
 
+/// The colour of obstacles' outlines: a light grey, apart from every robot's hue.
+pub const OBSTACLE_COLOUR: Rgb = [150, 150, 150];
+
 /// The opacity of a run's message arrows (their packets are opaque).
 pub const MESSAGE_ALPHA: u8 = 100;
 
@@ -1745,6 +1748,20 @@ impl Canvas for RerunCanvas {
             );
             self.row("world/bounds", None, &boxes);
         }
+    }
+
+    fn obstacles(&mut self, outlines: &[Vec<Point>]) {
+        // Static grey outlines, numbered as in the scenario (`obstacle:K`).
+        let strips = archetypes::LineStrips2D::new(
+            outlines
+                .iter()
+                .map(|o| o.iter().map(|p| p32(*p)).collect::<Vec<_>>()),
+        )
+        .with_colors([OBSTACLE_COLOUR])
+        .with_radii([rerun::Radius::new_ui_points(1.5)])
+        .with_labels((0..outlines.len()).map(|k| format!("obstacle:{k}")))
+        .with_show_labels(false);
+        self.row("world/obstacles", None, &strips);
     }
 
     fn spawn(&mut self, robot: RobotId, radius: f64, colour: Rgb) {

@@ -156,6 +156,32 @@ fn a_crowd_is_drawn_without_labels() {
     assert_eq!(name_strokes(&out), 0, "{out}");
 }
 
+/// Obstacles are drawn as static outlines, and every contact point of a collision with one
+/// lies on its outline (verify_rrd.py).
+#[test]
+fn obstacles_are_drawn_where_robots_touch_them() {
+    let py = python();
+    let dir = tempfile::tempdir().unwrap();
+    let (rrd, trace) = record(
+        "examples/scenarios/obstacles.ron",
+        &["--until", "60"],
+        dir.path(),
+    );
+    let out = verify_rrd(&py, &rrd, &trace, 25);
+    assert!(out.contains("verify_rrd: ok"), "{out}");
+    let hits = out
+        .split(", ")
+        .find(|p| p.starts_with("4 obstacles with "))
+        .unwrap_or_else(|| panic!("4 obstacles drawn: {out}"));
+    let n: usize = hits["4 obstacles with ".len()..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(n >= 3, "{out}");
+}
+
 /// The number of robot-name strokes verify_rrd.py checked, from its summary line.
 fn name_strokes(summary: &str) -> usize {
     let end = summary.find(" name strokes").expect("a name-stroke count");

@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import bisect
 import json
+import math
 import os
 import subprocess
 import sys
@@ -535,6 +536,33 @@ def main() -> None:
     if framerate > 0 and any(r["kind"] == "motion_finish" for r in trace) and trail_points == 0:
         fail("robots moved but no trail was drawn")
 
+    # Obstacles: static outlines in `world/obstacles`, strip K for obstacle K; every contact
+    # point the trace gives for a collision with obstacle K lies on strip K (to 32-bit floats).
+    outlines = rows.static.get("/world/obstacles", {}).get("LineStrips2D:strips") or []
+    obstacle_hits = 0
+    for r in trace:
+        other = r.get("other")
+        if r["kind"] != "collision" or not (isinstance(other, str) and other.startswith("obstacle:")):
+            continue
+        k = int(other.split(":")[1])
+        if k >= len(outlines):
+            fail(f"collision #{r['seq']} with {other}: only {len(outlines)} obstacle outlines drawn")
+        (px, py) = r["other_pos"]
+
+        def seg_dist(a, b):
+            (ax, ay), (bx, by) = a, b
+            dx, dy = bx - ax, by - ay
+            u = 0.0 if dx == dy == 0 else max(0.0, min(1.0, ((px - ax) * dx + (py - ay) * dy) / (dx * dx + dy * dy)))
+            return ((ax + u * dx - px) ** 2 + (ay + u * dy - py) ** 2) ** 0.5
+
+        d = min(seg_dist(a, b) for a, b in zip(outlines[k], outlines[k][1:]))
+        # A circle is drawn by 64 chords: its rim is up to r (1 - cos(pi / 64)) inside them.
+        xs = [x for x, _ in outlines[k]]
+        tol = 2**-20 * max(1.0, abs(px), abs(py)) + (max(xs) - min(xs)) / 2 * (1 - math.cos(math.pi / 64))
+        if d > tol:
+            fail(f"collision #{r['seq']} with {other}: contact {r['other_pos']} is {d} from its outline")
+        obstacle_hits += 1
+
     collisions = sum(1 for r in trace if r["kind"] == "collision")
     # One marker per row of world/collisions, at the collision's event: a cross of two
     # strokes, in a colour no robot has, without labels.
@@ -754,7 +782,7 @@ def main() -> None:
         f"{moves} legs, {trail_points} trail points, {markers} collision markers, {spacetime} space-time arrows, {ends} arrows ending at the receive, {len(sends)} sends with arrows, {switches} sensor switches, "
         f"{frames_checked} sensor frames, {queries} queries, "
         f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views, "
-        f"{name_strokes} name strokes, "
+        f"{name_strokes} name strokes, {len(outlines)} obstacles with {obstacle_hits} contacts on them, "
         f"plots {','.join(sorted(e.rsplit('/', 1)[1] for e in rows.by_entity if e.startswith('/metrics/')))}"
     )
 
