@@ -5,9 +5,11 @@
 //!   spatial index, the virtual world), free of actix.
 //! - [`scheduler`]: the virtual-time scheduler actor and its ordering contract.
 //! - [`motion_manager`], [`sensor_manager`], [`robot`], [`sensor`]: the other actors.
-//! - [`algorithm`]: built-in robot algorithms; [`simulation`]: building and running a run.
+//! - [`algorithm`]: built-in robot algorithms; [`behaviour`]: composable behaviours (seed 7.2);
+//!   [`simulation`]: building and running a run.
 
 pub mod algorithm;
+pub mod behaviour;
 pub mod layer;
 pub mod motion_manager;
 pub mod network;

@@ -80,7 +80,8 @@ impl Algorithms {
             .algorithm::<AskForHelp>("AskForHelp")
             .algorithm::<BroadcastLoad>("BroadcastLoad")
             .algorithm::<MeetingPoint>("MeetingPoint")
-            .algorithm::<PathReservation>("PathReservation");
+            .algorithm::<PathReservation>("PathReservation")
+            .algorithm::<crate::behaviour::Behaviour>("Behaviour");
         r
     }
 
