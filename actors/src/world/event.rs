@@ -12,7 +12,7 @@
 //! event is cancelled when a robot it depends on changes its path before it fires.
 
 use std::cmp::Ordering;
-use std::collections::{BTreeSet, BinaryHeap, HashMap};
+use std::collections::{BinaryHeap, HashMap};
 
 use super::motion::Motion;
 use super::observation::Observation;
@@ -341,7 +341,10 @@ impl Ord for Key {
 pub struct EventQueue {
     heap: BinaryHeap<Key>,
     live: HashMap<EventId, Event, super::grid::FixedHash>,
-    by_robot: HashMap<RobotId, BTreeSet<(u64, EventId)>, super::grid::FixedHash>,
+    /// Each robot's pending events, by dense robot id: a robot has a handful at a time, so a
+    /// small vector beats a tree per robot (issue 17's profile: tree inserts were 2.4 % of a
+    /// run); `future_of` sorts on demand.
+    by_robot: Vec<Vec<EventId>>,
 }
 
 impl EventQueue {
@@ -353,11 +356,12 @@ impl EventQueue {
     /// Registers an event.
     pub fn register(&mut self, ev: Event) {
         self.heap.push(Key(ev.time, ev.id));
-        for r in ev.robots.iter().flatten() {
-            self.by_robot
-                .entry(*r)
-                .or_default()
-                .insert((ev.time.to_bits(), ev.id));
+        for &r in ev.robots.iter().flatten() {
+            let r = r as usize;
+            if self.by_robot.len() <= r {
+                self.by_robot.resize_with(r + 1, Vec::new);
+            }
+            self.by_robot[r].push(ev.id);
         }
         self.live.insert(ev.id, ev);
     }
@@ -374,9 +378,11 @@ impl EventQueue {
     }
 
     fn unindex(&mut self, ev: &Event) {
-        for r in ev.robots.iter().flatten() {
-            if let Some(set) = self.by_robot.get_mut(r) {
-                set.remove(&(ev.time.to_bits(), ev.id));
+        for &r in ev.robots.iter().flatten() {
+            if let Some(list) = self.by_robot.get_mut(r as usize) {
+                if let Some(k) = list.iter().position(|id| *id == ev.id) {
+                    list.swap_remove(k);
+                }
             }
         }
     }
@@ -417,10 +423,10 @@ impl EventQueue {
     pub fn future_of(&self, robot: RobotId) -> Vec<&Event> {
         let mut evs: Vec<&Event> = self
             .by_robot
-            .get(&robot)
+            .get(robot as usize)
             .into_iter()
             .flatten()
-            .filter_map(|(_, id)| self.live.get(id))
+            .filter_map(|id| self.live.get(id))
             .collect();
         evs.sort_by(|a, b| a.time.total_cmp(&b.time).then(a.id.cmp(&b.id)));
         evs

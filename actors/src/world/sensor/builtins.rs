@@ -435,11 +435,17 @@ mod tests {
             r#"{"query":"self_position","error":0.5}"#
         );
         assert_eq!(
-            j(q(&ViewQuery { range: 3.0 })),
+            j(q(&ViewQuery {
+                range: 3.0,
+                line_of_sight: None,
+            })),
             r#"{"query":"view","range":3.0}"#
         );
         assert_eq!(
-            j(q(&ProximityQuery { range: 3.0 })),
+            j(q(&ProximityQuery {
+                range: 3.0,
+                line_of_sight: None,
+            })),
             r#"{"query":"proximity","range":3.0}"#
         );
         assert_eq!(
