@@ -46,5 +46,7 @@ $BIN run examples/scenarios/ask_for_help.ron --until 60 --rrd "$WORK/ask_for_hel
 shoot "$WORK/ask_for_help.rrd" ask_for_help 8 40
 $BIN run examples/scenarios/abcast_lamport.ron --until 30 --rrd "$WORK/abcast_lamport.rrd" --quiet
 shoot "$WORK/abcast_lamport.rrd" abcast_lamport 20
+$BIN run examples/scenarios/obstacles.ron --until 60 --rrd "$WORK/obstacles.rrd" --quiet
+shoot "$WORK/obstacles.rrd" obstacles 30
 $BIN check lamport-abcast --crashes 1 --rrd "$WORK/check.rrd" >/dev/null || true
 shoot "$WORK/check.rrd" check_lamport_crash 14
