@@ -238,6 +238,66 @@ mod tests {
         );
     }
 
+    /// The arc of `collision_on_the_arc...` towards a wall `x = 30` (an obstacle segment): the
+    /// centre is at `(50 sin(0.1 t), 50 - 50 cos(0.1 t))`, so the disc of radius 3 touches
+    /// the wall when `50 sin(0.1 t) = 27`, at `(30, y)`: found by conservative advancement.
+    #[test]
+    fn an_arc_stops_at_an_obstacle_at_the_closed_form_instant() {
+        let out = nekosim::run(SimConfig {
+            sensors: Default::default(),
+            seed: 1,
+            until: 100.0,
+            world: WorldConfig {
+                size: WorldSize::Infinite,
+                ghost_mode: false,
+                walls: true,
+                turn: Default::default(),
+                cell_size: None,
+                obstacles: vec![nekosim::world::obstacle::Shape::Segment {
+                    from: (30.0, -100.0),
+                    to: (30.0, 200.0),
+                }]
+                .into(),
+            },
+            robots: vec![(
+                RobotSpec {
+                    radius: 3.0,
+                    pose: Pose {
+                        pos: Point::new(0.0, 0.0),
+                        angle: 0.0,
+                    },
+                },
+                Box::new(ArcDriver(180.0)),
+            )],
+            arbiters: 1,
+            record: true,
+            observers: Default::default(),
+            comms: Default::default(),
+        })
+        .expect("run");
+        let (t, other, other_pos) = out
+            .records
+            .iter()
+            .find_map(|r| match r.obs {
+                Observation::Collision {
+                    other, other_pos, ..
+                } => Some((r.t, other, other_pos)),
+                _ => None,
+            })
+            .expect("a collision");
+        let expected = (27.0f64 / 50.0).asin() / 0.1;
+        assert!(
+            (t - expected).abs() < 1e-6,
+            "collision at {t} expected {expected}"
+        );
+        assert_eq!(other, nekosim::world::Obstacle::Object(0));
+        let y = 50.0 - 50.0 * (0.1 * expected).cos();
+        assert!(
+            (other_pos - Point::new(30.0, y)).norm() < 1e-6,
+            "{other_pos}"
+        );
+    }
+
     #[test]
     fn an_arc_that_stops_short_of_the_obstacle_does_not_collide() {
         // The half circle ends at polar angle 90°; an obstacle at 120° is never reached.
