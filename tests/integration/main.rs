@@ -1,5 +1,6 @@
 //! All integration tests, one binary; modules are named by behaviour.
 
+mod behaviours;
 mod cancellation;
 mod check;
 mod cli;
