@@ -102,7 +102,10 @@ fn of(records: &[Record], robot: u32) -> Vec<&Record> {
     records.iter().filter(|r| r.obs.robot() == robot).collect()
 }
 
-fn requests(records: &[&Record]) -> Vec<(f64, String, Vec<(String, f64)>)> {
+/// A motion request: when, which pattern, its parameters.
+type Asked = (f64, String, Vec<(String, f64)>);
+
+fn requests(records: &[&Record]) -> Vec<Asked> {
     records
         .iter()
         .filter_map(|r| match &r.obs {
@@ -164,6 +167,23 @@ fn race_cancels_the_losing_motion_at_the_winners_instant() {
     // Nothing moves after.
     let path = &trajectories(&out.records)[0];
     assert_eq!(pos_at(path, 2.0), pos_at(path, 50.0));
+
+    // Cancelling a branch cancels what runs inside it: here an Until whose body moves and
+    // whose condition senses; both stop at the winner's instant.
+    let out = alone(
+        Behaviour::Wait(2.0)
+            .race(Behaviour::go_to(100.0, 0.0, 1.0, 90.0).until(Condition::Proximity(1.0))),
+        50.0,
+    );
+    let mine = of(&out.records, 0);
+    let asked = requests(&mine);
+    assert_eq!(asked.len(), 2, "{asked:?}");
+    assert_eq!((asked[1].0, asked[1].1.as_str()), (2.0, "forward"));
+    assert_eq!(finishes(&mine)[0].0, 2.0);
+    assert_eq!(finishes(&mine)[0].1, MotionOutcome::Replaced);
+    let sensed = sensor_requests(&mine);
+    assert_eq!(sensed.len(), 2, "{sensed:?}");
+    assert!(sensed[1].1.contains("deactivate_proximity") && sensed[1].0 == 2.0);
 
     // The motion wins at t = 3: the losing condition's push sensor is switched off then.
     let out = alone(
