@@ -822,10 +822,11 @@ impl Source {
                     continue;
                 }
                 let algorithm_path = format!("{path}.algorithm");
-                let build = registry
+                let mut built = registry
                     .algorithms
-                    .builder(algorithm)
-                    .map_err(|e| self.spec_err(&algorithm_path, &e))?;
+                    .build_many(algorithm, &setting, ids.len())
+                    .map_err(|e| self.spec_err(&algorithm_path, &e))?
+                    .into_iter();
                 for id in &ids {
                     let heading = match angle {
                         Some(a) => *a,
@@ -834,8 +835,7 @@ impl Source {
                     if let Some(spec) = placed[*id].as_mut() {
                         spec.pose.angle = heading;
                     }
-                    let built = build(&setting).map_err(|e| self.spec_err(&algorithm_path, &e))?;
-                    algorithms[*id] = Some(built);
+                    algorithms[*id] = built.next();
                 }
             }
         }

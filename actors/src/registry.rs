@@ -24,8 +24,10 @@ impl Setting {
     }
 }
 
-/// An algorithm a scenario can name: its configuration type and how it is built from it.
-pub trait Configured: Algorithm + Sized + 'static {
+/// An algorithm a scenario can name: its configuration type and how it is built from it. It
+/// is `Clone`: a group of robots sharing one configuration reads it once and clones the
+/// algorithm for each robot (a sweep builds thousands of runs).
+pub trait Configured: Algorithm + Clone + Sized + 'static {
     /// What `algorithm: Name(field: value, ...)` is read into (derive `Deserialize` with
     /// `#[serde(deny_unknown_fields)]`).
     type Config: DeserializeOwned;
@@ -36,15 +38,18 @@ pub trait Configured: Algorithm + Sized + 'static {
     fn configure(config: Self::Config, setting: &Setting) -> Result<Self, FieldError>;
 }
 
-/// Reads a spec's configuration and builds the algorithm.
-type BuildFn = fn(&Spec, &Setting) -> Result<Box<dyn Algorithm>, SpecError>;
+/// Reads a spec's configuration once and builds the algorithm for `n` robots.
+type BuildFn = fn(&Spec, &Setting, usize) -> Result<Vec<Box<dyn Algorithm>>, SpecError>;
 
 fn build_entry<A: Configured>(
     spec: &Spec,
     setting: &Setting,
-) -> Result<Box<dyn Algorithm>, SpecError> {
-    spec.configure(|c| A::configure(c, setting))
-        .map(|a| Box::new(a) as Box<dyn Algorithm>)
+    n: usize,
+) -> Result<Vec<Box<dyn Algorithm>>, SpecError> {
+    let a = spec.configure(|c| A::configure(c, setting))?;
+    Ok((0..n)
+        .map(|_| Box::new(a.clone()) as Box<dyn Algorithm>)
+        .collect())
 }
 
 /// Algorithms by the name scenarios use for them. A new (or default) registry holds the
@@ -99,17 +104,21 @@ impl Algorithms {
     /// Reads `spec`'s configuration and builds the algorithm for a robot of `setting`.
     /// Positions in the error are in `spec`'s text.
     pub fn build(&self, spec: &Spec, setting: &Setting) -> Result<Box<dyn Algorithm>, SpecError> {
-        (self.builder(spec)?)(setting)
+        Ok(self
+            .build_many(spec, setting, 1)?
+            .pop()
+            .expect("one algorithm built"))
     }
 
-    /// What builds `spec`'s algorithm for a robot of a setting, with the name looked up once:
-    /// for a group of robots sharing one spec.
-    pub fn builder<'a>(
+    /// `n` copies of `spec`'s algorithm for robots of a setting (a group sharing one spec):
+    /// the configuration is read and checked once.
+    pub fn build_many(
         &self,
-        spec: &'a Spec,
-    ) -> Result<impl Fn(&Setting) -> Result<Box<dyn Algorithm>, SpecError> + 'a, SpecError> {
-        let build = *self.entries.get(spec)?;
-        Ok(move |setting: &Setting| build(spec, setting))
+        spec: &Spec,
+        setting: &Setting,
+        n: usize,
+    ) -> Result<Vec<Box<dyn Algorithm>>, SpecError> {
+        (self.entries.get(spec)?)(spec, setting, n)
     }
 }
 
