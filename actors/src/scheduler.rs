@@ -211,7 +211,7 @@ impl Scheduler {
             match e {
                 Effect::Schedule(ev) => {
                     assert!(ev.time >= self.now, "an event was scheduled in the past");
-                    self.queue.register(*ev);
+                    self.queue.register(ev);
                 }
                 Effect::Cancel(id) => {
                     if self.queue.cancel(id) {
@@ -334,7 +334,7 @@ impl Handler<Step> for Scheduler {
             Some(t) if t <= self.until => {}
             _ => return self.finish(ctx),
         }
-        let event = self.queue.pop().expect("peeked event");
+        let event = *self.queue.pop().expect("peeked event");
         debug_assert!(event.time >= self.now, "time went backwards");
         if event.time == self.now {
             self.at_instant += 1;

@@ -340,7 +340,10 @@ impl Ord for Key {
 #[derive(Debug, Default)]
 pub struct EventQueue {
     heap: BinaryHeap<Key>,
-    live: HashMap<EventId, Event, super::grid::FixedHash>,
+    /// Pending events, boxed as the handlers' effects carry them: the table holds a pointer
+    /// per event (24 bytes with its key, against 184 for the event itself), so growing it
+    /// moves little (issue 17: at 100k robots the table of whole events peaked at 291 MB).
+    live: HashMap<EventId, Box<Event>, super::grid::FixedHash>,
     /// Each robot's pending events, by dense robot id: a robot has a handful at a time, so a
     /// small vector beats a tree per robot (issue 17's profile: tree inserts were 2.4 % of a
     /// run); `future_of` sorts on demand.
@@ -354,7 +357,7 @@ impl EventQueue {
     }
 
     /// Registers an event.
-    pub fn register(&mut self, ev: Event) {
+    pub fn register(&mut self, ev: Box<Event>) {
         self.heap.push(Key(ev.time, ev.id));
         for &r in ev.robots.iter().flatten() {
             let r = r as usize;
@@ -399,7 +402,7 @@ impl EventQueue {
     }
 
     /// Removes and returns the next pending event.
-    pub fn pop(&mut self) -> Option<Event> {
+    pub fn pop(&mut self) -> Option<Box<Event>> {
         while let Some(Key(_, id)) = self.heap.pop() {
             if let Some(ev) = self.live.remove(&id) {
                 self.unindex(&ev);
@@ -426,7 +429,7 @@ impl EventQueue {
             .get(robot as usize)
             .into_iter()
             .flatten()
-            .filter_map(|id| self.live.get(id))
+            .filter_map(|id| self.live.get(id).map(|e| &**e))
             .collect();
         evs.sort_by(|a, b| a.time.total_cmp(&b.time).then(a.id.cmp(&b.id)));
         evs
@@ -437,15 +440,15 @@ impl EventQueue {
 mod tests {
     use super::*;
 
-    fn ev(time: f64, cause: u64, index: u32, robot: RobotId) -> Event {
-        Event {
+    fn ev(time: f64, cause: u64, index: u32, robot: RobotId) -> Box<Event> {
+        Box::new(Event {
             time,
             id: EventId { cause, index },
             target: Target::Robot(robot),
             class: EventClass::Eventual,
             robots: [Some(robot), None],
             payload: Payload::Timer { robot, ticket: 0 },
-        }
+        })
     }
 
     #[test]
