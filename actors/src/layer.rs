@@ -77,7 +77,7 @@ pub fn route_effects(
                     Payload::LayerInput {
                         robot,
                         layer: to,
-                        input,
+                        input: Box::new(input),
                     },
                 );
             }
@@ -91,7 +91,7 @@ pub fn route_effects(
                         from: robot,
                         layer,
                         to,
-                        msg,
+                        msg: Box::new(msg),
                     },
                 );
             }
@@ -170,7 +170,7 @@ impl Handler<Deliver> for LayerActor {
                 if let Input::Indication {
                     from: NET,
                     ind: Indication::Deliver { from, msg },
-                } = &input
+                } = &*input
                 {
                     out.record(Observation::Receive {
                         robot: self.robot,
@@ -179,7 +179,7 @@ impl Handler<Deliver> for LayerActor {
                         msg: msg.clone(),
                     });
                 }
-                Some(input)
+                Some(*input)
             }
             Payload::LayerTimer {
                 timer, generation, ..

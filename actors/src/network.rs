@@ -59,7 +59,7 @@ impl Handler<Deliver> for NetworkActor {
                 robot: from,
                 to: to.clone(),
                 layer: crate::layer::layer_name(&self.wiring, layer),
-                msg: msg.clone(),
+                msg: (*msg).clone(),
                 arrive: if copies.iter().map(|(d, _)| d).eq(to.iter()) {
                     copies.iter().map(|(_, at)| *at).collect()
                 } else {
@@ -72,7 +72,7 @@ impl Handler<Deliver> for NetworkActor {
                 let Some(at) = at else { continue };
                 let ind = Indication::Deliver {
                     from,
-                    msg: msg.clone(),
+                    msg: (*msg).clone(),
                 };
                 if layer == APP {
                     out.schedule(
@@ -80,7 +80,7 @@ impl Handler<Deliver> for NetworkActor {
                         Target::Robot(d),
                         EventClass::Eventual,
                         [Some(d), None],
-                        Payload::Notice(Notice::Incoming { layer: NET, ind }),
+                        Payload::Notice(Box::new(Notice::Incoming { layer: NET, ind })),
                     );
                 } else {
                     out.schedule(
@@ -91,7 +91,7 @@ impl Handler<Deliver> for NetworkActor {
                         Payload::LayerInput {
                             robot: d,
                             layer,
-                            input: Input::Indication { from: NET, ind },
+                            input: Box::new(Input::Indication { from: NET, ind }),
                         },
                     );
                 }

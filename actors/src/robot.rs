@@ -616,10 +616,11 @@ impl Handler<Deliver> for RobotActor {
         let id = self.handle.info.id;
         self.handle.io.borrow_mut().now = msg.now;
         match msg.event.payload {
-            Payload::Notice(Notice::Start) => {
+            Payload::Notice(n) if matches!(*n, Notice::Start) => {
                 self.task = Some(self.algorithm.run(self.handle.clone()));
             }
             Payload::Notice(n) => {
+                let n = *n;
                 if let Notice::Incoming {
                     layer: NET,
                     ind: Indication::Deliver { from, msg },
@@ -660,7 +661,7 @@ impl Handler<Deliver> for RobotActor {
                     Payload::MotionRequest {
                         robot: id,
                         ticket,
-                        motion,
+                        motion: Box::new(motion),
                     },
                 ),
                 Request::Sensor { ticket, query } => out.schedule(
@@ -671,7 +672,7 @@ impl Handler<Deliver> for RobotActor {
                     Payload::SensorRequest {
                         robot: id,
                         ticket,
-                        query,
+                        query: Box::new(query),
                     },
                 ),
                 Request::Timer { ticket, at } => out.schedule(
@@ -690,7 +691,7 @@ impl Handler<Deliver> for RobotActor {
                         from: id,
                         layer: APP,
                         to,
-                        msg: wire,
+                        msg: Box::new(wire),
                     },
                 ),
                 Request::Layer { ix, req } => {
@@ -714,7 +715,7 @@ impl Handler<Deliver> for RobotActor {
                         Payload::LayerInput {
                             robot: id,
                             layer: ix,
-                            input: Input::Request { from: APP, req },
+                            input: Box::new(Input::Request { from: APP, req }),
                         },
                     )
                 }

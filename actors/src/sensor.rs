@@ -58,7 +58,7 @@ impl Handler<Deliver> for Sensor {
             debug_assert_eq!(robot, self.robot);
             // The sensor's reply from its reading (pull or push); (de)activations and
             // rejections pass through.
-            let value = match (&query.query, snapshot) {
+            let value = match (&query.query, *snapshot) {
                 (Some(q), SensorValue::Reply(reading)) => {
                     match self.sensors.reply(self.kind, q, reading, &mut self.rng) {
                         Ok(reply) => SensorValue::Reply(reply),

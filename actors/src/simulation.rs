@@ -148,7 +148,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
                 Payload::LayerInput {
                     robot: r,
                     layer: l,
-                    input: Input::Start,
+                    input: Box::new(Input::Start),
                 },
             );
         }

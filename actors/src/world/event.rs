@@ -94,14 +94,16 @@ pub struct FutureEvent {
     pub robots: [Option<RobotId>; 2],
 }
 
-/// The content of an event.
+/// The content of an event. Variants that are rare or large keep their bulk in a box, so that
+/// an event (most are motion steps, collisions and cell crossings) stays small: a large run
+/// holds millions of them (issue 17).
 #[derive(Clone, Debug)]
 pub enum Payload {
     /// Robot -> motion manager: start `motion`, replacing the current one.
     MotionRequest {
         robot: RobotId,
         ticket: u64,
-        motion: Motion,
+        motion: Box<Motion>,
     },
     /// The `step`-th event of the robot's current motion.
     MotionStep { robot: RobotId, step: usize },
@@ -142,24 +144,24 @@ pub enum Payload {
     SensorRequest {
         robot: RobotId,
         ticket: u64,
-        query: SensorQuery,
+        query: Box<SensorQuery>,
     },
     /// The sensor event of a request, at its trigger time.
     SensorTrigger {
         robot: RobotId,
         ticket: u64,
-        query: SensorQuery,
+        query: Box<SensorQuery>,
     },
     /// Sensor manager -> sensor actor: compute the reply from the world's data.
     SensorCompute {
         robot: RobotId,
         ticket: Option<u64>,
-        query: SensorQuery,
+        query: Box<SensorQuery>,
         /// The reading (as [`SensorValue::Reply`]), or the outcome of a (de)activation.
-        snapshot: SensorValue,
+        snapshot: Box<SensorValue>,
     },
     /// To a robot's algorithm.
-    Notice(Notice),
+    Notice(Box<Notice>),
     /// A robot's own timer.
     Timer { robot: RobotId, ticket: u64 },
     /// Robot -> event manager: list the future events of robot `of` (itself or another).
@@ -173,13 +175,13 @@ pub enum Payload {
         from: RobotId,
         layer: LayerIx,
         to: Vec<RobotId>,
-        msg: nekosim_protocols::Payload,
+        msg: Box<nekosim_protocols::Payload>,
     },
     /// An input for a robot's protocol layer.
     LayerInput {
         robot: RobotId,
         layer: LayerIx,
-        input: Input,
+        input: Box<Input>,
     },
     /// A protocol layer's timer (`generation` tells cancelled timers apart).
     LayerTimer {
@@ -297,7 +299,7 @@ impl Outbox {
             Target::Robot(robot),
             EventClass::Eventual,
             [Some(robot), None],
-            Payload::Notice(notice),
+            Payload::Notice(Box::new(notice)),
         );
     }
 

@@ -73,11 +73,11 @@ impl Sensing {
             Payload::SensorCompute {
                 robot,
                 ticket: None,
-                query: SensorQuery {
+                query: Box::new(SensorQuery {
                     sensor,
                     query: Some(query.clone()),
-                },
-                snapshot: SensorValue::Reply(reading),
+                }),
+                snapshot: Box::new(SensorValue::Reply(reading)),
             },
         );
     }
@@ -120,7 +120,7 @@ impl Sensing {
             } => {
                 out.record(Observation::SensorRequest {
                     robot,
-                    query: query.clone(),
+                    query: (*query).clone(),
                     plan: query
                         .query
                         .as_ref()
@@ -153,7 +153,7 @@ impl Sensing {
                         robot,
                         ticket: Some(ticket),
                         query,
-                        snapshot,
+                        snapshot: Box::new(snapshot),
                     },
                 );
             }
