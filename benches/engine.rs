@@ -2,7 +2,15 @@
 //! - `throughput/*`: events per second through the scheduler actor next to a raw actix
 //!   `do_send` ring carrying the same number of messages;
 //! - `random_movement/*`: the seed's random movement with collisions at 1k and 10k robots
-//!   (events/s; wall time per simulated second = time per iteration / horizon).
+//!   (events/s; wall time per simulated second = time per iteration / horizon);
+//! - `scale`: issue 17's series at 1k, 100k and 1M robots (the seed's density, two simulated
+//!   spans each): events/s, the steady-state cost of an event (the difference of the two
+//!   spans' wall times over the difference of their events) and its ratio to 1k's, the
+//!   real-time factor, the wall time to simulated second 1 (placement included) and peak RSS.
+//!   Timed by hand (a 1M run takes 15-25 s here), least of a few runs; run it alone with
+//!   `cargo bench --bench engine -- scale`.
+//!
+//! The allocator is the `nekosim` binary's (mimalloc), so the figures are the command's.
 
 use actix::prelude::*;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
@@ -12,6 +20,9 @@ use nekosim::world::motion::Pose;
 use nekosim::world::virtual_world::{RobotSpec, WorldConfig, WorldSize};
 use nekosim::{Algorithm, AlgorithmFuture, Robot, SimConfig};
 use rand::SeedableRng;
+
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 /// Sleeps one simulated second at a time, forever: one scheduler round trip per event.
 #[derive(Debug)]
@@ -190,5 +201,76 @@ fn random_movement(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, throughput, random_movement);
+/// Peak resident memory of this process so far [bytes] (`VmHWM`).
+fn peak_rss() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+        })
+        .map_or(0, |kb| kb * 1024)
+}
+
+/// One timed run: (wall seconds of the run, placement seconds, events).
+fn timed(n: usize, until: f64) -> (f64, f64, u64) {
+    let placed = std::time::Instant::now();
+    let cfg = random_config(n, until);
+    let placement = placed.elapsed().as_secs_f64();
+    let started = std::time::Instant::now();
+    let stats = nekosim::run(cfg).unwrap().stats;
+    (started.elapsed().as_secs_f64(), placement, stats.events)
+}
+
+/// Issue 17's scale series, smallest first so that the process's peak RSS after each size is
+/// that size's. Skipped when the bench is filtered to something else.
+fn scale(_: &mut Criterion) {
+    let filter: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    if !filter.is_empty() && !filter.iter().any(|f| "scale".contains(f.as_str())) {
+        return;
+    }
+    let mut base_cost = None;
+    for (n, short, long, repeats) in [
+        (1_000usize, 20.0, 100.0, 5),
+        (100_000, 1.0, 20.0, 2),
+        (1_000_000, 1.0, 11.0, 1),
+    ] {
+        let (mut a, mut b) = ((f64::MAX, 0.0, 0), (f64::MAX, 0.0, 0));
+        for _ in 0..repeats {
+            let x = timed(n, short);
+            if x.0 < a.0 {
+                a = x;
+            }
+            let y = timed(n, long);
+            if y.0 < b.0 {
+                b = y;
+            }
+        }
+        let cost = (b.0 - a.0) / (b.2 - a.2) as f64;
+        let base = *base_cost.get_or_insert(cost);
+        println!(
+            "scale/{n}: {long} s: {} events in {:.3} s ({:.0} events/s); {short} s: {} events \
+             in {:.3} s; steady state (the difference): {:.2} us per event ({:.2}x 1k's), \
+             {:.2}x real time; to simulated second 1: {:.2} s + placement {:.2} s; peak RSS \
+             {:.2} GB",
+            b.2,
+            b.0,
+            b.2 as f64 / b.0,
+            a.2,
+            a.0,
+            cost * 1e6,
+            cost / base,
+            (long - short) / (b.0 - a.0),
+            if short == 1.0 { a.0 } else { f64::NAN },
+            a.1,
+            peak_rss() as f64 / 1e9,
+        );
+    }
+}
+
+criterion_group!(benches, throughput, random_movement, scale);
 criterion_main!(benches);
