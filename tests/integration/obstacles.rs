@@ -9,14 +9,21 @@ use nekosim::world::Obstacle;
 
 use crate::common::{pos_at, radii, trajectories};
 
-/// Runs the scenario `text` in process, keeping its records.
-fn records(text: &str) -> (Vec<nekosim::world::observation::Record>, Vec<Shape>) {
+/// Builds the scenario `text`; `robot0`, if given, replaces robot 0's algorithm.
+fn built(text: &str, robot0: Option<Box<dyn nekosim::Algorithm>>) -> nekosim::scenario::Built {
     let source = Source::parse("obstacles.ron", text).expect("parses");
-    let built = source
+    let mut built = source
         .build(Overrides::default(), &Registry::with_builtins())
         .expect("builds");
-    let shapes = built.world.obstacles.to_vec();
-    let out = nekosim::run(nekosim::SimConfig {
+    if let Some(a) = robot0 {
+        built.robots[0].1 = a;
+    }
+    built
+}
+
+/// Runs a built scenario in process, keeping its records.
+fn run(built: nekosim::scenario::Built) -> nekosim::scheduler::RunOutput {
+    nekosim::run(nekosim::SimConfig {
         seed: built.seed,
         until: built.until,
         world: built.world,
@@ -27,8 +34,14 @@ fn records(text: &str) -> (Vec<nekosim::world::observation::Record>, Vec<Shape>)
         comms: built.comms,
         sensors: built.sensors,
     })
-    .expect("runs");
-    (out.records, shapes)
+    .expect("runs")
+}
+
+/// Runs the scenario `text` in process: its records and obstacles.
+fn records(text: &str) -> (Vec<nekosim::world::observation::Record>, Vec<Shape>) {
+    let built = built(text, None);
+    let shapes = built.world.obstacles.to_vec();
+    (run(built).records, shapes)
 }
 
 #[test]
@@ -317,23 +330,7 @@ fn sensors_and_radio_do_not_see_through_obstacles() {
            obstacles: [Rect(min: (30.0, -25.0), max: (45.0, 35.0)), Circle(center: (-20.0, 40.0), radius: 12.0)],
            robots: [{robots}])"
     );
-    let source = Source::parse("sight.ron", &text).expect("parses");
-    let mut built = source
-        .build(Overrides::default(), &Registry::with_builtins())
-        .expect("builds");
-    built.robots[0].1 = Box::new(Looker);
-    let out = nekosim::run(nekosim::SimConfig {
-        seed: built.seed,
-        until: built.until,
-        world: built.world,
-        robots: built.robots,
-        arbiters: 1,
-        record: true,
-        observers: Default::default(),
-        comms: built.comms,
-        sensors: built.sensors,
-    })
-    .expect("runs");
+    let out = run(built(&text, Some(Box::new(Looker))));
     let visible: Vec<u32> = at
         .iter()
         .enumerate()
@@ -402,29 +399,12 @@ impl nekosim::Algorithm for Bumper {
 /// The contact sensor fires when its robot touches an obstacle, at the contact instant.
 #[test]
 fn the_contact_sensor_fires_on_an_obstacle() {
-    let source = Source::parse(
-        "bump.ron",
+    let out = run(built(
         "Scenario(seed: 1, until: 100.0, world: (size: Infinite),
            obstacles: [Segment(from: (30.0, -10.0), to: (30.0, 10.0))],
            robots: [Robot(id: 0, radius: 2.0, at: (0.0, 0.0), angle: 0.0, algorithm: Idle)])",
-    )
-    .unwrap();
-    let mut built = source
-        .build(Overrides::default(), &Registry::with_builtins())
-        .unwrap();
-    built.robots[0].1 = Box::new(Bumper);
-    let out = nekosim::run(nekosim::SimConfig {
-        seed: built.seed,
-        until: built.until,
-        world: built.world,
-        robots: built.robots,
-        arbiters: 1,
-        record: true,
-        observers: Default::default(),
-        comms: built.comms,
-        sensors: built.sensors,
-    })
-    .unwrap();
+        Some(Box::new(Bumper)),
+    ));
     let replies: Vec<(f64, String)> = out
         .records
         .iter()

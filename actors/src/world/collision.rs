@@ -116,7 +116,7 @@ fn speed_bound(shape: &Shape) -> f64 {
 
 /// Conservative advancement over `[s, e]`: `gap(t)` is a distance-like function whose rate of
 /// change is bounded by `lipschitz`; `approaching(t)` says whether a contact at `t` counts.
-fn advance(
+pub(crate) fn advance(
     s: f64,
     e: f64,
     lipschitz: f64,

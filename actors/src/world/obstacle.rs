@@ -18,7 +18,7 @@ use std::collections::HashMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::collision::{Track, CONTACT_TOLERANCE};
+use super::collision::{advance, Track};
 use super::geometry::{first_contact_linear, point_segment_distance, Point, Vector};
 use super::grid::{Cell, FixedHash};
 use super::motion::Shape as PieceShape;
@@ -384,35 +384,6 @@ pub fn predict_obstacle(
         }
     }
     None
-}
-
-/// Conservative advancement over `[s, e]` (see [`super::collision`]): steps of `gap /
-/// lipschitz` cannot jump over a contact.
-fn advance(
-    s: f64,
-    e: f64,
-    lipschitz: f64,
-    gap: impl Fn(f64) -> f64,
-    approaching: impl Fn(f64) -> bool,
-) -> Option<f64> {
-    let min_step = |t: f64| (t.abs() * 4.0 * f64::EPSILON).max(1e-12);
-    let mut t = s;
-    loop {
-        let g = gap(t);
-        if g <= CONTACT_TOLERANCE {
-            if approaching(t) {
-                return Some(t);
-            }
-            t += min_step(t).max((e - s).abs().min(1.0) * 1e-9);
-        } else if lipschitz <= 0.0 {
-            return None;
-        } else {
-            t += (g / lipschitz).max(min_step(t));
-        }
-        if t > e {
-            return None;
-        }
-    }
 }
 
 /// The obstacles of a world with their primitives indexed by grid cell.
