@@ -456,17 +456,7 @@ impl VirtualWorld {
             let r = self.radius(id);
             let wall = predict_wall(&self.track(id), r, min, max, now);
             if let Some((t, contact)) = wall {
-                let e = out.schedule(
-                    t,
-                    Target::MotionManager,
-                    EventClass::Conditional,
-                    [Some(id), None],
-                    Payload::Collision {
-                        a: id,
-                        b: Obstacle::Boundary,
-                        contact: Some(contact),
-                    },
-                );
+                let e = schedule_contact(out, id, t, Obstacle::Boundary, contact);
                 self.robots[id as usize].own.push(e);
             }
         }
@@ -497,17 +487,7 @@ impl VirtualWorld {
             }
         }
         if let Some((t, contact, k)) = first {
-            let e = out.schedule(
-                t,
-                Target::MotionManager,
-                EventClass::Conditional,
-                [Some(id), None],
-                Payload::Collision {
-                    a: id,
-                    b: Obstacle::Object(k),
-                    contact: Some(contact),
-                },
-            );
+            let e = schedule_contact(out, id, t, Obstacle::Object(k), contact);
             self.robots[id as usize].obstacle = Some(e);
         }
     }
@@ -559,4 +539,26 @@ impl VirtualWorld {
             self.predict_all(id, out);
         }
     }
+}
+
+/// Schedules robot `id`'s predicted contact at `t` with a wall or an obstacle, touched at
+/// `contact`: a conditional collision event on the motion manager.
+fn schedule_contact(
+    out: &mut Outbox,
+    id: RobotId,
+    t: f64,
+    with: Obstacle,
+    contact: Point,
+) -> EventId {
+    out.schedule(
+        t,
+        Target::MotionManager,
+        EventClass::Conditional,
+        [Some(id), None],
+        Payload::Collision {
+            a: id,
+            b: with,
+            contact: Some(contact),
+        },
+    )
 }
