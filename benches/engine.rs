@@ -6,8 +6,9 @@
 //! - `scale`: issue 17's series at 1k, 100k and 1M robots (the seed's density, two simulated
 //!   spans each): events/s, the steady-state cost of an event (the difference of the two
 //!   spans' wall times over the difference of their events) and its ratio to 1k's, the
-//!   real-time factor, the wall time to simulated second 1 (placement included) and peak RSS.
-//!   Timed by hand (a 1M run takes 15-25 s here), least of a few runs; run it alone with
+//!   real-time factor, the wall time to simulated second 1 (placement included) and peak RSS,
+//!   for the actor-hosted run and for the kernel-alone reference (`nekosim::kernel::run`: the
+//!   same handling code without actors), and the ratio of the two. Timed by hand (a 1M run takes 15-25 s here), least of a few runs; run it alone with
 //!   `cargo bench --bench engine -- scale`.
 //!
 //! The allocator is the `nekosim` binary's (mimalloc), so the figures are the command's.
@@ -213,62 +214,105 @@ fn peak_rss() -> u64 {
         .map_or(0, |kb| kb * 1024)
 }
 
+/// Who hosts a run's handling code: the actors (the product) or the kernel-alone reference.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Host {
+    Actors,
+    Kernel,
+}
+
 /// One timed run: (wall seconds of the run, placement seconds, events).
-fn timed(n: usize, until: f64) -> (f64, f64, u64) {
+fn timed(host: Host, n: usize, until: f64) -> (f64, f64, u64) {
     let placed = std::time::Instant::now();
     let cfg = random_config(n, until);
     let placement = placed.elapsed().as_secs_f64();
     let started = std::time::Instant::now();
-    let stats = nekosim::run(cfg).unwrap().stats;
+    let stats = match host {
+        Host::Actors => nekosim::run(cfg),
+        Host::Kernel => nekosim::kernel::run(cfg),
+    }
+    .unwrap()
+    .stats;
     (started.elapsed().as_secs_f64(), placement, stats.events)
 }
 
+/// The least wall times of `repeats` runs of each span: (short run, long run).
+type Spans = ((f64, f64, u64), (f64, f64, u64));
+
+fn spans(host: Host, n: usize, short: f64, long: f64, repeats: usize) -> Spans {
+    let (mut a, mut b) = ((f64::MAX, 0.0, 0), (f64::MAX, 0.0, 0));
+    for _ in 0..repeats {
+        let x = timed(host, n, short);
+        if x.0 < a.0 {
+            a = x;
+        }
+        let y = timed(host, n, long);
+        if y.0 < b.0 {
+            b = y;
+        }
+    }
+    (a, b)
+}
+
 /// Issue 17's scale series, smallest first so that the process's peak RSS after each size is
-/// that size's. Skipped when the bench is filtered to something else.
+/// that size's; at each size the kernel-alone reference runs first, so the peak printed after
+/// it is its own. `scale_actors` or `scale_kernel` as the filter runs one host only. Skipped
+/// when the bench is filtered to something else.
 fn scale(_: &mut Criterion) {
     let filter: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))
         .collect();
-    if !filter.is_empty() && !filter.iter().any(|f| "scale".contains(f.as_str())) {
-        return;
-    }
-    let mut base_cost = None;
+    let wanted = |name: &str| filter.is_empty() || filter.iter().any(|f| name.contains(f.as_str()));
+    let hosts: Vec<Host> = [
+        (Host::Kernel, "scale_kernel"),
+        (Host::Actors, "scale_actors"),
+    ]
+    .into_iter()
+    .filter(|(_, name)| wanted(name))
+    .map(|(h, _)| h)
+    .collect();
+    let mut base_cost = [None, None];
     for (n, short, long, repeats) in [
         (1_000usize, 20.0, 100.0, 5),
         (100_000, 1.0, 20.0, 2),
         (1_000_000, 1.0, 11.0, 1),
     ] {
-        let (mut a, mut b) = ((f64::MAX, 0.0, 0), (f64::MAX, 0.0, 0));
-        for _ in 0..repeats {
-            let x = timed(n, short);
-            if x.0 < a.0 {
-                a = x;
-            }
-            let y = timed(n, long);
-            if y.0 < b.0 {
-                b = y;
-            }
+        let mut steady = [None, None];
+        for &host in &hosts {
+            let (a, b) = spans(host, n, short, long, repeats);
+            let cost = (b.0 - a.0) / (b.2 - a.2) as f64;
+            let k = host as usize;
+            let base = *base_cost[k].get_or_insert(cost);
+            steady[k] = Some((cost, b.0));
+            println!(
+                "scale/{host:?}/{n}: {long} s: {} events in {:.3} s ({:.0} events/s); {short} s: \
+                 {} events in {:.3} s; steady state (the difference): {:.2} us per event ({:.2}x \
+                 1k's), {:.2}x real time; to simulated second 1: {:.2} s + placement {:.2} s; \
+                 peak RSS {:.2} GB",
+                b.2,
+                b.0,
+                b.2 as f64 / b.0,
+                a.2,
+                a.0,
+                cost * 1e6,
+                cost / base,
+                (long - short) / (b.0 - a.0),
+                if short == 1.0 { a.0 } else { f64::NAN },
+                a.1,
+                peak_rss() as f64 / 1e9,
+            );
         }
-        let cost = (b.0 - a.0) / (b.2 - a.2) as f64;
-        let base = *base_cost.get_or_insert(cost);
-        println!(
-            "scale/{n}: {long} s: {} events in {:.3} s ({:.0} events/s); {short} s: {} events \
-             in {:.3} s; steady state (the difference): {:.2} us per event ({:.2}x 1k's), \
-             {:.2}x real time; to simulated second 1: {:.2} s + placement {:.2} s; peak RSS \
-             {:.2} GB",
-            b.2,
-            b.0,
-            b.2 as f64 / b.0,
-            a.2,
-            a.0,
-            cost * 1e6,
-            cost / base,
-            (long - short) / (b.0 - a.0),
-            if short == 1.0 { a.0 } else { f64::NAN },
-            a.1,
-            peak_rss() as f64 / 1e9,
-        );
+        if let [Some((ac, aw)), Some((kc, kw))] =
+            [steady[Host::Actors as usize], steady[Host::Kernel as usize]]
+        {
+            println!(
+                "scale/{n}: actors against the kernel alone: {:.2}x the steady cost per event, \
+                 {:.2}x the long span's wall time",
+                ac / kc,
+                aw / kw
+            );
+        }
     }
 }
 

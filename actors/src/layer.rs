@@ -11,7 +11,7 @@ use nekosim_protocols::stack::{step_layer, Routed, Wiring};
 use nekosim_protocols::Layer;
 use nekosim_protocols::{Ctx, Indication, Input, LayerIx, Payload as MsgPayload, APP, NET};
 
-use crate::scheduler::Deliver;
+use crate::scheduler::{Deliver, HandleEvent};
 use crate::world::event::{EventClass, Notice, Outbox, Payload, Target};
 use crate::world::observation::Observation;
 use crate::world::RobotId;
@@ -160,10 +160,8 @@ impl Actor for LayerActor {
     type Context = Context<Self>;
 }
 
-impl Handler<Deliver> for LayerActor {
-    type Result = MessageResult<Deliver>;
-
-    fn handle(&mut self, msg: Deliver, _: &mut Context<Self>) -> Self::Result {
+impl HandleEvent for LayerActor {
+    fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
         let mut out = Outbox::new(msg.now, msg.seq);
         let input = match msg.event.payload {
             Payload::LayerInput { input, .. } => {
@@ -195,6 +193,8 @@ impl Handler<Deliver> for LayerActor {
                 Err(e) => tracing::error!(robot = self.robot, layer = self.ix, "{e}"),
             }
         }
-        MessageResult(out.into_effects())
+        out.into_effects()
     }
 }
+
+crate::scheduler::hosted!(LayerActor);

@@ -3,13 +3,15 @@
 //!
 //! - [`world`]: the pure kernel (geometry, motion patterns, exact collision prediction, the
 //!   spatial index, the virtual world), free of actix.
-//! - [`scheduler`]: the virtual-time scheduler actor and its ordering contract.
+//! - [`scheduler`]: the virtual-time scheduler actor and its ordering contract; [`kernel`]: the
+//!   same handling code driven without actors (the reference the engine bench compares with).
 //! - [`motion_manager`], [`sensor_manager`], [`robot`], [`sensor`]: the other actors.
 //! - [`algorithm`]: built-in robot algorithms; [`behaviour`]: composable behaviours (seed 7.2);
 //!   [`simulation`]: building and running a run.
 
 pub mod algorithm;
 pub mod behaviour;
+pub mod kernel;
 pub mod layer;
 pub mod motion_manager;
 pub mod network;

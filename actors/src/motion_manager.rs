@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex};
 
 use actix::prelude::*;
 
-use crate::scheduler::Deliver;
+use crate::scheduler::{Deliver, HandleEvent};
 use crate::world::event::{Effect, Outbox};
 use crate::world::virtual_world::VirtualWorld;
 
@@ -27,14 +27,14 @@ impl Actor for MotionManager {
     type Context = Context<Self>;
 }
 
-impl Handler<Deliver> for MotionManager {
-    type Result = MessageResult<Deliver>;
-
-    fn handle(&mut self, msg: Deliver, _: &mut Context<Self>) -> Self::Result {
+impl HandleEvent for MotionManager {
+    fn handle_event(&mut self, msg: Deliver) -> Vec<Effect> {
         let mut out = Outbox::new(msg.now, msg.seq);
         // The scheduler has one event in flight at a time, so this lock is never contended.
         let mut world = self.world.lock().expect("world lock");
         world.handle_motion(msg.event.payload, &mut out);
-        MessageResult(out.into_effects() as Vec<Effect>)
+        out.into_effects()
     }
 }
+
+crate::scheduler::hosted!(MotionManager);

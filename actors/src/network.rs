@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 use actix::prelude::*;
 use nekosim_protocols::{Indication, Input, APP, NET};
 
-use crate::scheduler::Deliver;
+use crate::scheduler::{Deliver, HandleEvent};
 use crate::world::event::{EventClass, Notice, Outbox, Payload, Target};
 use crate::world::network::Network;
 use crate::world::observation::Observation;
@@ -38,10 +38,8 @@ impl Actor for NetworkActor {
     type Context = Context<Self>;
 }
 
-impl Handler<Deliver> for NetworkActor {
-    type Result = MessageResult<Deliver>;
-
-    fn handle(&mut self, m: Deliver, _: &mut Context<Self>) -> Self::Result {
+impl HandleEvent for NetworkActor {
+    fn handle_event(&mut self, m: Deliver) -> Vec<crate::world::event::Effect> {
         let mut out = Outbox::new(m.now, m.seq);
         if let Payload::NetSend {
             from,
@@ -97,6 +95,8 @@ impl Handler<Deliver> for NetworkActor {
                 }
             }
         }
-        MessageResult(out.into_effects())
+        out.into_effects()
     }
 }
+
+crate::scheduler::hosted!(NetworkActor);

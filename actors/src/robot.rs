@@ -26,7 +26,7 @@ use actix::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::scheduler::Deliver;
+use crate::scheduler::{Deliver, HandleEvent};
 use crate::world::event::{EventClass, FutureEvent, Notice, Outbox, Payload, Target};
 use crate::world::geometry::Point;
 use crate::world::motion::{Kinematics, Motion};
@@ -608,10 +608,8 @@ impl Actor for RobotActor {
     type Context = Context<Self>;
 }
 
-impl Handler<Deliver> for RobotActor {
-    type Result = MessageResult<Deliver>;
-
-    fn handle(&mut self, msg: Deliver, _: &mut Context<Self>) -> Self::Result {
+impl HandleEvent for RobotActor {
+    fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
         let mut out = Outbox::new(msg.now, msg.seq);
         let id = self.handle.info.id;
         self.handle.io.borrow_mut().now = msg.now;
@@ -736,6 +734,8 @@ impl Handler<Deliver> for RobotActor {
                 }
             };
         }
-        MessageResult(out.into_effects())
+        out.into_effects()
     }
 }
+
+crate::scheduler::hosted!(RobotActor);

@@ -102,24 +102,40 @@ pub enum RunFailure {
     NoAnswer { target: String, error: String },
 }
 
-/// The scheduler actor.
-pub struct Scheduler {
+/// The scheduler's state apart from the actor machinery: the event queue, the virtual clock,
+/// the crashed robots and the run's output. The scheduler actor hosts it; the kernel-alone
+/// reference ([`crate::kernel`]) drives the same core without actors, so both take the same
+/// events in the same order.
+pub(crate) struct Core {
     queue: EventQueue,
     now: f64,
     seq: u64,
     until: f64,
-    routes: Routes,
-    sensors: HashMap<(RobotId, SensorKind), Recipient<Deliver>>,
     /// Crashed robots: events for their robot, sensor and layer actors are dropped.
     crashed: std::collections::BTreeSet<RobotId>,
     output: RunOutput,
-    on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
     observers: Observers,
     recorded: u64,
     /// Events processed at the current instant, and the most allowed before the run is
     /// declared a livelock.
     at_instant: u64,
     instant_limit: u64,
+}
+
+/// What the core says to do next.
+pub(crate) enum Next {
+    /// Hand this event to the actor behind `Target` and apply its reply.
+    Deliver(Target, Deliver),
+    /// The run is over: `until` passed, no event left, a stop, a livelock.
+    Finish,
+}
+
+/// The scheduler actor.
+pub struct Scheduler {
+    core: Core,
+    routes: Routes,
+    sensors: HashMap<(RobotId, SensorKind), Recipient<Deliver>>,
+    on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
 }
 
 /// Receives every observation of a run, in order.
@@ -165,9 +181,9 @@ pub const PROGRESS_EVERY: u64 = 4096;
 impl std::fmt::Debug for Scheduler {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Scheduler")
-            .field("now", &self.now)
-            .field("seq", &self.seq)
-            .field("pending", &self.queue.len())
+            .field("now", &self.core.now)
+            .field("seq", &self.core.seq)
+            .field("pending", &self.core.queue.len())
             .finish()
     }
 }
@@ -177,36 +193,28 @@ impl std::fmt::Debug for Scheduler {
 #[rtype(result = "()")]
 struct Step;
 
-impl Scheduler {
-    /// A scheduler that runs until `until` [s] and then calls `on_finish`; `setup` holds the
-    /// effects of the setup at t = 0 (cause 0).
-    pub fn new(
-        routes: Routes,
-        until: f64,
-        setup: Outbox,
-        observers: Observers,
-        on_finish: Box<dyn FnOnce(RunOutput)>,
-    ) -> Self {
-        let mut s = Self {
+impl Core {
+    /// A core that runs until `until` [s]; `setup` holds the effects of the setup at t = 0
+    /// (cause 0).
+    pub(crate) fn new(until: f64, setup: Outbox, observers: Observers) -> Self {
+        let mut core = Self {
             queue: EventQueue::new(),
             now: 0.0,
             seq: 0,
             until,
-            routes,
-            sensors: HashMap::new(),
             crashed: std::collections::BTreeSet::new(),
             output: RunOutput::default(),
-            on_finish: Some(on_finish),
             observers,
             recorded: 0,
             at_instant: 0,
             instant_limit: u64::MAX,
         };
-        s.apply(setup.into_effects());
-        s
+        core.apply(setup.into_effects());
+        core
     }
 
-    fn apply(&mut self, effects: Vec<Effect>) {
+    /// Applies the effects of one handling, in order.
+    pub(crate) fn apply(&mut self, effects: Vec<Effect>) {
         for e in effects {
             match e {
                 Effect::Schedule(ev) => {
@@ -236,6 +244,64 @@ impl Scheduler {
                     }
                 }
             }
+        }
+    }
+
+    /// Takes the next event: events of crashed robots are dropped and the event manager's
+    /// own events handled here; the first event for another actor is returned for delivery.
+    pub(crate) fn next(&mut self) -> Next {
+        loop {
+            let stop = self.observers.stop.as_ref();
+            if stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed)) {
+                self.output.stats.interrupted = true;
+                return Next::Finish;
+            }
+            match self.queue.peek_time() {
+                Some(t) if t <= self.until => {}
+                _ => return Next::Finish,
+            }
+            let event = *self.queue.pop().expect("peeked event");
+            debug_assert!(event.time >= self.now, "time went backwards");
+            if event.time == self.now {
+                self.at_instant += 1;
+                if self.at_instant > self.instant_limit {
+                    self.output.failure = Some(RunFailure::Livelock {
+                        t: self.now,
+                        limit: self.instant_limit,
+                    });
+                    return Next::Finish;
+                }
+            } else {
+                self.at_instant = 1;
+            }
+            self.now = event.time;
+            self.seq += 1;
+            self.output.stats.events += 1;
+            if self.output.stats.events % PROGRESS_EVERY == 0 {
+                if let Some(p) = self.observers.progress.as_mut() {
+                    p(self.now);
+                }
+            }
+            let target = event.target;
+            let dead = match target {
+                Target::Robot(r) | Target::Sensor(r, _) | Target::Layer(r, _) => {
+                    self.crashed.contains(&r)
+                }
+                _ => false,
+            };
+            if dead {
+                continue;
+            }
+            if target == Target::EventManager {
+                self.handle_inline(event);
+                continue;
+            }
+            let deliver = Deliver {
+                now: self.now,
+                seq: self.seq,
+                event,
+            };
+            return Next::Deliver(target, deliver);
         }
     }
 
@@ -269,31 +335,66 @@ impl Scheduler {
         self.apply(out.into_effects());
     }
 
-    fn route(&mut self, target: Target) -> Recipient<Deliver> {
-        match target {
-            Target::EventManager => unreachable!("the event manager's events are handled inline"),
-            Target::MotionManager => self.routes.motion_manager.clone(),
-            Target::SensorManager => self.routes.sensor_manager.clone(),
-            Target::Robot(r) => self.routes.robots[r as usize].clone(),
-            Target::Network => self.routes.network.clone(),
-            Target::Layer(r, l) => self.routes.layers[r as usize][l as usize].clone(),
-            Target::Sensor(r, k) => {
-                let spawn = &self.routes.spawn_sensor;
-                self.sensors
-                    .entry((r, k))
-                    .or_insert_with(|| spawn(r, k))
-                    .clone()
-            }
-        }
+    /// Records that the actor behind `target` did not answer; the run then finishes.
+    pub(crate) fn no_answer(&mut self, target: Target, error: String) {
+        self.output.failure = Some(RunFailure::NoAnswer {
+            target: format!("{target:?}"),
+            error,
+        });
     }
 
-    fn finish(&mut self, ctx: &mut Context<Self>) {
+    /// The run's output, once it is over.
+    pub(crate) fn finish(&mut self) -> RunOutput {
         let mut output = std::mem::take(&mut self.output);
         output.stats.end_time = if self.queue.is_empty() || output.stats.interrupted {
             self.now
         } else {
             self.until.max(self.now)
         };
+        output
+    }
+
+    /// Fails the run when more than `limit` events happen at one instant of virtual time.
+    pub(crate) fn set_instant_limit(&mut self, limit: u64) {
+        self.instant_limit = limit;
+    }
+}
+
+impl Scheduler {
+    /// A scheduler that runs until `until` [s] and then calls `on_finish`; `setup` holds the
+    /// effects of the setup at t = 0 (cause 0).
+    pub fn new(
+        routes: Routes,
+        until: f64,
+        setup: Outbox,
+        observers: Observers,
+        on_finish: Box<dyn FnOnce(RunOutput)>,
+    ) -> Self {
+        Self {
+            core: Core::new(until, setup, observers),
+            routes,
+            sensors: HashMap::new(),
+            on_finish: Some(on_finish),
+        }
+    }
+
+    fn route(&mut self, target: Target) -> &Recipient<Deliver> {
+        match target {
+            Target::EventManager => unreachable!("the event manager's events are handled inline"),
+            Target::MotionManager => &self.routes.motion_manager,
+            Target::SensorManager => &self.routes.sensor_manager,
+            Target::Robot(r) => &self.routes.robots[r as usize],
+            Target::Network => &self.routes.network,
+            Target::Layer(r, l) => &self.routes.layers[r as usize][l as usize],
+            Target::Sensor(r, k) => {
+                let spawn = &self.routes.spawn_sensor;
+                self.sensors.entry((r, k)).or_insert_with(|| spawn(r, k))
+            }
+        }
+    }
+
+    fn finish(&mut self, ctx: &mut Context<Self>) {
+        let output = self.core.finish();
         if let Some(f) = self.on_finish.take() {
             f(output);
         }
@@ -303,13 +404,13 @@ impl Scheduler {
     /// Fails the run when more than `limit` events happen at one instant of virtual time (an
     /// algorithm retrying forever without letting time pass).
     pub fn with_instant_limit(mut self, limit: u64) -> Self {
-        self.instant_limit = limit;
+        self.core.set_instant_limit(limit);
         self
     }
 
     /// The pending events of a robot (the event manager's listing).
     pub fn future_of(&self, robot: RobotId) -> Vec<&Event> {
-        self.queue.future_of(robot)
+        self.core.queue.future_of(robot)
     }
 }
 
@@ -325,71 +426,47 @@ impl Handler<Step> for Scheduler {
     type Result = ();
 
     fn handle(&mut self, _: Step, ctx: &mut Context<Self>) {
-        let stop = self.observers.stop.as_ref();
-        if stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed)) {
-            self.output.stats.interrupted = true;
-            return self.finish(ctx);
-        }
-        match self.queue.peek_time() {
-            Some(t) if t <= self.until => {}
-            _ => return self.finish(ctx),
-        }
-        let event = *self.queue.pop().expect("peeked event");
-        debug_assert!(event.time >= self.now, "time went backwards");
-        if event.time == self.now {
-            self.at_instant += 1;
-            if self.at_instant > self.instant_limit {
-                self.output.failure = Some(RunFailure::Livelock {
-                    t: self.now,
-                    limit: self.instant_limit,
-                });
-                return self.finish(ctx);
-            }
-        } else {
-            self.at_instant = 1;
-        }
-        self.now = event.time;
-        self.seq += 1;
-        self.output.stats.events += 1;
-        if self.output.stats.events % PROGRESS_EVERY == 0 {
-            if let Some(p) = self.observers.progress.as_mut() {
-                p(self.now);
-            }
-        }
-        let target = event.target;
-        let dead = match target {
-            Target::Robot(r) | Target::Sensor(r, _) | Target::Layer(r, _) => {
-                self.crashed.contains(&r)
-            }
-            _ => false,
-        };
-        if dead {
-            ctx.notify(Step);
-            return;
-        }
-        if target == Target::EventManager {
-            self.handle_inline(event);
-            ctx.notify(Step);
-            return;
-        }
-        let deliver = Deliver {
-            now: self.now,
-            seq: self.seq,
-            event,
+        let (target, deliver) = match self.core.next() {
+            Next::Finish => return self.finish(ctx),
+            Next::Deliver(target, deliver) => (target, deliver),
         };
         let fut = self.route(target).send(deliver);
         ctx.wait(fut.into_actor(self).map(move |res, act, ctx| match res {
             Ok(effects) => {
-                act.apply(effects);
+                act.core.apply(effects);
                 ctx.notify(Step);
             }
             Err(e) => {
-                act.output.failure = Some(RunFailure::NoAnswer {
-                    target: format!("{target:?}"),
-                    error: e.to_string(),
-                });
+                act.core.no_answer(target, e.to_string());
                 act.finish(ctx);
             }
         }));
     }
 }
+
+/// One actor's handling of one event, apart from the actor machinery: its reply is the
+/// handling's effects. Every actor the scheduler delivers to implements it, and its
+/// `Handler<Deliver>` ([`hosted!`]) only calls it, so the kernel-alone reference
+/// ([`crate::kernel`]) runs the very same handling code without actors.
+pub trait HandleEvent {
+    /// Handles `msg`; returns the effects (events to schedule or cancel, observations).
+    fn handle_event(&mut self, msg: Deliver) -> Vec<Effect>;
+}
+
+/// `Handler<Deliver>` for an actor that implements [`HandleEvent`].
+macro_rules! hosted {
+    ($actor:ty) => {
+        impl actix::Handler<$crate::scheduler::Deliver> for $actor {
+            type Result = actix::MessageResult<$crate::scheduler::Deliver>;
+
+            fn handle(
+                &mut self,
+                msg: $crate::scheduler::Deliver,
+                _: &mut actix::Context<Self>,
+            ) -> Self::Result {
+                actix::MessageResult($crate::scheduler::HandleEvent::handle_event(self, msg))
+            }
+        }
+    };
+}
+pub(crate) use hosted;

@@ -6,7 +6,7 @@ use actix::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::scheduler::Deliver;
+use crate::scheduler::{Deliver, HandleEvent};
 use crate::world::event::{Notice, Outbox, Payload};
 use crate::world::observation::Observation;
 use std::sync::Arc;
@@ -43,10 +43,8 @@ impl Actor for Sensor {
     type Context = Context<Self>;
 }
 
-impl Handler<Deliver> for Sensor {
-    type Result = MessageResult<Deliver>;
-
-    fn handle(&mut self, msg: Deliver, _: &mut Context<Self>) -> Self::Result {
+impl HandleEvent for Sensor {
+    fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
         let mut out = Outbox::new(msg.now, msg.seq);
         if let Payload::SensorCompute {
             robot,
@@ -82,6 +80,8 @@ impl Handler<Deliver> for Sensor {
             };
             out.notify(robot, notice);
         }
-        MessageResult(out.into_effects())
+        out.into_effects()
     }
 }
+
+crate::scheduler::hosted!(Sensor);

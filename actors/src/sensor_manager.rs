@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use actix::prelude::*;
 
-use crate::scheduler::Deliver;
+use crate::scheduler::{Deliver, HandleEvent};
 use crate::world::event::Outbox;
 use crate::world::virtual_world::{Sensing, VirtualWorld};
 
@@ -29,13 +29,13 @@ impl Actor for SensorManager {
     type Context = Context<Self>;
 }
 
-impl Handler<Deliver> for SensorManager {
-    type Result = MessageResult<Deliver>;
-
-    fn handle(&mut self, msg: Deliver, _: &mut Context<Self>) -> Self::Result {
+impl HandleEvent for SensorManager {
+    fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
         let mut out = Outbox::new(msg.now, msg.seq);
         let mut world = self.world.lock().expect("world lock");
         self.sensing.handle(&mut world, msg.event.payload, &mut out);
-        MessageResult(out.into_effects())
+        out.into_effects()
     }
 }
+
+crate::scheduler::hosted!(SensorManager);

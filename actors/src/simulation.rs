@@ -125,102 +125,157 @@ pub enum SimError {
     Stopped(#[from] crate::scheduler::RunFailure),
 }
 
-/// Runs a simulation to its end.
-pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
-    if cfg.until.is_nan() || cfg.until < 0.0 {
-        return Err(SimError::BadUntil(cfg.until));
-    }
-    let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
-    let sensors = Arc::new(cfg.sensors);
-    let world = VirtualWorld::new(cfg.world.clone(), &specs)?;
-    let sensing = Sensing::new(sensors.clone(), specs.len());
-    let (wiring, template) = Wiring::check(&cfg.comms.stack, &cfg.comms.protocols)?;
-    let wiring = std::sync::Arc::new(wiring);
-    let mut setup = Outbox::new(0.0, 0);
-    // Protocol layers start first, bottom-up, then the algorithms; crashes are scheduled.
-    for r in 0..specs.len() as RobotId {
-        for l in 0..cfg.comms.stack.len() as nekosim_protocols::LayerIx {
-            setup.schedule(
-                0.0,
-                Target::Layer(r, l),
-                EventClass::Eventual,
-                [Some(r), None],
-                Payload::LayerInput {
-                    robot: r,
-                    layer: l,
-                    input: Box::new(Input::Start),
-                },
-            );
+/// A run made ready to host: the shared world, the setup events, the network, the protocol
+/// stacks, the robots' algorithms. Both hosts start from it: the actors ([`run`]) and the
+/// kernel-alone reference ([`crate::kernel::run`]).
+pub(crate) struct Prepared {
+    pub seed: u64,
+    pub until: f64,
+    pub world: Arc<Mutex<VirtualWorld>>,
+    pub world_size: crate::world::virtual_world::WorldSize,
+    pub sensing: Sensing,
+    pub sensors: Arc<Sensors>,
+    pub network: Network,
+    pub wiring: Arc<Wiring>,
+    /// Every robot's layer instances, by robot then stack index.
+    pub instances: Vec<Vec<nekosim_protocols::Layer>>,
+    pub layer_ids: Arc<Vec<String>>,
+    /// The effects of the setup at t = 0 (cause 0).
+    pub setup: Outbox,
+    pub robots: Vec<(RobotSpec, Box<dyn Algorithm>)>,
+    pub observers: Observers,
+    pub arbiters: usize,
+    /// The livelock limit: events at one instant.
+    pub instant_limit: u64,
+}
+
+impl Prepared {
+    /// Checks `cfg` and builds the world, the setup events and the network.
+    pub(crate) fn new(cfg: SimConfig) -> Result<Self, SimError> {
+        if cfg.until.is_nan() || cfg.until < 0.0 {
+            return Err(SimError::BadUntil(cfg.until));
         }
-    }
-    world.start(&mut setup);
-    let mut partitions = Vec::new();
-    for f in &cfg.comms.faults {
-        match f {
-            Fault::Crash { robot, at } => {
+        let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
+        let sensors = Arc::new(cfg.sensors);
+        let world = VirtualWorld::new(cfg.world.clone(), &specs)?;
+        let sensing = Sensing::new(sensors.clone(), specs.len());
+        let (wiring, template) = Wiring::check(&cfg.comms.stack, &cfg.comms.protocols)?;
+        let mut setup = Outbox::new(0.0, 0);
+        // Protocol layers start first, bottom-up, then the algorithms; crashes are scheduled.
+        for r in 0..specs.len() as RobotId {
+            for l in 0..cfg.comms.stack.len() as nekosim_protocols::LayerIx {
                 setup.schedule(
-                    *at,
-                    Target::EventManager,
+                    0.0,
+                    Target::Layer(r, l),
                     EventClass::Eventual,
-                    [Some(*robot), None],
-                    Payload::Crash { robot: *robot },
+                    [Some(r), None],
+                    Payload::LayerInput {
+                        robot: r,
+                        layer: l,
+                        input: Box::new(Input::Start),
+                    },
                 );
             }
-            Fault::Partition(p) => partitions.push(p.clone()),
+        }
+        world.start(&mut setup);
+        let mut partitions = Vec::new();
+        for f in &cfg.comms.faults {
+            match f {
+                Fault::Crash { robot, at } => {
+                    setup.schedule(
+                        *at,
+                        Target::EventManager,
+                        EventClass::Eventual,
+                        [Some(*robot), None],
+                        Payload::Crash { robot: *robot },
+                    );
+                }
+                Fault::Partition(p) => partitions.push(p.clone()),
+            }
+        }
+        let mut net_rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
+        net_rng.set_stream(0x004E_4554);
+        let model = cfg.comms.networks.build(&cfg.comms.network)?;
+        let network = Network::new(model, net_rng, partitions);
+        let count = world.len();
+        let mut observers = cfg.observers;
+        observers.keep = cfg.record;
+        Ok(Self {
+            seed: cfg.seed,
+            until: cfg.until,
+            world: Arc::new(Mutex::new(world)),
+            world_size: cfg.world.size,
+            sensing,
+            sensors,
+            network,
+            layer_ids: Arc::new(wiring.ids.clone()),
+            wiring: Arc::new(wiring),
+            // Every robot's instances: fresh copies of the checked stack's.
+            instances: (0..count).map(|_| template.layers.clone()).collect(),
+            setup,
+            robots: cfg.robots,
+            observers,
+            arbiters: cfg.arbiters.max(1),
+            instant_limit: (count as u64 * INSTANT_EVENTS_PER_ROBOT).max(MIN_INSTANT_LIMIT),
+        })
+    }
+
+    /// Robot `id`'s settings.
+    pub(crate) fn info(&self, id: RobotId, radius: f64) -> RobotInfo {
+        RobotInfo {
+            id,
+            count: self.robots.len(),
+            radius,
+            world: self.world_size,
         }
     }
-    let mut net_rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
-    net_rng.set_stream(0x004E_4554);
-    let model = cfg.comms.networks.build(&cfg.comms.network)?;
-    let network = Network::new(model, net_rng, partitions);
-    let count = world.len();
-    let world = Arc::new(Mutex::new(world));
+}
 
+/// Runs a simulation to its end.
+pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
+    let mut p = Prepared::new(cfg)?;
+    let count = p.robots.len();
+    let robot_info: Vec<RobotInfo> = p
+        .robots
+        .iter()
+        .enumerate()
+        .map(|(i, (spec, _))| p.info(i as RobotId, spec.radius))
+        .collect();
     let system = System::new();
     let (tx, rx) = mpsc::channel();
-    let seed = cfg.seed;
-    let until = cfg.until;
-    let mut observers = cfg.observers;
-    observers.keep = cfg.record;
-    let mut startup = observers.startup.take();
-    let world_cfg = cfg.world;
-    let robots = cfg.robots;
-    // Every robot's instances: fresh copies of the checked stack's.
-    let mut instances: Vec<_> = (0..specs.len()).map(|_| template.layers.clone()).collect();
-    let layer_ids = std::sync::Arc::new(wiring.ids.clone());
-    let n_arbiters = cfg.arbiters.max(1);
+    let mut startup = p.observers.startup.take();
     system.block_on(async move {
+        let seed = p.seed;
         let mut extra: Vec<Arbiter> = Vec::new();
         let mut handles = vec![Arbiter::current()];
-        for _ in 1..n_arbiters {
+        for _ in 1..p.arbiters {
             let a = Arbiter::new();
             handles.push(a.handle());
             extra.push(a);
         }
+        let world = p.world;
+        let wiring = p.wiring;
         let motion_manager = MotionManager::new(world.clone()).start().recipient();
-        let network = NetworkActor::new(network, world.clone(), wiring.clone())
+        let network = NetworkActor::new(p.network, world.clone(), wiring.clone())
             .start()
             .recipient();
-        let sensor_manager = SensorManager::new(world, sensing).start().recipient();
+        let sensor_manager = SensorManager::new(world, p.sensing).start().recipient();
         let arbiter_of = {
             let handles = handles.clone();
             move |id: RobotId| handles[id as usize % handles.len()].clone()
         };
-        let robots: Vec<Recipient<Deliver>> = robots
+        let layer_ids = p.layer_ids;
+        let robots: Vec<Recipient<Deliver>> = p
+            .robots
             .into_iter()
+            .zip(robot_info)
             .enumerate()
-            .map(|(i, (spec, algorithm))| {
+            .map(|(i, ((_, algorithm), info))| {
                 if let Some(f) = startup.as_mut() {
                     if i % crate::scheduler::STARTUP_EVERY == 0 && i > 0 {
                         f(i, count);
                     }
                 }
-                let info = RobotInfo {
-                    id: i as RobotId,
-                    count,
-                    radius: spec.radius,
-                    world: world_cfg.size,
-                };
                 let ids = layer_ids.clone();
                 RobotActor::start_in_arbiter(&arbiter_of(info.id), move |_| {
                     RobotActor::new(info, algorithm, seed, ids)
@@ -231,9 +286,13 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
         if let Some(f) = startup.as_mut() {
             f(count, count);
         }
-        let layers: Vec<Vec<Recipient<Deliver>>> = (0..count as RobotId)
-            .map(|r| {
-                std::mem::take(&mut instances[r as usize])
+        let layers: Vec<Vec<Recipient<Deliver>>> = p
+            .instances
+            .into_iter()
+            .enumerate()
+            .map(|(r, stack)| {
+                let r = r as RobotId;
+                stack
                     .into_iter()
                     .enumerate()
                     .map(|(l, layer)| {
@@ -252,6 +311,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
                     .collect()
             })
             .collect();
+        let sensors = p.sensors;
         let routes = Routes {
             motion_manager,
             sensor_manager,
@@ -273,9 +333,8 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             let _ = tx.send(out);
             System::current().stop();
         });
-        let limit = (count as u64 * INSTANT_EVENTS_PER_ROBOT).max(MIN_INSTANT_LIMIT);
-        Scheduler::new(routes, until, setup, observers, on_finish)
-            .with_instant_limit(limit)
+        Scheduler::new(routes, p.until, p.setup, p.observers, on_finish)
+            .with_instant_limit(p.instant_limit)
             .start();
     });
     system.run().map_err(|e| SimError::System(e.to_string()))?;

@@ -9,6 +9,7 @@ mod common;
 mod communication;
 mod dask_sweep;
 mod determinism;
+mod kernel;
 mod obstacles;
 mod real_network;
 mod recording;
