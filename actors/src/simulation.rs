@@ -277,10 +277,17 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
                     }
                 }
                 let ids = layer_ids.clone();
-                RobotActor::start_in_arbiter(&arbiter_of(info.id), move |_| {
-                    RobotActor::new(info, algorithm, seed, ids)
-                })
-                .recipient()
+                if info.id as usize % p.arbiters == 0 {
+                    // This thread's arbiter: started in place, without a closure sent over the
+                    // arbiter's queue and a task to run it (at 1M robots, both held until the
+                    // system ran).
+                    RobotActor::new(info, algorithm, seed, ids).start().recipient()
+                } else {
+                    RobotActor::start_in_arbiter(&arbiter_of(info.id), move |_| {
+                        RobotActor::new(info, algorithm, seed, ids)
+                    })
+                    .recipient()
+                }
             })
             .collect();
         if let Some(f) = startup.as_mut() {
