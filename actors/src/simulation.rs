@@ -281,7 +281,9 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
                     // This thread's arbiter: started in place, without a closure sent over the
                     // arbiter's queue and a task to run it (at 1M robots, both held until the
                     // system ran).
-                    RobotActor::new(info, algorithm, seed, ids).start().recipient()
+                    RobotActor::new(info, algorithm, seed, ids)
+                        .start()
+                        .recipient()
                 } else {
                     RobotActor::start_in_arbiter(&arbiter_of(info.id), move |_| {
                         RobotActor::new(info, algorithm, seed, ids)
