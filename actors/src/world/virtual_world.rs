@@ -17,8 +17,6 @@
 //! (collision, sensor entries) predicted under the current motions. A change of path cancels
 //! exactly those and re-predicts against the 3×3 block of cells around the robot.
 
-use std::collections::BTreeMap;
-
 use super::collision::{
     predict_cell_exit, predict_contact, predict_entry, predict_reentry, predict_wall, Track,
     CONTACT_TOLERANCE,
@@ -145,7 +143,7 @@ struct RobotState {
     /// (predicted again whenever it changes cell).
     obstacle: Option<EventId>,
     /// Partner -> pair events predicted under the current motions of both.
-    pairs: BTreeMap<RobotId, Vec<EventId>>,
+    pairs: Pairs,
     cell: Cell,
     /// What the world shows of the robot's armed push sensors (the sensor manager owns the
     /// rest): the free distance at which another robot's entry triggers each entry sensor, so
@@ -154,6 +152,52 @@ struct RobotState {
     /// and the sensors a contact triggers.
     contact: Vec<SensorKind>,
     crashed: bool,
+}
+
+/// A robot's partners and the pair events predicted with each, sorted by partner, so they are
+/// visited in partner order as a `BTreeMap` would: a robot has a handful of partners, and a
+/// B-tree's first node alone took about 280 bytes (issue 17).
+#[derive(Debug, Default)]
+struct Pairs(Vec<(RobotId, Vec<EventId>)>);
+
+impl Pairs {
+    fn find(&self, partner: RobotId) -> Result<usize, usize> {
+        self.0.binary_search_by_key(&partner, |(p, _)| *p)
+    }
+
+    fn contains_key(&self, partner: &RobotId) -> bool {
+        self.find(*partner).is_ok()
+    }
+
+    /// Sets the pair events with `partner`, replacing any.
+    fn insert(&mut self, partner: RobotId, ids: Vec<EventId>) {
+        match self.find(partner) {
+            Ok(i) => self.0[i].1 = ids,
+            Err(i) => self.0.insert(i, (partner, ids)),
+        }
+    }
+
+    fn remove(&mut self, partner: &RobotId) -> Option<Vec<EventId>> {
+        self.find(*partner).ok().map(|i| self.0.remove(i).1)
+    }
+
+    /// The pair events with `partner`, made empty if there were none.
+    fn events_mut(&mut self, partner: RobotId) -> &mut Vec<EventId> {
+        let i = self.find(partner).unwrap_or_else(|i| {
+            self.0.insert(i, (partner, Vec::new()));
+            i
+        });
+        &mut self.0[i].1
+    }
+}
+
+impl IntoIterator for Pairs {
+    type Item = (RobotId, Vec<EventId>);
+    type IntoIter = std::vec::IntoIter<(RobotId, Vec<EventId>)>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.0.into_iter()
+    }
 }
 
 /// The virtual world: all robots' states and the spatial index.
@@ -256,7 +300,7 @@ impl VirtualWorld {
                 next_step: 0,
                 own: Vec::new(),
                 obstacle: None,
-                pairs: BTreeMap::new(),
+                pairs: Pairs::default(),
                 cell,
                 entry: Vec::new(),
                 contact: Vec::new(),

@@ -6,6 +6,8 @@
 //! registered like a user's. Of its armed sensors the world sees only what physics needs (the
 //! entry ranges its pair predictions use, and which sensors a contact triggers).
 
+use std::collections::BTreeMap;
+
 use super::*;
 
 /// An armed push sensor whose trigger is another robot's entry into its range
@@ -183,7 +185,7 @@ impl Sensing {
                         },
                     );
                     for (x, y) in [(robot, other), (other, robot)] {
-                        world.robots[x as usize].pairs.entry(y).or_default().push(e);
+                        world.robots[x as usize].pairs.events_mut(y).push(e);
                     }
                 }
                 if now < quiet_until {
