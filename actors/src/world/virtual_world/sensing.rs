@@ -42,7 +42,9 @@ struct Armed {
 #[derive(Debug)]
 pub struct Sensing {
     sensors: std::sync::Arc<Sensors>,
-    armed: Vec<Armed>,
+    /// By robot; `None` until the robot arms a push sensor (most robots never do, and three
+    /// empty collections per robot were 72 MB at a million robots).
+    armed: Vec<Option<Box<Armed>>>,
     /// Activations of periodic push sensors so far (tells a stale re-sense apart).
     periodic_generation: u64,
 }
@@ -53,7 +55,7 @@ impl Sensing {
     pub fn new(sensors: std::sync::Arc<Sensors>, robots: usize) -> Self {
         Self {
             sensors,
-            armed: vec![Armed::default(); robots],
+            armed: vec![None; robots],
             periodic_generation: 0,
         }
     }
@@ -213,7 +215,7 @@ impl Sensing {
                 sensor,
                 with,
             } => {
-                if let Some(query) = self.armed[robot as usize].contact.get(&sensor) {
+                if let Some(query) = self.armed(robot).and_then(|a| a.contact.get(&sensor)) {
                     self.sense_push(world, robot, sensor, query, Some(with), out);
                 }
             }
@@ -223,7 +225,8 @@ impl Sensing {
                 interval,
                 generation,
             } => {
-                let Some((query, g)) = self.armed[robot as usize].periodic.get(&sensor) else {
+                let Some((query, g)) = self.armed(robot).and_then(|a| a.periodic.get(&sensor))
+                else {
                     return;
                 };
                 if *g != generation || world.robots[robot as usize].crashed {
@@ -247,15 +250,23 @@ impl Sensing {
         }
     }
 
+    /// The robot's armed push sensors, if it has armed any.
+    fn armed(&self, robot: RobotId) -> Option<&Armed> {
+        self.armed[robot as usize].as_deref()
+    }
+
+    /// The robot's armed push sensors, made empty if it had none.
+    fn armed_mut(&mut self, robot: RobotId) -> &mut Armed {
+        self.armed[robot as usize].get_or_insert_with(Box::default)
+    }
+
     fn watch(&self, robot: RobotId, sensor: SensorKind) -> Option<&EntryWatch> {
-        self.armed[robot as usize]
-            .entry
-            .iter()
-            .find(|w| w.sensor == sensor)
+        self.armed(robot)?.entry.iter().find(|w| w.sensor == sensor)
     }
 
     fn watch_mut(&mut self, robot: RobotId, sensor: SensorKind) -> Option<&mut EntryWatch> {
         self.armed[robot as usize]
+            .as_deref_mut()?
             .entry
             .iter_mut()
             .find(|w| w.sensor == sensor)
@@ -304,10 +315,11 @@ impl Sensing {
         sensor: SensorKind,
         out: &mut Outbox,
     ) {
-        let a = &mut self.armed[robot as usize];
-        a.periodic.remove(&sensor);
-        a.contact.remove(&sensor);
-        a.entry.retain(|w| w.sensor != sensor);
+        if let Some(a) = self.armed[robot as usize].as_deref_mut() {
+            a.periodic.remove(&sensor);
+            a.contact.remove(&sensor);
+            a.entry.retain(|w| w.sensor != sensor);
+        }
         let r = &mut world.robots[robot as usize];
         r.contact.retain(|s| *s != sensor);
         let before = r.entry.len();
@@ -349,7 +361,7 @@ impl Sensing {
             Trigger::Every(interval) => {
                 self.periodic_generation += 1;
                 let generation = self.periodic_generation;
-                self.armed[robot as usize]
+                self.armed_mut(robot)
                     .periodic
                     .insert(sensor, (q.clone(), generation));
                 out.schedule(
@@ -366,7 +378,7 @@ impl Sensing {
                 );
             }
             Trigger::Contact => {
-                self.armed[robot as usize].contact.insert(sensor, q.clone());
+                self.armed_mut(robot).contact.insert(sensor, q.clone());
                 let listeners = &mut world.robots[robot as usize].contact;
                 if !listeners.contains(&sensor) {
                     listeners.push(sensor);
@@ -382,7 +394,7 @@ impl Sensing {
                     generation: 0,
                     pending: false,
                 };
-                let entry = &mut self.armed[robot as usize].entry;
+                let entry = &mut self.armed_mut(robot).entry;
                 match entry.iter_mut().find(|w| w.sensor == sensor) {
                     Some(w) => *w = watch,
                     None => entry.push(watch),
