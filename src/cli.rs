@@ -644,11 +644,13 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                     );
                     bar
                 });
-            let progress: Option<Box<dyn FnMut(f64)>> = bar.clone().map(|b| {
-                Box::new(move |t: f64| {
+            // The event count moves even while virtual time does not (a million robots' first
+            // motions all happen at t = 0).
+            let progress: Option<Box<dyn FnMut(f64, u64)>> = bar.clone().map(|b| {
+                Box::new(move |t: f64, events: u64| {
                     b.set_position((t * 1000.0) as u64);
-                    b.set_message(format!("{t:.1} s"));
-                }) as Box<dyn FnMut(f64)>
+                    b.set_message(format!("{t:.1} s, {events} events"));
+                }) as Box<dyn FnMut(f64, u64)>
             });
             // Ctrl-C (or SIGTERM) ends the run at the virtual time reached and writes the
             // outputs for the run up to there; a second one ends the process at once.

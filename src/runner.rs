@@ -28,7 +28,7 @@ pub struct RunOptions {
     /// Where a Rerun recording goes, if anywhere.
     pub recording: Target,
     /// Called with the virtual time now and then.
-    pub progress: Option<Box<dyn FnMut(f64)>>,
+    pub progress: Option<Box<dyn FnMut(f64, u64)>>,
     /// Called while the run starts with the robots spawned so far and their number.
     pub startup: Option<Box<dyn FnMut(usize, usize)>>,
     /// Set (e.g. on Ctrl-C) to end the run at the virtual time reached; the outputs are then

@@ -151,8 +151,10 @@ pub struct Observers {
     pub keep: bool,
     /// Called with every observation, in order (for streaming outputs).
     pub sink: Option<Sink>,
-    /// Called with the virtual time every [`PROGRESS_EVERY`] events.
-    pub progress: Option<Box<dyn FnMut(f64)>>,
+    /// Called with the virtual time and the number of events processed so far every
+    /// [`PROGRESS_EVERY`] events (so a long instant, such as a million robots starting at
+    /// t = 0, still shows progress).
+    pub progress: Option<Box<dyn FnMut(f64, u64)>>,
     /// Called while the run starts, before its first event, with the robots spawned so far and
     /// their number (every [`STARTUP_EVERY`] robots, and when all are), so a large run is not
     /// silent while it starts.
@@ -279,7 +281,7 @@ impl Core {
             self.output.stats.events += 1;
             if self.output.stats.events % PROGRESS_EVERY == 0 {
                 if let Some(p) = self.observers.progress.as_mut() {
-                    p(self.now);
+                    p(self.now, self.output.stats.events);
                 }
             }
             let target = event.target;

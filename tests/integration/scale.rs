@@ -103,3 +103,50 @@ fn start_up_reports_the_robots_spawned() {
         "all reported before the first record"
     );
 }
+
+/// Progress counts events, so an instant with many events (every robot starting at t = 0)
+/// shows progress although virtual time stands still: 10,000 idle robots are 10,000 start
+/// events at t = 0, reported at every `PROGRESS_EVERY` events.
+#[test]
+fn progress_counts_the_events_of_a_long_instant() {
+    let robots = (0..10_000)
+        .map(|i| {
+            let spec = RobotSpec {
+                radius: 1.0,
+                pose: Pose {
+                    pos: nekosim::world::geometry::Point::new(
+                        (i % 100) as f64 * 10.0 + 5.0,
+                        (i / 100) as f64 * 10.0 + 5.0,
+                    ),
+                    angle: 0.0,
+                },
+            };
+            (
+                spec,
+                Box::new(nekosim::algorithm::Idle) as Box<dyn Algorithm>,
+            )
+        })
+        .collect();
+    let calls = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+    let seen = calls.clone();
+    let out = nekosim::run(SimConfig {
+        sensors: Default::default(),
+        seed: 1,
+        until: 5.0,
+        world: bounded(1000.0, 1000.0),
+        robots,
+        arbiters: 1,
+        record: false,
+        observers: nekosim::scheduler::Observers {
+            progress: Some(Box::new(move |t, events| {
+                seen.borrow_mut().push((t, events))
+            })),
+            ..Default::default()
+        },
+        comms: Default::default(),
+    })
+    .expect("run");
+    assert_eq!(out.stats.events, 10_000);
+    let every = nekosim::scheduler::PROGRESS_EVERY;
+    assert_eq!(*calls.borrow(), [(0.0, every), (0.0, 2 * every)]);
+}
