@@ -24,7 +24,7 @@ use super::collision::{
 use super::event::{EventClass, EventId, Notice, Outbox, Payload, Target};
 use super::geometry::Point;
 use super::grid::{Cell, Grid};
-use super::motion::{Kinematics, Motion, MotionPattern, MotionStep, Pose};
+use super::motion::{Kinematics, Motion, MotionPattern, Pose};
 use super::observation::Observation;
 use super::obstacle::{predict_obstacle, ObstacleIndex, Shape, ShapeError};
 use super::sensor::{Datum, SensorKind, SensorQuery, SensorValue, Sensors, Trigger, WorldView};
@@ -132,9 +132,10 @@ struct RobotState {
     radius: f64,
     /// Pose when there is no motion in progress.
     rest: Pose,
+    /// The motion in progress; its step events are asked of it (`events`) when needed
+    /// rather than kept beside it (issue 17: 128 bytes a robot).
     motion: Option<Box<dyn MotionPattern>>,
     ticket: u64,
-    steps: Vec<MotionStep>,
     /// Index of the next step event of the current motion.
     next_step: usize,
     /// Own conditional events: motion steps, cell crossings, boundary contact.
@@ -296,7 +297,6 @@ impl VirtualWorld {
                 },
                 motion: None,
                 ticket: 0,
-                steps: Vec::new(),
                 next_step: 0,
                 own: Vec::new(),
                 obstacle: None,
@@ -556,8 +556,8 @@ impl VirtualWorld {
             // Motion steps were cancelled with the other own events: schedule them again.
             let r = &self.robots[id as usize];
             let pending: Vec<(usize, f64)> = match &r.motion {
-                Some(_) => r
-                    .steps
+                Some(m) => m
+                    .events()
                     .iter()
                     .enumerate()
                     .skip(r.next_step)

@@ -120,7 +120,6 @@ impl VirtualWorld {
                     );
                     r.own.push(e);
                 }
-                r.steps = steps;
                 r.next_step = 0;
             }
         }
@@ -134,16 +133,18 @@ impl VirtualWorld {
             return;
         }
         r.next_step = step + 1;
-        let kind = r.steps[step].kind.clone();
         let r = &self.robots[robot as usize];
         let m = r.motion.as_deref().expect("checked above");
+        let mut steps = m.events();
+        let last = step + 1 == steps.len();
+        let kind = steps.swap_remove(step).kind;
         out.record(Observation::MotionStep {
             robot,
             step: kind,
             state: m.state_at(now),
             progress: m.progress_at(now),
         });
-        if step + 1 == r.steps.len() {
+        if last {
             let state = m.state_at(m.end_time());
             let ticket = r.ticket;
             let r = &mut self.robots[robot as usize];
