@@ -258,11 +258,10 @@ impl Core {
                 self.output.stats.interrupted = true;
                 return Next::Finish;
             }
-            match self.queue.peek_time() {
-                Some(t) if t <= self.until => {}
-                _ => return Next::Finish,
-            }
-            let event = *self.queue.pop().expect("peeked event");
+            let Some(event) = self.queue.pop_until(self.until) else {
+                return Next::Finish;
+            };
+            let event = *event;
             debug_assert!(event.time >= self.now, "time went backwards");
             if event.time == self.now {
                 self.at_instant += 1;
@@ -411,7 +410,7 @@ impl Scheduler {
     }
 
     /// The pending events of a robot (the event manager's listing).
-    pub fn future_of(&self, robot: RobotId) -> Vec<&Event> {
+    pub fn future_of(&mut self, robot: RobotId) -> Vec<&Event> {
         self.core.queue.future_of(robot)
     }
 }

@@ -1,0 +1,270 @@
+//! The order of pending events (seed 4.2.3, the event manager's queue): a monotone radix queue
+//! of `(time, cause, index)` keys.
+//!
+//! A discrete-event run never schedules into its past: every new event is at or after the
+//! event being handled. Such a *monotone* queue can be a radix heap instead of a binary heap
+//! (Ahuja, Mehlhorn, Orlin and Tarjan, 1990): entries live in 64 buckets by the highest bit in
+//! which their time differs from the time `last` of the events being taken now, and a bucket
+//! is only sorted out when every earlier one is empty. Pushing is an append; taking the next
+//! entry is a pop from the front of the current instant's run; each entry moves down a few
+//! buckets in its life, by sequential copies. Its cost does not grow with the number of
+//! pending events as a binary heap's does (at a million robots, five million pending events:
+//! 22 levels of cache misses per pop, 15 % of a 100,000-robot run, issue 17).
+//!
+//! Ties at one instant are taken in `(cause, index)` order (the ordering contract, docs/
+//! architecture.md). A handling's new events all have a larger causal key than any pending
+//! event (their cause is the processing number being handled now), so an event for the
+//! current instant joins the end of its run; the entries a bucket hands to a new instant are
+//! sorted once.
+
+use std::collections::VecDeque;
+
+/// An event's place in the order: time (as [`time_key`]), then cause, then index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Entry {
+    pub key: u64,
+    pub cause: u64,
+    pub index: u32,
+}
+
+/// `t` as an integer whose unsigned order is `f64::total_cmp`'s.
+pub fn time_key(t: f64) -> u64 {
+    let bits = t.to_bits();
+    if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | 1 << 63
+    }
+}
+
+/// The time of a key made by [`time_key`].
+pub fn key_time(key: u64) -> f64 {
+    f64::from_bits(if key >> 63 == 1 {
+        key & !(1 << 63)
+    } else {
+        !key
+    })
+}
+
+/// Above this capacity an emptied buffer is given back rather than kept for reuse, so the
+/// burst of a large run's first instant does not stay allocated for the rest of it.
+const KEEP: usize = 1 << 16;
+
+/// The radix queue. Entries that the owner no longer wants (cancelled events) stay until they
+/// come up and are skipped there.
+#[derive(Debug)]
+pub struct RadixQueue {
+    /// Key of the instant being taken; every entry in `buckets` is after it.
+    last: u64,
+    /// Entries at `last` (and any before it), in order: the front is next.
+    now: VecDeque<Entry>,
+    /// `buckets[i]`: entries whose key's highest bit that differs from `last` is bit `i`.
+    buckets: Vec<Vec<Entry>>,
+    len: usize,
+}
+
+impl Default for RadixQueue {
+    fn default() -> Self {
+        Self {
+            last: time_key(0.0),
+            now: VecDeque::new(),
+            buckets: (0..64).map(|_| Vec::new()).collect(),
+            len: 0,
+        }
+    }
+}
+
+impl RadixQueue {
+    /// Entries held, skipped ones included.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether no entry is held.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Adds an entry.
+    pub fn push(&mut self, e: Entry) {
+        self.len += 1;
+        if e.key > self.last {
+            let bit = 63 - (e.key ^ self.last).leading_zeros() as usize;
+            self.buckets[bit].push(e);
+        } else if self.now.back().is_none_or(|b| *b < e) {
+            self.now.push_back(e);
+        } else {
+            // Not after the run's end: only an event scheduled before the current instant
+            // (which the scheduler forbids) or out of causal order gets here.
+            let at = self.now.partition_point(|x| x < &e);
+            self.now.insert(at, e);
+        }
+    }
+
+    /// Puts back the entry just taken (it is before every other).
+    pub fn push_front(&mut self, e: Entry) {
+        self.len += 1;
+        self.now.push_front(e);
+    }
+
+    /// The next entry, without taking it.
+    pub fn peek(&mut self) -> Option<&Entry> {
+        if self.now.is_empty() {
+            self.refill();
+        }
+        self.now.front()
+    }
+
+    /// Takes the next entry.
+    pub fn pop(&mut self) -> Option<Entry> {
+        if self.now.is_empty() {
+            self.refill();
+        }
+        let e = self.now.pop_front()?;
+        self.len -= 1;
+        Some(e)
+    }
+
+    /// Moves on to the next instant: the first non-empty bucket's smallest key becomes
+    /// `last`, and its entries move to `now` (those at `last`, sorted) or to lower buckets.
+    fn refill(&mut self) {
+        if self.now.capacity() > KEEP {
+            self.now = VecDeque::new();
+        }
+        let Some(i) = self.buckets.iter().position(|b| !b.is_empty()) else {
+            return;
+        };
+        let mut bucket = std::mem::take(&mut self.buckets[i]);
+        self.last = bucket
+            .iter()
+            .map(|e| e.key)
+            .min()
+            .expect("non-empty bucket");
+        for e in bucket.drain(..) {
+            if e.key == self.last {
+                self.now.push_back(e);
+            } else {
+                let bit = 63 - (e.key ^ self.last).leading_zeros() as usize;
+                debug_assert!(bit < i, "an entry moved up");
+                self.buckets[bit].push(e);
+            }
+        }
+        self.now.make_contiguous().sort_unstable();
+        if bucket.capacity() <= KEEP {
+            self.buckets[i] = bucket;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use std::collections::BTreeSet;
+
+    #[test]
+    fn time_keys_order_as_total_cmp() {
+        let times = [
+            f64::NEG_INFINITY,
+            -3.5,
+            -1e-300,
+            -0.0,
+            0.0,
+            1e-300,
+            0.1,
+            1.0,
+            1.0 + f64::EPSILON,
+            7e9,
+            f64::INFINITY,
+        ];
+        for a in times {
+            assert_eq!(key_time(time_key(a)).to_bits(), a.to_bits());
+            for b in times {
+                assert_eq!(time_key(a).cmp(&time_key(b)), a.total_cmp(&b), "{a} {b}");
+            }
+        }
+    }
+
+    #[derive(Clone, Debug)]
+    enum Op {
+        /// An entry this far after the last key taken (0: the current instant).
+        Push(u8, u32),
+        Pop,
+        Peek,
+    }
+
+    fn ops() -> impl Strategy<Value = Vec<Op>> {
+        prop::collection::vec(
+            prop_oneof![
+                3 => (0u8..6, 0u32..1000).prop_map(|(k, d)| Op::Push(k, d)),
+                2 => Just(Op::Pop),
+                1 => Just(Op::Peek),
+            ],
+            0..400,
+        )
+    }
+
+    proptest! {
+        /// Against a sorted set: every pop is the set's least element, for monotone pushes at
+        /// the current instant (in causal order), just after it and far ahead.
+        #[test]
+        fn pops_in_key_order(ops in ops()) {
+            let mut q = RadixQueue::default();
+            let mut oracle = BTreeSet::new();
+            let mut now = 0.0f64;
+            let mut cause = 0u64;
+            for op in ops {
+                match op {
+                    Op::Push(kind, d) => {
+                        cause += 1;
+                        let t = match kind {
+                            0 => now,
+                            1 => now + f64::from(d) * 1e-9,
+                            2 => now + f64::from(d) * 1e-3,
+                            3 => now + f64::from(d),
+                            4 => now + f64::from(d) * 1e6,
+                            _ => (now * 8.0).ceil() / 8.0 + 0.125,
+                        };
+                        // Future instants also get entries out of causal order (which the
+                        // engine does not make, but the queue must still order).
+                        let c = if kind == 5 { u64::from(d) } else { cause };
+                        let e = Entry { key: time_key(t), cause: c, index: cause as u32 };
+                        q.push(e);
+                        oracle.insert(e);
+                    }
+                    Op::Peek => {
+                        let got = q.peek().copied();
+                        prop_assert_eq!(got.as_ref(), oracle.first());
+                    }
+                    Op::Pop => {
+                        let got = q.pop();
+                        prop_assert_eq!(got, oracle.pop_first());
+                        if let Some(e) = got {
+                            now = key_time(e.key);
+                        }
+                    }
+                }
+                prop_assert_eq!(q.len(), oracle.len());
+            }
+            while let Some(e) = oracle.pop_first() {
+                prop_assert_eq!(q.pop(), Some(e));
+            }
+            prop_assert!(q.pop().is_none());
+        }
+    }
+
+    #[test]
+    fn a_million_entries_at_one_instant_keep_their_causal_order() {
+        let mut q = RadixQueue::default();
+        for cause in 0..1_000_000u64 {
+            q.push(Entry {
+                key: time_key(0.0),
+                cause,
+                index: 0,
+            });
+        }
+        for cause in 0..1_000_000u64 {
+            assert_eq!(q.pop().map(|e| e.cause), Some(cause));
+        }
+    }
+}
