@@ -11,7 +11,8 @@
 //!   same handling code without actors), and the ratio of the two. Timed by hand (a 1M run takes 15-25 s here), least of a few runs; run it alone with
 //!   `cargo bench --bench engine -- scale`.
 //!
-//! The allocator is the `nekosim` binary's (mimalloc), so the figures are the command's.
+//! The allocator is the `nekosim` binary's (mimalloc, keeping freed memory:
+//! `nekosim::allocator`), so the figures are the command's.
 
 use actix::prelude::*;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
@@ -182,6 +183,7 @@ fn random_config(n: usize, until: f64) -> SimConfig {
 }
 
 fn random_movement(c: &mut Criterion) {
+    nekosim::allocator::keep_freed_memory();
     let mut g = c.benchmark_group("random_movement");
     g.sample_size(10);
     for (n, until) in [(1_000usize, 100.0), (10_000, 20.0)] {
@@ -259,6 +261,7 @@ fn spans(host: Host, n: usize, short: f64, long: f64, repeats: usize) -> Spans {
 /// it is its own. `scale_actors` or `scale_kernel` as the filter runs one host only. Skipped
 /// when the bench is filtered to something else.
 fn scale(_: &mut Criterion) {
+    nekosim::allocator::keep_freed_memory();
     let filter: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))

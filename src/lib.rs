@@ -4,6 +4,7 @@
 
 pub use nekosim_actors::*;
 
+pub mod allocator;
 pub mod apps;
 pub mod check;
 pub mod cli;

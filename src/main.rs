@@ -4,5 +4,6 @@
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn main() -> std::process::ExitCode {
+    nekosim::allocator::keep_freed_memory();
     nekosim::cli::main_with(nekosim::scenario::Registry::with_builtins())
 }
