@@ -265,7 +265,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             move |id: RobotId| handles[id as usize % handles.len()].clone()
         };
         let layer_ids = p.layer_ids;
-        let mut robots: Vec<Recipient<Deliver>> = p
+        let mut robots: Vec<Addr<RobotActor>> = p
             .robots
             .into_iter()
             .zip(robot_info)
@@ -281,14 +281,11 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
                     // This thread's arbiter: started in place, without a closure sent over the
                     // arbiter's queue and a task to run it (at 1M robots, both held until the
                     // system ran).
-                    RobotActor::new(info, algorithm, seed, ids)
-                        .start()
-                        .recipient()
+                    RobotActor::new(info, algorithm, seed, ids).start()
                 } else {
                     RobotActor::start_in_arbiter(&arbiter_of(info.id), move |_| {
                         RobotActor::new(info, algorithm, seed, ids)
                     })
-                    .recipient()
                 }
             })
             .collect();
