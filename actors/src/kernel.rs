@@ -28,12 +28,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     let mut p = Prepared::new(cfg)?;
     let count = p.robots.len();
     let mut startup = p.observers.startup.take();
-    let infos: Vec<_> = p
-        .robots
-        .iter()
-        .enumerate()
-        .map(|(i, (spec, _))| p.info(i as RobotId, spec.radius))
-        .collect();
+    let infos = p.infos();
     let mut motion = MotionManager::new(p.world.clone());
     let mut network = NetworkActor::new(p.network, p.world.clone(), p.wiring.clone());
     let mut sensing = SensorManager::new(p.world.clone(), p.sensing);

@@ -220,14 +220,17 @@ impl Prepared {
         })
     }
 
-    /// Robot `id`'s settings.
-    pub(crate) fn info(&self, id: RobotId, radius: f64) -> RobotInfo {
-        RobotInfo {
-            id,
-            count: self.robots.len(),
-            radius,
-            world: self.world_size,
-        }
+    /// Every robot's settings, by id.
+    pub(crate) fn infos(&self) -> Vec<RobotInfo> {
+        let count = self.robots.len();
+        (self.robots.iter().enumerate())
+            .map(|(i, (spec, _))| RobotInfo {
+                id: i as RobotId,
+                count,
+                radius: spec.radius,
+                world: self.world_size,
+            })
+            .collect()
     }
 }
 
@@ -235,12 +238,7 @@ impl Prepared {
 pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     let mut p = Prepared::new(cfg)?;
     let count = p.robots.len();
-    let robot_info: Vec<RobotInfo> = p
-        .robots
-        .iter()
-        .enumerate()
-        .map(|(i, (spec, _))| p.info(i as RobotId, spec.radius))
-        .collect();
+    let robot_info = p.infos();
     let system = System::new();
     let (tx, rx) = mpsc::channel();
     let mut startup = p.observers.startup.take();
