@@ -91,8 +91,9 @@ struct RobotIo {
 }
 
 /// A robot's random stream (stream number: the robot's id), small between handlings (issue
-/// 17): at rest it is the run's seed and the words drawn so far (16 bytes, where a live
-/// `ChaCha8Rng` carries a 256-byte block buffer; a million robots saved about 300 MB). The
+/// 17): at rest it is the run's seed and the words drawn so far (24 bytes with the empty slot
+/// of the live generator, where a `ChaCha8Rng` carries a 256-byte block buffer; a million
+/// robots saved about 300 MB). The
 /// generator is rebuilt at the first draw of a handling ([`Stream::live`]) and folded back
 /// when the handling ends ([`Stream::rest`]); `set_word_pos` resumes the very same stream.
 #[derive(Debug)]
