@@ -86,7 +86,9 @@ def kill_worker_running_a_shard(pids: dict[str, int], stop: threading.Event, kil
         for address, pid in pids.items():
             try:
                 children = psutil.Process(pid).children(recursive=True)
-                running = [c for c in children if "--shard" in c.cmdline()]
+                # Command lines read now: once killed, a child is a zombie whose command
+                # line can no longer be read.
+                running = [args for args in (c.cmdline() for c in children) if "--shard" in args]
             except psutil.Error:
                 continue
             if running:
@@ -96,7 +98,7 @@ def kill_worker_running_a_shard(pids: dict[str, int], stop: threading.Event, kil
                         child.kill()
                     except psutil.Error:
                         pass
-                args = running[0].cmdline()
+                args = running[0]
                 killed.append((address, pid, args[args.index("--shard") + 1]))
                 return
         time.sleep(0.05)
