@@ -90,7 +90,7 @@ pub fn route_effects(
                     Payload::NetSend {
                         from: robot,
                         layer,
-                        to,
+                        to: to.into_boxed_slice(),
                         msg: Box::new(msg),
                     },
                 );
@@ -144,7 +144,7 @@ pub fn route_effects(
                     Payload::LayerTimer {
                         robot,
                         layer,
-                        timer,
+                        timer: Box::new(timer),
                         generation: *generation,
                     },
                 );
@@ -181,7 +181,7 @@ impl HandleEvent for LayerActor {
             }
             Payload::LayerTimer {
                 timer, generation, ..
-            } => (self.timers.get(&timer) == Some(&generation)).then_some(Input::Timer(timer)),
+            } => (self.timers.get(&*timer) == Some(&generation)).then_some(Input::Timer(*timer)),
             _ => None,
         };
         if let Some(input) = input {

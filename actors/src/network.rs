@@ -55,7 +55,7 @@ impl HandleEvent for NetworkActor {
             drop(world);
             out.record(Observation::Send {
                 robot: from,
-                to: to.clone(),
+                to: to.to_vec(),
                 layer: crate::layer::layer_name(&self.wiring, layer),
                 msg: (*msg).clone(),
                 arrive: if copies.iter().map(|(d, _)| d).eq(to.iter()) {

@@ -733,7 +733,7 @@ impl HandleEvent for RobotActor {
                     Payload::NetSend {
                         from: id,
                         layer: APP,
-                        to,
+                        to: to.into_boxed_slice(),
                         msg: Box::new(wire),
                     },
                 ),

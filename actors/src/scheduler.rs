@@ -330,7 +330,7 @@ impl Core {
                     time: e.time,
                     class: e.class,
                     kind: e.payload.kind(),
-                    robots: e.robots,
+                    robots: e.robots(),
                 })
                 .collect();
             out.notify(robot, Notice::FutureEvents { ticket, events });

@@ -7,7 +7,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::scheduler::{Deliver, HandleEvent};
-use crate::world::event::{Notice, Outbox, Payload};
+use crate::world::event::{Notice, Outbox, Payload, SensorCompute};
 use crate::world::observation::Observation;
 use std::sync::Arc;
 
@@ -46,17 +46,17 @@ impl Actor for Sensor {
 impl HandleEvent for Sensor {
     fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
         let mut out = Outbox::new(msg.now, msg.seq);
-        if let Payload::SensorCompute {
-            robot,
-            ticket,
-            query,
-            snapshot,
-        } = msg.event.payload
-        {
+        if let Payload::SensorCompute(compute) = msg.event.payload {
+            let SensorCompute {
+                robot,
+                ticket,
+                query,
+                snapshot,
+            } = *compute;
             debug_assert_eq!(robot, self.robot);
             // The sensor's reply from its reading (pull or push); (de)activations and
             // rejections pass through.
-            let value = match (&query.query, *snapshot) {
+            let value = match (&query.query, snapshot) {
                 (Some(q), SensorValue::Reply(reading)) => {
                     match self.sensors.reply(self.kind, q, reading, &mut self.rng) {
                         Ok(reply) => SensorValue::Reply(reply),

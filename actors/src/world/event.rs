@@ -21,8 +21,10 @@ use super::{MotionOutcome, Obstacle, RobotId};
 use crate::world::motion::Kinematics;
 use nekosim_protocols::{Indication, Input, LayerIx};
 
-/// Identity and tie-break key of an event: `(cause, index)`, see the module doc.
+/// Identity and tie-break key of an event: `(cause, index)`, see the module doc. Packed to 12
+/// bytes (an event carries one, and a large run holds millions of events: issue 17).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[repr(C, packed(4))]
 pub struct EventId {
     /// Processing number of the event whose handling created this one (0 for setup).
     pub cause: u64,
@@ -107,11 +109,13 @@ pub enum Payload {
     },
     /// The `step`-th event of the robot's current motion.
     MotionStep { robot: RobotId, step: usize },
-    /// Robot `a` touches `b`; `contact` is the contact point on a boundary.
-    Collision {
-        a: RobotId,
-        b: Obstacle,
-        contact: Option<super::geometry::Point>,
+    /// Robot `a` touches robot `b`.
+    Collision { a: RobotId, b: RobotId },
+    /// `robot` touches the world's boundary or an obstacle (`with`) at the point `at` on it.
+    Contact {
+        robot: RobotId,
+        with: Obstacle,
+        at: super::geometry::Point,
     },
     /// The robot leaves its cell of the spatial index towards `offset`.
     CellCrossing { robot: RobotId, offset: [i64; 2] },
@@ -153,13 +157,7 @@ pub enum Payload {
         query: Box<SensorQuery>,
     },
     /// Sensor manager -> sensor actor: compute the reply from the world's data.
-    SensorCompute {
-        robot: RobotId,
-        ticket: Option<u64>,
-        query: Box<SensorQuery>,
-        /// The reading (as [`SensorValue::Reply`]), or the outcome of a (de)activation.
-        snapshot: Box<SensorValue>,
-    },
+    SensorCompute(Box<SensorCompute>),
     /// To a robot's algorithm.
     Notice(Box<Notice>),
     /// A robot's own timer.
@@ -174,7 +172,7 @@ pub enum Payload {
     NetSend {
         from: RobotId,
         layer: LayerIx,
-        to: Vec<RobotId>,
+        to: Box<[RobotId]>,
         msg: Box<nekosim_protocols::Payload>,
     },
     /// An input for a robot's protocol layer.
@@ -187,11 +185,22 @@ pub enum Payload {
     LayerTimer {
         robot: RobotId,
         layer: LayerIx,
-        timer: nekosim_protocols::Payload,
+        timer: Box<nekosim_protocols::Payload>,
         generation: u64,
     },
     /// The robot crashes (handled by the event manager, then the motion manager).
     Crash { robot: RobotId },
+}
+
+/// What a sensor actor computes its reply from (the content of [`Payload::SensorCompute`]).
+#[derive(Clone, Debug)]
+pub struct SensorCompute {
+    pub robot: RobotId,
+    /// The request's ticket; `None` for a push sensor's interrupt.
+    pub ticket: Option<u64>,
+    pub query: SensorQuery,
+    /// The reading (as [`SensorValue::Reply`]), or the outcome of a (de)activation.
+    pub snapshot: SensorValue,
 }
 
 impl Payload {
@@ -200,7 +209,7 @@ impl Payload {
         match self {
             Payload::MotionRequest { .. } => "motion_request",
             Payload::MotionStep { .. } => "motion_step",
-            Payload::Collision { .. } => "collision",
+            Payload::Collision { .. } | Payload::Contact { .. } => "collision",
             Payload::CellCrossing { .. } => "cell_crossing",
             Payload::ProximityEntry { .. } => "proximity_entry",
             Payload::ProximityRearm { .. } => "proximity_rearm",
@@ -220,7 +229,7 @@ impl Payload {
     }
 }
 
-/// A scheduled event.
+/// A scheduled event: 80 bytes (issue 17; a million robots keep about seven million pending).
 #[derive(Clone, Debug)]
 pub struct Event {
     /// When it fires [s].
@@ -228,9 +237,20 @@ pub struct Event {
     pub id: EventId,
     pub target: Target,
     pub class: EventClass,
-    /// Robots the event concerns, for the event manager's per-robot listing.
-    pub robots: [Option<RobotId>; 2],
+    /// Robots the event concerns, for the event manager's per-robot listing ([`NO_ROBOT`] for
+    /// none; see [`Event::robots`]).
+    pub concerns: [RobotId; 2],
     pub payload: Payload,
+}
+
+/// The robot id that stands for no robot in [`Event::concerns`].
+pub const NO_ROBOT: RobotId = RobotId::MAX;
+
+impl Event {
+    /// The robots the event concerns.
+    pub fn robots(&self) -> [Option<RobotId>; 2] {
+        self.concerns.map(|r| (r != NO_ROBOT).then_some(r))
+    }
 }
 
 /// What handling an event produces: effects as data, carried out by the scheduler.
@@ -286,7 +306,7 @@ impl Outbox {
             id,
             target,
             class,
-            robots,
+            concerns: robots.map(|r| r.unwrap_or(NO_ROBOT)),
             payload,
         })));
         id
@@ -355,7 +375,7 @@ impl EventQueue {
     }
 
     fn index(index: &mut Vec<Vec<EventId>>, ev: &Event) {
-        for &r in ev.robots.iter().flatten() {
+        for r in ev.robots().into_iter().flatten() {
             let r = r as usize;
             if index.len() <= r {
                 index.resize_with(r + 1, Vec::new);
@@ -379,7 +399,7 @@ impl EventQueue {
         let Some(index) = self.by_robot.as_mut() else {
             return;
         };
-        for &r in ev.robots.iter().flatten() {
+        for r in ev.robots().into_iter().flatten() {
             if let Some(list) = index.get_mut(r as usize) {
                 if let Some(k) = list.iter().position(|id| *id == ev.id) {
                     list.swap_remove(k);
@@ -485,9 +505,17 @@ mod tests {
             id: EventId { cause, index },
             target: Target::Robot(robot),
             class: EventClass::Eventual,
-            robots: [Some(robot), None],
+            concerns: [robot, NO_ROBOT],
             payload: Payload::Timer { robot, ticket: 0 },
         })
+    }
+
+    #[test]
+    fn an_event_stays_small() {
+        // A million robots keep about seven million events pending (issue 17): each byte of an
+        // event is 7 MB there. 80 bytes is a size class of the allocator.
+        assert!(std::mem::size_of::<Event>() <= 80);
+        assert!(std::mem::size_of::<Payload>() <= 32);
     }
 
     #[test]

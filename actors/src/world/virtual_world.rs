@@ -433,11 +433,7 @@ impl VirtualWorld {
                     Target::MotionManager,
                     EventClass::Conditional,
                     [Some(a), Some(b)],
-                    Payload::Collision {
-                        a,
-                        b: Obstacle::Robot(b),
-                        contact: None,
-                    },
+                    Payload::Collision { a, b },
                 ));
             }
         }
@@ -599,10 +595,10 @@ fn schedule_contact(
         Target::MotionManager,
         EventClass::Conditional,
         [Some(id), None],
-        Payload::Collision {
-            a: id,
-            b: with,
-            contact: Some(contact),
+        Payload::Contact {
+            robot: id,
+            with,
+            at: contact,
         },
     )
 }

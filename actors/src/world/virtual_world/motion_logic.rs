@@ -56,7 +56,8 @@ impl VirtualWorld {
                 self.predict_all(robot, out);
             }
             Payload::MotionStep { robot, step } => self.motion_step(robot, step, out),
-            Payload::Collision { a, b, contact } => self.collision(a, b, contact, out),
+            Payload::Collision { a, b } => self.collision(a, Obstacle::Robot(b), None, out),
+            Payload::Contact { robot, with, at } => self.collision(robot, with, Some(at), out),
             Payload::CellCrossing { robot, offset } => {
                 let r = &mut self.robots[robot as usize];
                 let old = r.cell;

@@ -9,6 +9,7 @@
 use std::collections::BTreeMap;
 
 use super::*;
+use crate::world::event::SensorCompute;
 
 /// An armed push sensor whose trigger is another robot's entry into its range
 /// ([`Trigger::Entry`]).
@@ -74,15 +75,15 @@ impl Sensing {
             Target::Sensor(robot, sensor),
             EventClass::Eventual,
             [Some(robot), None],
-            Payload::SensorCompute {
+            Payload::SensorCompute(Box::new(SensorCompute {
                 robot,
                 ticket: None,
-                query: Box::new(SensorQuery {
+                query: SensorQuery {
                     sensor,
                     query: Some(query.clone()),
-                }),
-                snapshot: Box::new(SensorValue::Reply(reading)),
-            },
+                },
+                snapshot: SensorValue::Reply(reading),
+            })),
         );
     }
 
@@ -153,12 +154,12 @@ impl Sensing {
                     Target::Sensor(robot, query.sensor),
                     EventClass::Eventual,
                     [Some(robot), None],
-                    Payload::SensorCompute {
+                    Payload::SensorCompute(Box::new(SensorCompute {
                         robot,
                         ticket: Some(ticket),
-                        query,
-                        snapshot: Box::new(snapshot),
-                    },
+                        query: *query,
+                        snapshot,
+                    })),
                 );
             }
             Payload::ProximityEntry {
