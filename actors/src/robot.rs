@@ -189,57 +189,65 @@ impl Received {
     }
 }
 
-/// The handle an algorithm uses to move, sense and wait (the seed's interface layer).
+/// The handle an algorithm uses to move, sense and wait (the seed's interface layer). One
+/// pointer, shared by the robot's actor and its algorithm's future (issue 17: a whole handle
+/// in each took 160 bytes a robot and put the actor's task in a larger size class).
 #[derive(Clone)]
 pub struct Robot {
+    shared: Rc<Shared>,
+}
+
+struct Shared {
     info: RobotInfo,
-    io: Rc<RefCell<RobotIo>>,
     /// Ids of the protocol stack's layers, by index.
     layers: std::sync::Arc<Vec<String>>,
+    io: RefCell<RobotIo>,
 }
 
 impl fmt::Debug for Robot {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Robot").field("info", &self.info).finish()
+        f.debug_struct("Robot")
+            .field("info", &self.shared.info)
+            .finish()
     }
 }
 
 impl Robot {
     /// The robot's id.
     pub fn id(&self) -> RobotId {
-        self.info.id
+        self.shared.info.id
     }
 
     /// The robot's settings.
     pub fn info(&self) -> RobotInfo {
-        self.info
+        self.shared.info
     }
 
     /// Current virtual time [s].
     pub fn now(&self) -> f64 {
-        self.io.borrow().now
+        self.shared.io.borrow().now
     }
 
     /// The robot's own random stream, derived from the run's seed and the robot's id.
     pub fn rng(&self) -> RefMut<'_, ChaCha8Rng> {
-        let stream = self.info.id as u64;
-        RefMut::map(self.io.borrow_mut(), |io| io.rng.live(stream))
+        let stream = self.shared.info.id as u64;
+        RefMut::map(self.shared.io.borrow_mut(), |io| io.rng.live(stream))
     }
 
     fn ticket(&self) -> u64 {
-        let mut io = self.io.borrow_mut();
+        let mut io = self.shared.io.borrow_mut();
         io.next_ticket += 1;
         io.next_ticket
     }
 
     fn push(&self, r: Request) {
-        self.io.borrow_mut().outbox.push(r);
+        self.shared.io.borrow_mut().outbox.push(r);
     }
 
     /// Waits for the first notice `pick` accepts and removes it from the inbox.
     async fn take<T>(&self, pick: impl Fn(&Notice) -> Option<T>) -> (T, Notice) {
         poll_fn(|_| {
-            let mut io = self.io.borrow_mut();
+            let mut io = self.shared.io.borrow_mut();
             match io
                 .inbox
                 .iter()
@@ -380,7 +388,7 @@ impl Robot {
     /// The robot's pending events, as the event manager lists them now (seed 4.2.3): for
     /// instance to see a predicted collision before acting.
     pub async fn future_events(&self) -> Vec<FutureEvent> {
-        self.future_events_of(self.info.id).await
+        self.future_events_of(self.shared.info.id).await
     }
 
     /// The pending events of robot `of` (any robot, as the seed's event manager lists them),
@@ -429,7 +437,8 @@ impl Robot {
 
     /// A layer of the robot's protocol stack, by id (as in the scenario's `stack`).
     pub fn layer(&self, id: &str) -> Option<LayerHandle<'_>> {
-        self.layers
+        self.shared
+            .layers
             .iter()
             .position(|l| l == id)
             .map(|ix| LayerHandle {
@@ -455,7 +464,12 @@ impl Robot {
         match ix {
             NET => "net".into(),
             APP => "app".into(),
-            i => self.layers.get(i as usize).cloned().unwrap_or_default(),
+            i => self
+                .shared
+                .layers
+                .get(i as usize)
+                .cloned()
+                .unwrap_or_default(),
         }
     }
 
@@ -612,7 +626,7 @@ pub struct RobotActor {
 impl fmt::Debug for RobotActor {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("RobotActor")
-            .field("robot", &self.handle.info)
+            .field("robot", &self.handle.shared.info)
             .field("algorithm", &self.algorithm.name())
             .field("running", &self.task.is_some())
             .finish()
@@ -629,15 +643,17 @@ impl RobotActor {
     ) -> Self {
         Self {
             handle: Robot {
-                info,
-                io: Rc::new(RefCell::new(RobotIo {
-                    now: 0.0,
-                    next_ticket: 0,
-                    inbox: VecDeque::new(),
-                    outbox: Vec::new(),
-                    rng: Stream::new(seed),
-                })),
-                layers,
+                shared: Rc::new(Shared {
+                    info,
+                    layers,
+                    io: RefCell::new(RobotIo {
+                        now: 0.0,
+                        next_ticket: 0,
+                        inbox: VecDeque::new(),
+                        outbox: Vec::new(),
+                        rng: Stream::new(seed),
+                    }),
+                }),
             },
             algorithm,
             task: None,
@@ -652,8 +668,8 @@ impl Actor for RobotActor {
 impl HandleEvent for RobotActor {
     fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
         let mut out = Outbox::new(msg.now, msg.seq);
-        let id = self.handle.info.id;
-        self.handle.io.borrow_mut().now = msg.now;
+        let id = self.handle.shared.info.id;
+        self.handle.shared.io.borrow_mut().now = msg.now;
         match msg.event.payload {
             Payload::Notice(n) if matches!(*n, Notice::Start) => {
                 self.task = Some(self.algorithm.run(self.handle.clone()));
@@ -672,10 +688,11 @@ impl HandleEvent for RobotActor {
                         msg: msg.clone(),
                     });
                 }
-                self.handle.io.borrow_mut().inbox.push_back(n)
+                self.handle.shared.io.borrow_mut().inbox.push_back(n)
             }
             Payload::Timer { ticket, .. } => self
                 .handle
+                .shared
                 .io
                 .borrow_mut()
                 .inbox
@@ -689,7 +706,7 @@ impl HandleEvent for RobotActor {
             }
         }
         let requests = {
-            let mut io = self.handle.io.borrow_mut();
+            let mut io = self.handle.shared.io.borrow_mut();
             io.rng.rest();
             std::mem::take(&mut io.outbox)
         };
