@@ -47,8 +47,7 @@ impl VirtualWorld {
                 self.invalidate(robot, out);
                 self.robots[robot as usize].crashed = true;
                 let r = &mut self.robots[robot as usize];
-                r.entry.clear();
-                r.contact.clear();
+                r.listening = None;
                 out.record(Observation::Crash {
                     robot,
                     state: self.state_at(robot, now),
@@ -133,7 +132,7 @@ impl VirtualWorld {
         if r.motion.is_none() {
             return;
         }
-        r.next_step = step + 1;
+        r.next_step = step as u32 + 1;
         let r = &self.robots[robot as usize];
         let m = r.motion.as_deref().expect("checked above");
         let mut steps = m.events();
@@ -295,7 +294,7 @@ impl VirtualWorld {
             // Each contact sensor of a robot that touched something senses now, on the
             // sensor manager.
             for (robot, with) in sides {
-                for &sensor in &self.robots[robot as usize].contact {
+                for &sensor in self.robots[robot as usize].contact() {
                     out.schedule(
                         out.now(),
                         Target::SensorManager,

@@ -321,11 +321,14 @@ impl Sensing {
             a.contact.remove(&sensor);
             a.entry.retain(|w| w.sensor != sensor);
         }
-        let r = &mut world.robots[robot as usize];
-        r.contact.retain(|s| *s != sensor);
-        let before = r.entry.len();
-        r.entry.retain(|(s, _)| *s != sensor);
-        if r.entry.len() != before {
+        let mut reach_changed = false;
+        if let Some(l) = world.robots[robot as usize].listening.as_deref_mut() {
+            l.contact.retain(|s| *s != sensor);
+            let before = l.entry.len();
+            l.entry.retain(|(s, _)| *s != sensor);
+            reach_changed = l.entry.len() != before;
+        }
+        if reach_changed {
             world.cancel_pairs(robot, out);
             world.predict_neighbours(robot, out);
         }
@@ -380,7 +383,7 @@ impl Sensing {
             }
             Trigger::Contact => {
                 self.armed_mut(robot).contact.insert(sensor, q.clone());
-                let listeners = &mut world.robots[robot as usize].contact;
+                let listeners = &mut world.robots[robot as usize].listening_mut().contact;
                 if !listeners.contains(&sensor) {
                     listeners.push(sensor);
                 }
@@ -400,7 +403,7 @@ impl Sensing {
                     Some(w) => *w = watch,
                     None => entry.push(watch),
                 }
-                let reaches = &mut world.robots[robot as usize].entry;
+                let reaches = &mut world.robots[robot as usize].listening_mut().entry;
                 match reaches.iter_mut().find(|(s, _)| *s == sensor) {
                     Some(r) => r.1 = range,
                     None => reaches.push((sensor, range)),
