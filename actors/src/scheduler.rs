@@ -263,7 +263,6 @@ impl Core {
             let Some(event) = self.queue.pop_until(self.until) else {
                 return Next::Finish;
             };
-            let event = *event;
             debug_assert!(event.time >= self.now, "time went backwards");
             if event.time == self.now {
                 self.at_instant += 1;

@@ -256,7 +256,7 @@ impl Event {
 /// What handling an event produces: effects as data, carried out by the scheduler.
 #[derive(Clone, Debug)]
 pub enum Effect {
-    Schedule(Box<Event>),
+    Schedule(Event),
     Cancel(EventId),
     Record(Observation),
 }
@@ -301,14 +301,14 @@ impl Outbox {
             index: self.next,
         };
         self.next += 1;
-        self.effects.push(Effect::Schedule(Box::new(Event {
+        self.effects.push(Effect::Schedule(Event {
             time: time.max(self.now),
             id,
             target,
             class,
             concerns: robots.map(|r| r.unwrap_or(NO_ROBOT)),
             payload,
-        })));
+        }));
         id
     }
 
@@ -341,14 +341,23 @@ impl Outbox {
 
 /// The event manager's queue: register, cancel, pop in order, and list a robot's future
 /// events (seed 4.2.3).
+///
+/// Pending events sit in reusable slots ([`Slots`]); the order's entries carry their slot, so
+/// taking the next event looks nothing up. Cancelling goes by id, through a table from ids to
+/// slots ([`EventQueue::place`]) that a fired event leaves behind: its entry goes stale (the
+/// slot is empty or holds another event, which the id tells) and is swept out when the table
+/// would otherwise grow. Issue 17: removing each fired event's entry from a table of millions
+/// was a cache miss per event, the largest single cost of a million-robot run.
 #[derive(Debug, Default)]
 pub struct EventQueue {
     /// The order of pending events; cancelled events' entries stay until they come up.
     order: RadixQueue,
-    /// Pending events, boxed as the handlers' effects carry them: the table holds a pointer
-    /// per event (24 bytes with its key, against 112 for the event itself), so growing it
-    /// moves little (issue 17: at 100k robots the table of whole events peaked at 291 MB).
-    live: HashMap<EventId, Box<Event>, super::grid::FixedHash>,
+    slots: Slots,
+    /// Where each pending event sits, plus stale entries of events that fired since the last
+    /// sweep (16 bytes an entry).
+    place: HashMap<EventId, u32, IdHash>,
+    /// Number of pending events.
+    live: usize,
     /// Each robot's pending events, by dense robot id, for `future_of`: built on the first
     /// listing and kept from then on (a run that never lists pays nothing; at a million robots
     /// the index was 128 MB). `future_of` sorts on demand.
@@ -362,16 +371,28 @@ impl EventQueue {
     }
 
     /// Registers an event.
-    pub fn register(&mut self, ev: Box<Event>) {
-        self.order.push(Entry {
-            key: time_key(ev.time),
-            cause: ev.id.cause,
-            index: ev.id.index,
-        });
+    pub fn register(&mut self, ev: Event) {
+        let id = ev.id;
         if let Some(index) = self.by_robot.as_mut() {
             Self::index(index, &ev);
         }
-        self.live.insert(ev.id, ev);
+        let key = time_key(ev.time);
+        let slot = self.slots.put(ev);
+        self.order.push(Entry {
+            key,
+            cause: id.cause,
+            index: id.index,
+            slot,
+        });
+        // Sweep the stale entries rather than grow, when they are a quarter of the table or
+        // more (so a sweep, one pass over the table, frees at least a quarter of it).
+        let stale = self.place.len() - self.live;
+        if self.place.len() == self.place.capacity() && stale >= self.place.capacity() / 4 {
+            let slots = &self.slots;
+            self.place.retain(|id, slot| slots.holds(*slot, *id));
+        }
+        self.place.insert(id, slot);
+        self.live += 1;
     }
 
     fn index(index: &mut Vec<Vec<EventId>>, ev: &Event) {
@@ -386,12 +407,14 @@ impl EventQueue {
 
     /// Cancels an event; returns whether it was still pending.
     pub fn cancel(&mut self, id: EventId) -> bool {
-        match self.live.remove(&id) {
-            Some(ev) => {
+        match self.place.remove(&id) {
+            Some(slot) if self.slots.holds(slot, id) => {
+                let ev = self.slots.take(slot);
+                self.live -= 1;
                 self.unindex(&ev);
                 true
             }
-            None => false,
+            _ => false,
         }
     }
 
@@ -408,14 +431,27 @@ impl EventQueue {
         }
     }
 
+    /// Whether the entry's event is still pending (not cancelled).
+    fn pending(&self, e: &Entry) -> bool {
+        let id = EventId {
+            cause: e.cause,
+            index: e.index,
+        };
+        self.slots.holds(e.slot, id)
+    }
+
+    /// Takes the pending event of an entry just popped.
+    fn take(&mut self, e: &Entry) -> Event {
+        let ev = self.slots.take(e.slot);
+        self.live -= 1;
+        self.unindex(&ev);
+        ev
+    }
+
     /// Time of the next pending event.
     pub fn peek_time(&mut self) -> Option<f64> {
-        while let Some(e) = self.order.peek() {
-            let id = EventId {
-                cause: e.cause,
-                index: e.index,
-            };
-            if self.live.contains_key(&id) {
+        while let Some(e) = self.order.peek().copied() {
+            if self.pending(&e) {
                 return Some(key_time(e.key));
             }
             self.order.pop();
@@ -424,38 +460,26 @@ impl EventQueue {
     }
 
     /// Removes and returns the next pending event.
-    pub fn pop(&mut self) -> Option<Box<Event>> {
+    pub fn pop(&mut self) -> Option<Event> {
         while let Some(e) = self.order.pop() {
-            let id = EventId {
-                cause: e.cause,
-                index: e.index,
-            };
-            if let Some(ev) = self.live.remove(&id) {
-                self.unindex(&ev);
-                return Some(ev);
+            if self.pending(&e) {
+                return Some(self.take(&e));
             }
         }
         None
     }
 
-    /// Removes and returns the next pending event if it is at `until` or before (one table
-    /// lookup an event, where `peek_time` and `pop` take two).
-    pub fn pop_until(&mut self, until: f64) -> Option<Box<Event>> {
+    /// Removes and returns the next pending event if it is at `until` or before.
+    pub fn pop_until(&mut self, until: f64) -> Option<Event> {
         while let Some(e) = self.order.pop() {
-            let id = EventId {
-                cause: e.cause,
-                index: e.index,
-            };
-            let Some(ev) = self.live.remove(&id) else {
+            if !self.pending(&e) {
                 continue;
-            };
-            if ev.time <= until {
-                self.unindex(&ev);
-                return Some(ev);
+            }
+            if key_time(e.key) <= until {
+                return Some(self.take(&e));
             }
             // Too late: it stays the next event.
             self.order.push_front(e);
-            self.live.insert(id, ev);
             return None;
         }
         None
@@ -463,35 +487,141 @@ impl EventQueue {
 
     /// Number of pending events.
     pub fn len(&self) -> usize {
-        self.live.len()
+        self.live
     }
 
     /// Whether no event is pending.
     pub fn is_empty(&self) -> bool {
-        self.live.is_empty()
+        self.live == 0
     }
 
     /// The pending events of a robot, in time order (time ties in id order).
     pub fn future_of(&mut self, robot: RobotId) -> Vec<&Event> {
-        let live = &self.live;
+        let slots = &self.slots;
         let index = self.by_robot.get_or_insert_with(|| {
             let mut index = Vec::new();
             // In causal order, as registration would have built it.
-            let mut all: Vec<&Event> = live.values().map(|e| &**e).collect();
+            let mut all: Vec<&Event> = slots.iter().collect();
             all.sort_unstable_by_key(|e| e.id);
             for ev in all {
                 Self::index(&mut index, ev);
             }
             index
         });
+        let place = &self.place;
         let mut evs: Vec<&Event> = index
             .get(robot as usize)
             .into_iter()
             .flatten()
-            .filter_map(|id| live.get(id).map(|e| &**e))
+            .filter_map(|id| place.get(id).and_then(|&s| slots.get(s)))
             .collect();
         evs.sort_by(|a, b| a.time.total_cmp(&b.time).then(a.id.cmp(&b.id)));
         evs
+    }
+}
+
+/// Slots per chunk of [`Slots`] (1.3 MB of events).
+const CHUNK_BITS: u32 = 14;
+
+/// Pending events in numbered slots, reused last-freed first, in chunks that never move: a
+/// million robots keep millions of events, and growing one vector would copy them all and
+/// hold both copies at once.
+#[derive(Debug, Default)]
+struct Slots {
+    chunks: Vec<Box<[Option<Event>]>>,
+    free: Vec<u32>,
+    /// Slots handed out so far.
+    used: u32,
+}
+
+impl Slots {
+    /// Puts `ev` in a free slot and returns its number.
+    fn put(&mut self, ev: Event) -> u32 {
+        let slot = match self.free.pop() {
+            Some(s) => s,
+            None => {
+                let s = self.used;
+                self.used = s.checked_add(1).expect("fewer than 2^32 pending events");
+                if (s >> CHUNK_BITS) as usize == self.chunks.len() {
+                    self.chunks
+                        .push((0..1 << CHUNK_BITS).map(|_| None).collect());
+                }
+                s
+            }
+        };
+        *self.cell(slot) = Some(ev);
+        slot
+    }
+
+    fn cell(&mut self, slot: u32) -> &mut Option<Event> {
+        &mut self.chunks[(slot >> CHUNK_BITS) as usize][(slot & ((1 << CHUNK_BITS) - 1)) as usize]
+    }
+
+    /// The event in `slot`, if any.
+    fn get(&self, slot: u32) -> Option<&Event> {
+        self.chunks
+            .get((slot >> CHUNK_BITS) as usize)?
+            .get((slot & ((1 << CHUNK_BITS) - 1)) as usize)?
+            .as_ref()
+    }
+
+    /// Whether `slot` holds the event `id`.
+    fn holds(&self, slot: u32, id: EventId) -> bool {
+        self.get(slot).is_some_and(|e| e.id == id)
+    }
+
+    /// Takes the event out of `slot`, which becomes free.
+    fn take(&mut self, slot: u32) -> Event {
+        let ev = self.cell(slot).take().expect("a pending event");
+        self.free.push(slot);
+        ev
+    }
+
+    /// Every pending event, in slot order.
+    fn iter(&self) -> impl Iterator<Item = &Event> {
+        self.chunks.iter().flat_map(|c| c.iter().flatten())
+    }
+}
+
+/// Hashes event ids so that the ids of one handling, and of handlings close in processing
+/// order, fall in neighbouring buckets of [`EventQueue::place`]: a handling's new entries
+/// share cache lines, and so do the cancellations of events predicted together. The low
+/// bits are `8 x cause + index`; the top seven bits, which the table compares first, are
+/// mixed from all of it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct IdHash;
+
+impl std::hash::BuildHasher for IdHash {
+    type Hasher = IdHasher;
+
+    fn build_hasher(&self) -> IdHasher {
+        IdHasher(0)
+    }
+}
+
+/// The hasher of [`IdHash`].
+#[derive(Clone, Copy, Debug)]
+pub struct IdHasher(u64);
+
+impl std::hash::Hasher for IdHasher {
+    fn finish(&self) -> u64 {
+        let low = self.0 & ((1 << 57) - 1);
+        let top = self.0.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 57;
+        low | top << 57
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+
+    fn write_u64(&mut self, cause: u64) {
+        self.0 = self.0.wrapping_add(cause.wrapping_mul(8));
+    }
+
+    fn write_u32(&mut self, index: u32) {
+        self.0 = self.0.wrapping_add(u64::from(index));
     }
 }
 
@@ -499,15 +629,15 @@ impl EventQueue {
 mod tests {
     use super::*;
 
-    fn ev(time: f64, cause: u64, index: u32, robot: RobotId) -> Box<Event> {
-        Box::new(Event {
+    fn ev(time: f64, cause: u64, index: u32, robot: RobotId) -> Event {
+        Event {
             time,
             id: EventId { cause, index },
             target: Target::Robot(robot),
             class: EventClass::Eventual,
             concerns: [robot, NO_ROBOT],
             payload: Payload::Timer { robot, ticket: 0 },
-        })
+        }
     }
 
     #[test]
@@ -556,6 +686,8 @@ mod tests {
             Step(Vec<(u8, u16, RobotId)>),
             /// Cancel the `k`-th pending event (in the oracle's order), or an unknown id.
             Cancel(usize),
+            /// Cancel the `k`-th last event that fired (or was cancelled): nothing happens.
+            CancelGone(usize),
             /// List a robot's future events.
             List(RobotId),
             /// Take the next event if it is at most this far ahead.
@@ -568,6 +700,7 @@ mod tests {
                 prop_oneof![
                     4 => prop::collection::vec(ahead, 0..4).prop_map(Op::Step),
                     2 => (0usize..20).prop_map(Op::Cancel),
+                    1 => (0usize..20).prop_map(Op::CancelGone),
                     1 => (0u32..6).prop_map(Op::List),
                     1 => (0u16..300).prop_map(Op::PopUntil),
                 ],
@@ -589,6 +722,8 @@ mod tests {
             fn the_queue_agrees_with_a_sorted_map(ops in ops()) {
                 let mut q = EventQueue::new();
                 let mut oracle = Oracle::new();
+                // Events that fired or were cancelled, latest last.
+                let mut gone: Vec<EventId> = Vec::new();
                 let (mut now, mut seq) = (0.0f64, 0u64);
                 for op in ops {
                     match op {
@@ -599,6 +734,7 @@ mod tests {
                                 let first = oracle.pop_first().expect("oracle has it too");
                                 prop_assert_eq!(key(e.time, e.id), first.0);
                                 now = e.time;
+                                gone.push(e.id);
                             } else {
                                 prop_assert!(oracle.is_empty());
                             }
@@ -626,6 +762,14 @@ mod tests {
                                 .copied()
                                 .and_then(|k| oracle.remove(&k));
                             prop_assert_eq!(q.cancel(id), had.is_some());
+                            if had.is_some() {
+                                gone.push(id);
+                            }
+                        }
+                        Op::CancelGone(k) => {
+                            if let Some(&id) = gone.iter().rev().nth(k) {
+                                prop_assert!(!q.cancel(id));
+                            }
                         }
                         Op::List(robot) => {
                             let got: Vec<(u64, EventId)> =
@@ -647,6 +791,7 @@ mod tests {
                             if let Some(k) = want {
                                 oracle.remove(&k);
                                 now = key_time(k.0);
+                                gone.push(k.1);
                             }
                             prop_assert_eq!(got, want);
                         }

@@ -19,12 +19,15 @@
 
 use std::collections::VecDeque;
 
-/// An event's place in the order: time (as [`time_key`]), then cause, then index.
+/// An event's place in the order: time (as [`time_key`]), then cause, then index; `slot`
+/// says where the owner keeps the event (it never decides the order: the first three are
+/// unique). 24 bytes, as without it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub struct Entry {
     pub key: u64,
     pub cause: u64,
     pub index: u32,
+    pub slot: u32,
 }
 
 /// `t` as an integer whose unsigned order is `f64::total_cmp`'s.
@@ -228,7 +231,7 @@ mod tests {
                         // Future instants also get entries out of causal order (which the
                         // engine does not make, but the queue must still order).
                         let c = if kind == 5 { u64::from(d) } else { cause };
-                        let e = Entry { key: time_key(t), cause: c, index: cause as u32 };
+                        let e = Entry { key: time_key(t), cause: c, index: cause as u32, slot: cause as u32 ^ 0x5555 };
                         q.push(e);
                         oracle.insert(e);
                     }
@@ -261,6 +264,7 @@ mod tests {
                 key: time_key(0.0),
                 cause,
                 index: 0,
+                slot: 0,
             });
         }
         for cause in 0..1_000_000u64 {
