@@ -279,7 +279,7 @@ fn scale(_: &mut Criterion) {
     for (n, short, long, repeats) in [
         (1_000usize, 20.0, 100.0, 5),
         (100_000, 1.0, 20.0, 2),
-        (1_000_000, 1.0, 11.0, 1),
+        (1_000_000, 1.0, 11.0, 2),
     ] {
         let mut steady = [None, None];
         for &host in &hosts {
