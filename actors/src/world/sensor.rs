@@ -60,7 +60,7 @@ impl SensorKind {
 
     /// Name used in traces and logs.
     pub fn name(self) -> &'static str {
-        *self.0
+        self.0
     }
 
     /// The number that derives the sensor's random stream from the run's seed: the built-ins
