@@ -428,7 +428,7 @@ impl Scheduler {
     }
 
     /// The pending events of a robot (the event manager's listing).
-    pub fn future_of(&mut self, robot: RobotId) -> Vec<&Event> {
+    pub fn future_of(&mut self, robot: RobotId) -> Vec<Event> {
         self.core.queue.future_of(robot)
     }
 }

@@ -352,7 +352,7 @@ impl Outbox {
 pub struct EventQueue {
     /// The order of pending events; cancelled events' entries stay until they come up.
     order: RadixQueue,
-    slots: Slots,
+    slots: Store,
     /// Where each pending event sits, plus stale entries of events that fired since the last
     /// sweep (16 bytes an entry).
     place: HashMap<EventId, u32, IdHash>,
@@ -495,21 +495,21 @@ impl EventQueue {
         self.live == 0
     }
 
-    /// The pending events of a robot, in time order (time ties in id order).
-    pub fn future_of(&mut self, robot: RobotId) -> Vec<&Event> {
+    /// The pending events of a robot, in time order (time ties in id order), as copies.
+    pub fn future_of(&mut self, robot: RobotId) -> Vec<Event> {
         let slots = &self.slots;
         let index = self.by_robot.get_or_insert_with(|| {
             let mut index = Vec::new();
             // In causal order, as registration would have built it.
-            let mut all: Vec<&Event> = slots.iter().collect();
+            let mut all: Vec<Event> = slots.all().collect();
             all.sort_unstable_by_key(|e| e.id);
-            for ev in all {
+            for ev in &all {
                 Self::index(&mut index, ev);
             }
             index
         });
         let place = &self.place;
-        let mut evs: Vec<&Event> = index
+        let mut evs: Vec<Event> = index
             .get(robot as usize)
             .into_iter()
             .flatten()
@@ -523,25 +523,47 @@ impl EventQueue {
 /// Slots per chunk of [`Slots`] (1.3 MB of events).
 const CHUNK_BITS: u32 = 14;
 
-/// Pending events in numbered slots, reused last-freed first, in chunks that never move: a
-/// million robots keep millions of events, and growing one vector would copy them all and
-/// hold both copies at once.
-#[derive(Debug, Default)]
-struct Slots {
-    chunks: Vec<Box<[Option<Event>]>>,
+/// What a slot store keeps: anything with an event id.
+trait Stored {
+    fn id(&self) -> EventId;
+}
+
+impl Stored for Event {
+    fn id(&self) -> EventId {
+        self.id
+    }
+}
+
+/// Values in numbered slots, reused last-freed first, in chunks that never move: a million
+/// robots keep millions of events, and growing one vector would copy them all and hold both
+/// copies at once.
+#[derive(Debug)]
+struct Slots<T> {
+    chunks: Vec<Box<[Option<T>]>>,
     free: Vec<u32>,
     /// Slots handed out so far.
     used: u32,
 }
 
-impl Slots {
-    /// Puts `ev` in a free slot and returns its number.
-    fn put(&mut self, ev: Event) -> u32 {
+impl<T> Default for Slots<T> {
+    fn default() -> Self {
+        Self {
+            chunks: Vec::new(),
+            free: Vec::new(),
+            used: 0,
+        }
+    }
+}
+
+impl<T: Stored> Slots<T> {
+    /// Puts `v` in a free slot and returns its number (below 2^31).
+    fn put(&mut self, v: T) -> u32 {
         let slot = match self.free.pop() {
             Some(s) => s,
             None => {
                 let s = self.used;
-                self.used = s.checked_add(1).expect("fewer than 2^32 pending events");
+                assert!(s < 1 << 31, "fewer than 2^31 pending events of a kind");
+                self.used = s + 1;
                 if (s >> CHUNK_BITS) as usize == self.chunks.len() {
                     self.chunks
                         .push((0..1 << CHUNK_BITS).map(|_| None).collect());
@@ -549,16 +571,16 @@ impl Slots {
                 s
             }
         };
-        *self.cell(slot) = Some(ev);
+        *self.cell(slot) = Some(v);
         slot
     }
 
-    fn cell(&mut self, slot: u32) -> &mut Option<Event> {
+    fn cell(&mut self, slot: u32) -> &mut Option<T> {
         &mut self.chunks[(slot >> CHUNK_BITS) as usize][(slot & ((1 << CHUNK_BITS) - 1)) as usize]
     }
 
-    /// The event in `slot`, if any.
-    fn get(&self, slot: u32) -> Option<&Event> {
+    /// The value in `slot`, if any.
+    fn get(&self, slot: u32) -> Option<&T> {
         self.chunks
             .get((slot >> CHUNK_BITS) as usize)?
             .get((slot & ((1 << CHUNK_BITS) - 1)) as usize)?
@@ -567,19 +589,124 @@ impl Slots {
 
     /// Whether `slot` holds the event `id`.
     fn holds(&self, slot: u32, id: EventId) -> bool {
-        self.get(slot).is_some_and(|e| e.id == id)
+        self.get(slot).is_some_and(|v| v.id() == id)
     }
 
-    /// Takes the event out of `slot`, which becomes free.
-    fn take(&mut self, slot: u32) -> Event {
-        let ev = self.cell(slot).take().expect("a pending event");
+    /// Takes the value out of `slot`, which becomes free.
+    fn take(&mut self, slot: u32) -> T {
+        let v = self.cell(slot).take().expect("a pending event");
         self.free.push(slot);
-        ev
+        v
     }
 
-    /// Every pending event, in slot order.
-    fn iter(&self) -> impl Iterator<Item = &Event> {
+    /// Every value, in slot order.
+    fn iter(&self) -> impl Iterator<Item = &T> {
         self.chunks.iter().flat_map(|c| c.iter().flatten())
+    }
+}
+
+/// A motion step as the queue keeps it (32 bytes, where an [`Event`] takes 80): the motion
+/// manager's `MotionStep` of one robot, its only content the robot and the step's number. A
+/// motion schedules all its steps at once, so a million moving robots keep four million of
+/// them pending (issue 17).
+#[derive(Clone, Copy, Debug)]
+struct CompactStep {
+    time: f64,
+    id: EventId,
+    robot: RobotId,
+    step: u32,
+    class: EventClass,
+}
+
+impl Stored for CompactStep {
+    fn id(&self) -> EventId {
+        self.id
+    }
+}
+
+impl CompactStep {
+    /// `ev` as a compact step, if it is a motion step that [`CompactStep::event`] gives back
+    /// exactly.
+    fn of(ev: &Event) -> Option<Self> {
+        match ev.payload {
+            Payload::MotionStep { robot, step }
+                if ev.target == Target::MotionManager && ev.concerns == [robot, NO_ROBOT] =>
+            {
+                Some(Self {
+                    time: ev.time,
+                    id: ev.id,
+                    robot,
+                    step: u32::try_from(step).ok()?,
+                    class: ev.class,
+                })
+            }
+            _ => None,
+        }
+    }
+
+    /// The event it stands for.
+    fn event(&self) -> Event {
+        Event {
+            time: self.time,
+            id: self.id,
+            target: Target::MotionManager,
+            class: self.class,
+            concerns: [self.robot, NO_ROBOT],
+            payload: Payload::MotionStep {
+                robot: self.robot,
+                step: self.step as usize,
+            },
+        }
+    }
+}
+
+/// The queue's pending events: motion steps compact, the others whole. A slot number's top
+/// bit says which store it is in.
+#[derive(Debug, Default)]
+struct Store {
+    events: Slots<Event>,
+    steps: Slots<CompactStep>,
+}
+
+/// The top bit of a slot number in [`Store`]: a compact step's.
+const STEP: u32 = 1 << 31;
+
+impl Store {
+    fn put(&mut self, ev: Event) -> u32 {
+        match CompactStep::of(&ev) {
+            Some(step) => self.steps.put(step) | STEP,
+            None => self.events.put(ev),
+        }
+    }
+
+    fn holds(&self, slot: u32, id: EventId) -> bool {
+        if slot & STEP != 0 {
+            self.steps.holds(slot & !STEP, id)
+        } else {
+            self.events.holds(slot, id)
+        }
+    }
+
+    fn take(&mut self, slot: u32) -> Event {
+        if slot & STEP != 0 {
+            self.steps.take(slot & !STEP).event()
+        } else {
+            self.events.take(slot)
+        }
+    }
+
+    /// A copy of the event in `slot`, if any (for listings).
+    fn get(&self, slot: u32) -> Option<Event> {
+        if slot & STEP != 0 {
+            self.steps.get(slot & !STEP).map(CompactStep::event)
+        } else {
+            self.events.get(slot).cloned()
+        }
+    }
+
+    /// Copies of every pending event.
+    fn all(&self) -> impl Iterator<Item = Event> + '_ {
+        (self.events.iter().cloned()).chain(self.steps.iter().map(CompactStep::event))
     }
 }
 
@@ -645,6 +772,41 @@ mod tests {
             concerns: [robot, NO_ROBOT],
             payload: Payload::Timer { robot, ticket: 0 },
         }
+    }
+
+    /// A motion step, which the queue keeps compact.
+    fn step(time: f64, cause: u64, index: u32, robot: RobotId) -> Event {
+        Event {
+            time,
+            id: EventId { cause, index },
+            target: Target::MotionManager,
+            class: EventClass::Conditional,
+            concerns: [robot, NO_ROBOT],
+            payload: Payload::MotionStep {
+                robot,
+                step: index as usize,
+            },
+        }
+    }
+
+    #[test]
+    fn motion_steps_come_back_as_they_went_in() {
+        let mut q = EventQueue::new();
+        let a = step(1.5, 7, 3, 9);
+        let mut b = step(2.0, 7, 4, 9);
+        // Not compact (another target): kept whole, and comes back as well.
+        b.target = Target::SensorManager;
+        let c = ev(1.0, 8, 0, 9);
+        for e in [&a, &b, &c] {
+            q.register(e.clone());
+        }
+        let listed: Vec<String> = q.future_of(9).iter().map(|e| format!("{e:?}")).collect();
+        let want: Vec<String> = [&c, &a, &b].iter().map(|e| format!("{e:?}")).collect();
+        assert_eq!(listed, want);
+        let popped: Vec<String> = std::iter::from_fn(|| q.pop())
+            .map(|e| format!("{e:?}"))
+            .collect();
+        assert_eq!(popped, want);
     }
 
     #[test]
@@ -753,7 +915,12 @@ mod tests {
                                     2 => now + f64::from(d),
                                     _ => now + f64::from(d) * 1e5,
                                 };
-                                let e = ev(t, seq, index as u32, robot);
+                                // Motion steps (kept compact) and other events.
+                                let e = if robot % 2 == 0 {
+                                    step(t, seq, index as u32, robot)
+                                } else {
+                                    ev(t, seq, index as u32, robot)
+                                };
                                 oracle.insert(key(t, e.id), (t, robot));
                                 q.register(e);
                             }
