@@ -120,3 +120,30 @@ impl std::hash::BuildHasher for FixedHash {
         self.0.build_hasher()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn neighbours_are_the_robots_of_the_three_by_three_block() {
+        let mut g = Grid::new(10.0);
+        for (id, c) in [
+            (0, [0, 0]),
+            (1, [1, 1]),
+            (2, [2, 0]),
+            (3, [-1, -1]),
+            (4, [0, 0]),
+        ] {
+            g.insert(id, c);
+        }
+        let mut n: Vec<RobotId> = g.neighbours([0, 0]).collect();
+        n.sort_unstable();
+        assert_eq!(n, vec![0, 1, 3, 4]);
+        g.remove(0, [0, 0]);
+        n = g.neighbours([0, 0]).collect();
+        n.sort_unstable();
+        assert_eq!(n, vec![1, 3, 4]);
+        assert_eq!(g.cell_of(Point::new(-0.5, 19.9)), [-1, 1]);
+    }
+}
