@@ -11,6 +11,8 @@
 
 use std::collections::HashMap;
 
+use smallvec::SmallVec;
+
 use super::geometry::Point;
 use super::RobotId;
 
@@ -21,7 +23,10 @@ pub type Cell = [i64; 2];
 #[derive(Clone, Debug)]
 pub struct Grid {
     size: f64,
-    cells: HashMap<Cell, Vec<RobotId>, FixedHash>,
+    /// A cell's robots inline (24 bytes, as a `Vec`'s header) up to four: most cells hold one
+    /// or two, and a separate allocation was a second cache miss at every look and an
+    /// allocation at every crossing into an empty cell (issue 17).
+    cells: HashMap<Cell, SmallVec<[RobotId; 4]>, FixedHash>,
 }
 
 impl Grid {
