@@ -182,7 +182,11 @@ impl RobotState {
 /// visited in partner order as a `BTreeMap` would: a robot has a handful of partners, and a
 /// B-tree's first node alone took about 280 bytes (issue 17).
 #[derive(Debug, Default)]
-struct Pairs(Vec<(RobotId, Vec<EventId>)>);
+struct Pairs(Vec<(RobotId, PairEvents)>);
+
+/// The events predicted for a pair of robots: mostly none or one collision, kept inline (a
+/// vector was an allocation per prediction, in each of the two robots' tables).
+type PairEvents = smallvec::SmallVec<[EventId; 1]>;
 
 impl Pairs {
     fn find(&self, partner: RobotId) -> Result<usize, usize> {
@@ -194,21 +198,21 @@ impl Pairs {
     }
 
     /// Sets the pair events with `partner`, replacing any.
-    fn insert(&mut self, partner: RobotId, ids: Vec<EventId>) {
+    fn insert(&mut self, partner: RobotId, ids: PairEvents) {
         match self.find(partner) {
             Ok(i) => self.0[i].1 = ids,
             Err(i) => self.0.insert(i, (partner, ids)),
         }
     }
 
-    fn remove(&mut self, partner: &RobotId) -> Option<Vec<EventId>> {
+    fn remove(&mut self, partner: &RobotId) -> Option<PairEvents> {
         self.find(*partner).ok().map(|i| self.0.remove(i).1)
     }
 
     /// The pair events with `partner`, made empty if there were none.
-    fn events_mut(&mut self, partner: RobotId) -> &mut Vec<EventId> {
+    fn events_mut(&mut self, partner: RobotId) -> &mut PairEvents {
         let i = self.find(partner).unwrap_or_else(|i| {
-            self.0.insert(i, (partner, Vec::new()));
+            self.0.insert(i, (partner, PairEvents::new()));
             i
         });
         &mut self.0[i].1
@@ -216,8 +220,8 @@ impl Pairs {
 }
 
 impl IntoIterator for Pairs {
-    type Item = (RobotId, Vec<EventId>);
-    type IntoIter = std::vec::IntoIter<(RobotId, Vec<EventId>)>;
+    type Item = (RobotId, PairEvents);
+    type IntoIter = std::vec::IntoIter<(RobotId, PairEvents)>;
 
     fn into_iter(self) -> Self::IntoIter {
         self.0.into_iter()
@@ -447,7 +451,7 @@ impl VirtualWorld {
         let now = out.now();
         let (ta, tb) = (self.track(a), self.track(b));
         let (ra, rb) = (self.radius(a), self.radius(b));
-        let mut ids = Vec::new();
+        let mut ids = PairEvents::new();
         if !self.cfg.ghost_mode {
             if let Some(t) = predict_contact(&ta, &tb, ra + rb, now) {
                 ids.push(out.schedule(
