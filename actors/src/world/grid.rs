@@ -9,6 +9,7 @@
 //! in a hash map, so an infinite world costs only the occupied cells. The map is only ever
 //! looked up, never iterated, so its hashing cannot affect the order of anything.
 
+use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 
 use smallvec::SmallVec;
@@ -62,12 +63,14 @@ impl Grid {
     }
 
     pub fn remove(&mut self, id: RobotId, c: Cell) {
-        if let Some(v) = self.cells.get_mut(&c) {
+        // One look-up, also when the cell empties (most cells hold one robot).
+        if let Entry::Occupied(mut cell) = self.cells.entry(c) {
+            let v = cell.get_mut();
             if let Some(i) = v.iter().position(|&x| x == id) {
                 v.swap_remove(i);
             }
             if v.is_empty() {
-                self.cells.remove(&c);
+                cell.remove();
             }
         }
     }
