@@ -137,6 +137,14 @@ pub trait MotionPattern: fmt::Debug + Send + Sync {
     fn state_at(&self, t: f64) -> Kinematics;
     /// The events the motion produces, in time order (seed 4.2.1, second operation).
     fn events(&self) -> Vec<MotionStep>;
+    /// The `k`-th of [`MotionPattern::events`], and whether it is the last. The engine asks at
+    /// every step; this default builds the whole list, the built-in patterns answer without
+    /// allocating.
+    fn step(&self, k: usize) -> Option<(MotionStep, bool)> {
+        let mut steps = self.events();
+        let last = k + 1 == steps.len();
+        (k < steps.len()).then(|| (steps.swap_remove(k), last))
+    }
     /// The path from start to end as consecutive pieces.
     fn pieces(&self) -> Vec<Piece>;
     /// What is left of the motion at `t`, for the Neko log.
@@ -479,6 +487,33 @@ impl MotionPattern for TurnForward {
         out
     }
 
+    fn step(&self, k: usize) -> Option<(MotionStep, bool)> {
+        let n = 2 * (usize::from(self.has_turn) + usize::from(self.has_forward));
+        if k >= n {
+            return None;
+        }
+        // The place among the four steps a motion with both a turn and a move has.
+        let step = match if self.has_turn { k } else { k + 2 } {
+            0 => MotionStep {
+                t: self.t0,
+                kind: StepKind::StartTurn,
+            },
+            1 => MotionStep {
+                t: self.t_turned,
+                kind: StepKind::FinishTurn,
+            },
+            2 => MotionStep {
+                t: self.t_turned,
+                kind: StepKind::StartForward,
+            },
+            _ => MotionStep {
+                t: self.t_end,
+                kind: StepKind::FinishForward,
+            },
+        };
+        Some((step, k + 1 == n))
+    }
+
     fn pieces(&self) -> Vec<Piece> {
         let u = heading_vector(self.heading);
         vec![
@@ -552,6 +587,42 @@ mod tests {
             let s = TurnRule::Shortest.turn(from, to);
             assert!(s.abs() <= 180.0);
             assert!(((got - s).rem_euclid(360.0)).min(360.0 - (got - s).rem_euclid(360.0)) < 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_step_is_the_events_own() {
+        let motions = [
+            Motion::MoveTo {
+                dest: Point::new(0.0, 10.0),
+                move_speed: 2.0,
+                turn_speed: 45.0,
+            },
+            Motion::MoveTo {
+                dest: Point::new(10.0, 0.0),
+                move_speed: 2.0,
+                turn_speed: 45.0,
+            },
+            Motion::Turn {
+                angle: -90.0,
+                turn_speed: 30.0,
+            },
+            Motion::Forward {
+                distance: 4.0,
+                move_speed: 1.0,
+            },
+            Motion::Forward {
+                distance: 0.0,
+                move_speed: 1.0,
+            },
+        ];
+        for motion in motions {
+            let m = motion.begin(1.0, pose(0.0, 0.0, 0.0)).unwrap();
+            let events = m.events();
+            for k in 0..events.len() + 2 {
+                let want = events.get(k).map(|e| (e.clone(), k + 1 == events.len()));
+                assert_eq!(m.step(k), want, "{motion:?} step {k}");
+            }
         }
     }
 

@@ -135,9 +135,8 @@ impl VirtualWorld {
         r.next_step = step as u32 + 1;
         let r = &self.robots[robot as usize];
         let m = r.motion.as_deref().expect("checked above");
-        let mut steps = m.events();
-        let last = step + 1 == steps.len();
-        let kind = steps.swap_remove(step).kind;
+        let (crate::world::motion::MotionStep { kind, .. }, last) =
+            m.step(step).expect("a step of the motion");
         out.record(Observation::MotionStep {
             robot,
             step: kind,
