@@ -8,7 +8,10 @@
 //!   spans' wall times over the difference of their events) and its ratio to 1k's, the
 //!   real-time factor, the wall time to simulated second 1 (placement included) and peak RSS,
 //!   for the actor-hosted run and for the kernel-alone reference (`nekosim::kernel::run`: the
-//!   same handling code without actors), and the ratio of the two. Timed by hand (a 1M run takes 15-25 s here), least of a few runs; run it alone with
+//!   same handling code without actors), and the ratio of the two; also the same figures
+//!   within the long run, from its first progress call at simulated second 1 to its last
+//!   (start-up and teardown outside, no difference of two runs). Timed by hand (a 1M run
+//!   takes 15-25 s here), least of a few runs; run it alone with
 //!   `cargo bench --bench engine -- scale`.
 //!
 //! The allocator is the `nekosim` binary's (mimalloc, keeping freed memory:
@@ -223,11 +226,35 @@ enum Host {
     Kernel,
 }
 
-/// One timed run: (wall seconds of the run, placement seconds, events).
-fn timed(host: Host, n: usize, until: f64) -> (f64, f64, u64) {
+/// One timed run.
+#[derive(Clone, Copy, Debug)]
+struct Timed {
+    /// Wall seconds of the run, placement excluded.
+    wall: f64,
+    /// Wall seconds of the placement.
+    placement: f64,
+    events: u64,
+    /// Within the run, from the first progress call at simulated second 1 or later to the
+    /// last one: (wall seconds, events, simulated seconds). The start-up, its burst of first
+    /// touches of memory and the teardown stay outside, and so does the noise between two
+    /// separate runs.
+    inrun: (f64, u64, f64),
+}
+
+fn timed(host: Host, n: usize, until: f64) -> Timed {
     let placed = std::time::Instant::now();
-    let cfg = random_config(n, until);
+    let mut cfg = random_config(n, until);
     let placement = placed.elapsed().as_secs_f64();
+    let marks = std::rc::Rc::new(std::cell::Cell::new(None));
+    let seen = marks.clone();
+    cfg.observers.progress = Some(Box::new(move |t: f64, events: u64| {
+        if t >= 1.0 {
+            let now = (std::time::Instant::now(), events, t);
+            seen.set(Some(
+                seen.get().map_or((now, now), |(first, _)| (first, now)),
+            ));
+        }
+    }));
     let started = std::time::Instant::now();
     let stats = match host {
         Host::Actors => nekosim::run(cfg),
@@ -235,25 +262,31 @@ fn timed(host: Host, n: usize, until: f64) -> (f64, f64, u64) {
     }
     .unwrap()
     .stats;
-    (started.elapsed().as_secs_f64(), placement, stats.events)
+    let wall = started.elapsed().as_secs_f64();
+    let inrun = marks.get().map_or((0.0, 0, 0.0), |(a, b)| {
+        ((b.0 - a.0).as_secs_f64(), b.1 - a.1, b.2 - a.2)
+    });
+    Timed {
+        wall,
+        placement,
+        events: stats.events,
+        inrun,
+    }
 }
 
-/// The least wall times of `repeats` runs of each span: (short run, long run).
-type Spans = ((f64, f64, u64), (f64, f64, u64));
-
-fn spans(host: Host, n: usize, short: f64, long: f64, repeats: usize) -> Spans {
-    let (mut a, mut b) = ((f64::MAX, 0.0, 0), (f64::MAX, 0.0, 0));
+/// The runs with the least wall times of `repeats` runs of each span, alternating:
+/// (short run, long run).
+fn spans(host: Host, n: usize, short: f64, long: f64, repeats: usize) -> (Timed, Timed) {
+    let (mut a, mut b): (Option<Timed>, Option<Timed>) = (None, None);
+    let least = |best: Option<Timed>, x: Timed| match best {
+        Some(y) if y.wall <= x.wall => y,
+        _ => x,
+    };
     for _ in 0..repeats {
-        let x = timed(host, n, short);
-        if x.0 < a.0 {
-            a = x;
-        }
-        let y = timed(host, n, long);
-        if y.0 < b.0 {
-            b = y;
-        }
+        a = Some(least(a, timed(host, n, short)));
+        b = Some(least(b, timed(host, n, long)));
     }
-    (a, b)
+    (a.expect("a run"), b.expect("a run"))
 }
 
 /// Issue 17's scale series, smallest first so that the process's peak RSS after each size is
@@ -276,6 +309,7 @@ fn scale(_: &mut Criterion) {
     .map(|(h, _)| h)
     .collect();
     let mut base_cost = [None, None];
+    let mut base_inrun = [None, None];
     for (n, short, long, repeats) in [
         (1_000usize, 20.0, 100.0, 5),
         (100_000, 1.0, 20.0, 2),
@@ -284,25 +318,34 @@ fn scale(_: &mut Criterion) {
         let mut steady = [None, None];
         for &host in &hosts {
             let (a, b) = spans(host, n, short, long, repeats);
-            let cost = (b.0 - a.0) / (b.2 - a.2) as f64;
+            let cost = (b.wall - a.wall) / (b.events - a.events) as f64;
+            let (in_wall, in_events, in_sim) = b.inrun;
+            let in_cost = in_wall / in_events as f64;
             let k = host as usize;
             let base = *base_cost[k].get_or_insert(cost);
-            steady[k] = Some((cost, b.0));
+            let in_base = *base_inrun[k].get_or_insert(in_cost);
+            steady[k] = Some((cost, b.wall));
             println!(
                 "scale/{host:?}/{n}: {long} s: {} events in {:.3} s ({:.0} events/s); {short} s: \
                  {} events in {:.3} s; steady state (the difference): {:.2} us per event ({:.2}x \
-                 1k's), {:.2}x real time; to simulated second 1: {:.2} s + placement {:.2} s; \
-                 peak RSS {:.2} GB",
-                b.2,
-                b.0,
-                b.2 as f64 / b.0,
-                a.2,
-                a.0,
+                 1k's), {:.2}x real time; within the long run from simulated second 1: {} events \
+                 in {:.3} s, {:.2} us per event ({:.2}x 1k's), {:.2}x real time; to simulated \
+                 second 1: {:.2} s + placement {:.2} s; peak RSS {:.2} GB",
+                b.events,
+                b.wall,
+                b.events as f64 / b.wall,
+                a.events,
+                a.wall,
                 cost * 1e6,
                 cost / base,
-                (long - short) / (b.0 - a.0),
-                if short == 1.0 { a.0 } else { f64::NAN },
-                a.1,
+                (long - short) / (b.wall - a.wall),
+                in_events,
+                in_wall,
+                in_cost * 1e6,
+                in_cost / in_base,
+                in_sim / in_wall,
+                if short == 1.0 { a.wall } else { f64::NAN },
+                a.placement,
                 peak_rss() as f64 / 1e9,
             );
         }
