@@ -32,7 +32,7 @@ impl HandleEvent for MotionManager {
         let mut out = Outbox::new(msg.now, msg.seq);
         // The scheduler has one event in flight at a time, so this lock is never contended.
         let mut world = self.world.lock().expect("world lock");
-        world.handle_motion(msg.event.payload, &mut out);
+        world.handle_motion(msg.event.id, msg.event.payload, &mut out);
         out.into_effects()
     }
 }

@@ -225,8 +225,12 @@ impl Core {
                     assert!(ev.time >= self.now, "an event was scheduled in the past");
                     self.queue.register(ev);
                 }
-                Effect::Cancel(id) => {
-                    if self.queue.cancel(id) {
+                Effect::ScheduleIn(ev, slot) => {
+                    assert!(ev.time >= self.now, "an event was scheduled in the past");
+                    self.queue.register_in(ev, slot);
+                }
+                Effect::Cancel(h) => {
+                    if self.queue.cancel(h) {
                         self.output.stats.cancelled += 1;
                     }
                 }

@@ -11,8 +11,6 @@
 //! (motion steps after the start, collisions, cell crossings, sensor entries): a conditional
 //! event is cancelled when a robot it depends on changes its path before it fires.
 
-use std::collections::HashMap;
-
 use super::motion::Motion;
 use super::observation::Observation;
 use super::radix::{key_time, time_key, Entry, RadixQueue};
@@ -257,8 +255,60 @@ impl Event {
 #[derive(Clone, Debug)]
 pub enum Effect {
     Schedule(Event),
-    Cancel(EventId),
+    /// Schedules a cancellable event in the queue slot its handle names ([`Outbox::schedule_in`]).
+    ScheduleIn(Event, u32),
+    Cancel(Handle),
     Record(Observation),
+}
+
+/// A cancellable event's handle: its id and the queue slot it is kept in, which whoever keeps
+/// the handle chose from its [`Claims`] (the world, for its conditional events). Cancelling
+/// through it looks nothing up: the slot is checked for the id (issue 17: a table from ids to
+/// slots was a cache miss per scheduled event at a million robots, 13 % of the steady state).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(C, packed(4))]
+pub struct Handle {
+    pub id: EventId,
+    pub slot: u32,
+}
+
+impl From<Handle> for EventId {
+    fn from(h: Handle) -> Self {
+        h.id
+    }
+}
+
+/// The queue slots of the cancellable events someone keeps handles of: a slot is claimed when
+/// such an event is scheduled ([`Outbox::schedule_in`]) and released when its handle is
+/// dropped, after cancelling it (a no-op if it already fired). The queue keeps those events
+/// in slots of their own, so the two numberings never meet; a released slot's stale order
+/// entry is skipped by the id check, as a cancelled event's always was.
+#[derive(Clone, Debug, Default)]
+pub struct Claims {
+    /// Released slots, whole events' and motion steps', reused last released first.
+    free: [Vec<u32>; 2],
+    /// Slots handed out so far, of each kind.
+    next: [u32; 2],
+}
+
+impl Claims {
+    /// A free slot for an event that the queue keeps compact (`step`) or whole.
+    fn claim(&mut self, step: bool) -> u32 {
+        let k = usize::from(step);
+        let n = self.free[k].pop().unwrap_or_else(|| {
+            let n = self.next[k];
+            assert!(n < CLAIMED, "fewer than 2^30 claimed slots of a kind");
+            self.next[k] = n + 1;
+            n
+        });
+        n | CLAIMED | if step { STEP } else { 0 }
+    }
+
+    /// Gives back the slot of a handle that is dropped (after cancelling it).
+    pub fn release(&mut self, h: Handle) {
+        let slot = h.slot;
+        self.free[usize::from(slot & STEP != 0)].push(slot & !(STEP | CLAIMED));
+    }
 }
 
 /// Collects the effects of one event's handling and names the events it creates.
@@ -312,6 +362,26 @@ impl Outbox {
         id
     }
 
+    /// Schedules a cancellable event in a slot claimed from `claims` and returns its handle,
+    /// which the caller keeps to cancel the event and then releases ([`Claims::release`]).
+    pub fn schedule_in(
+        &mut self,
+        claims: &mut Claims,
+        time: f64,
+        target: Target,
+        class: EventClass,
+        robots: [Option<RobotId>; 2],
+        payload: Payload,
+    ) -> Handle {
+        let id = self.schedule(time, target, class, robots, payload);
+        let Some(Effect::Schedule(ev)) = self.effects.pop() else {
+            unreachable!("schedule pushes its event");
+        };
+        let slot = claims.claim(CompactStep::of(&ev).is_some());
+        self.effects.push(Effect::ScheduleIn(ev, slot));
+        Handle { id, slot }
+    }
+
     /// Schedules a notice to a robot's algorithm, now.
     pub fn notify(&mut self, robot: RobotId, notice: Notice) {
         self.schedule(
@@ -324,8 +394,8 @@ impl Outbox {
     }
 
     /// Cancels a scheduled event (no-op if it already fired or was cancelled).
-    pub fn cancel(&mut self, id: EventId) {
-        self.effects.push(Effect::Cancel(id));
+    pub fn cancel(&mut self, h: Handle) {
+        self.effects.push(Effect::Cancel(h));
     }
 
     /// Records an observation for the run's trace.
@@ -343,25 +413,22 @@ impl Outbox {
 /// events (seed 4.2.3).
 ///
 /// Pending events sit in reusable slots ([`Slots`]); the order's entries carry their slot, so
-/// taking the next event looks nothing up. Cancelling goes by id, through a table from ids to
-/// slots ([`EventQueue::place`]) that a fired event leaves behind: its entry goes stale (the
-/// slot is empty or holds another event, which the id tells) and is swept out when the table
-/// would otherwise grow. Issue 17: removing each fired event's entry from a table of millions
-/// was a cache miss per event, the largest single cost of a million-robot run.
+/// taking the next event looks nothing up. A cancellable event sits in a slot that whoever
+/// keeps its [`Handle`] claimed ([`Claims`]), so cancelling looks nothing up either: the
+/// handle names the slot, whose id says whether the event is still there. Issue 17: a table
+/// from ids to slots, written for every scheduled event and swept of fired ones, was the
+/// largest single cost of a million-robot run's steady state.
 #[derive(Debug, Default)]
 pub struct EventQueue {
     /// The order of pending events; cancelled events' entries stay until they come up.
     order: RadixQueue,
     slots: Store,
-    /// Where each pending event sits, plus stale entries of events that fired since the last
-    /// sweep (16 bytes an entry).
-    place: HashMap<EventId, u32, IdHash>,
     /// Number of pending events.
     live: usize,
-    /// Each robot's pending events, by dense robot id, for `future_of`: built on the first
-    /// listing and kept from then on (a run that never lists pays nothing; at a million robots
-    /// the index was 128 MB). `future_of` sorts on demand.
-    by_robot: Option<Vec<Vec<EventId>>>,
+    /// Each robot's pending events (id and slot), by dense robot id, for `future_of`: built on
+    /// the first listing and kept from then on (a run that never lists pays nothing; at a
+    /// million robots the index was 128 MB). `future_of` sorts on demand.
+    by_robot: Option<Vec<Vec<(EventId, u32)>>>,
 }
 
 impl EventQueue {
@@ -372,50 +439,55 @@ impl EventQueue {
 
     /// Registers an event.
     pub fn register(&mut self, ev: Event) {
-        let id = ev.id;
-        if let Some(index) = self.by_robot.as_mut() {
-            Self::index(index, &ev);
-        }
         let key = time_key(ev.time);
+        let id = ev.id;
         let slot = self.slots.put(ev);
+        self.enter(key, id, slot);
+    }
+
+    /// Registers a cancellable event in the slot its handle names (which must be free: its
+    /// event fired or was cancelled).
+    pub fn register_in(&mut self, ev: Event, slot: u32) {
+        let key = time_key(ev.time);
+        let id = ev.id;
+        self.slots.put_at(slot, ev);
+        self.enter(key, id, slot);
+    }
+
+    fn enter(&mut self, key: u64, id: EventId, slot: u32) {
+        if let Some(index) = self.by_robot.as_mut() {
+            let ev = self.slots.get(slot).expect("just put");
+            Self::index(index, &ev, slot);
+        }
         self.order.push(Entry {
             key,
             cause: id.cause,
             index: id.index,
             slot,
         });
-        // Sweep the stale entries rather than grow, when they are a quarter of the table or
-        // more (so a sweep, one pass over the table, frees at least a quarter of it).
-        let stale = self.place.len() - self.live;
-        if self.place.len() == self.place.capacity() && stale >= self.place.capacity() / 4 {
-            let slots = &self.slots;
-            self.place.retain(|id, slot| slots.holds(*slot, *id));
-        }
-        self.place.insert(id, slot);
         self.live += 1;
     }
 
-    fn index(index: &mut Vec<Vec<EventId>>, ev: &Event) {
+    fn index(index: &mut Vec<Vec<(EventId, u32)>>, ev: &Event, slot: u32) {
         for r in ev.robots().into_iter().flatten() {
             let r = r as usize;
             if index.len() <= r {
                 index.resize_with(r + 1, Vec::new);
             }
-            index[r].push(ev.id);
+            index[r].push((ev.id, slot));
         }
     }
 
     /// Cancels an event; returns whether it was still pending.
-    pub fn cancel(&mut self, id: EventId) -> bool {
-        match self.place.remove(&id) {
-            Some(slot) if self.slots.holds(slot, id) => {
-                let ev = self.slots.take(slot);
-                self.live -= 1;
-                self.unindex(&ev);
-                true
-            }
-            _ => false,
+    pub fn cancel(&mut self, h: Handle) -> bool {
+        let (id, slot) = (h.id, h.slot);
+        if !self.slots.holds(slot, id) {
+            return false;
         }
+        let ev = self.slots.take(slot);
+        self.live -= 1;
+        self.unindex(&ev);
+        true
     }
 
     fn unindex(&mut self, ev: &Event) {
@@ -424,7 +496,7 @@ impl EventQueue {
         };
         for r in ev.robots().into_iter().flatten() {
             if let Some(list) = index.get_mut(r as usize) {
-                if let Some(k) = list.iter().position(|id| *id == ev.id) {
+                if let Some(k) = list.iter().position(|(id, _)| *id == ev.id) {
                     list.swap_remove(k);
                 }
             }
@@ -501,19 +573,18 @@ impl EventQueue {
         let index = self.by_robot.get_or_insert_with(|| {
             let mut index = Vec::new();
             // In causal order, as registration would have built it.
-            let mut all: Vec<Event> = slots.all().collect();
-            all.sort_unstable_by_key(|e| e.id);
-            for ev in &all {
-                Self::index(&mut index, ev);
+            let mut all: Vec<(Event, u32)> = slots.all().collect();
+            all.sort_unstable_by_key(|(e, _)| e.id);
+            for (ev, slot) in &all {
+                Self::index(&mut index, ev, *slot);
             }
             index
         });
-        let place = &self.place;
         let mut evs: Vec<Event> = index
             .get(robot as usize)
             .into_iter()
             .flatten()
-            .filter_map(|id| place.get(id).and_then(|&s| slots.get(s)))
+            .filter_map(|&(id, slot)| slots.get(slot).filter(|e| e.id == id))
             .collect();
         evs.sort_by(|a, b| a.time.total_cmp(&b.time).then(a.id.cmp(&b.id)));
         evs
@@ -556,13 +627,13 @@ impl<T> Default for Slots<T> {
 }
 
 impl<T: Stored> Slots<T> {
-    /// Puts `v` in a free slot and returns its number (below 2^31).
+    /// Puts `v` in a free slot and returns its number (below 2^30).
     fn put(&mut self, v: T) -> u32 {
         let slot = match self.free.pop() {
             Some(s) => s,
             None => {
                 let s = self.used;
-                assert!(s < 1 << 31, "fewer than 2^31 pending events of a kind");
+                assert!(s < CLAIMED, "fewer than 2^30 pending events of a kind");
                 self.used = s + 1;
                 if (s >> CHUNK_BITS) as usize == self.chunks.len() {
                     self.chunks
@@ -573,6 +644,17 @@ impl<T: Stored> Slots<T> {
         };
         *self.cell(slot) = Some(v);
         slot
+    }
+
+    /// Puts `v` in `slot`, chosen by the caller ([`Claims`]), which must be free.
+    fn put_at(&mut self, slot: u32, v: T) {
+        while (slot >> CHUNK_BITS) as usize >= self.chunks.len() {
+            self.chunks
+                .push((0..1 << CHUNK_BITS).map(|_| None).collect());
+        }
+        let cell = self.cell(slot);
+        assert!(cell.is_none(), "a claimed slot still holds a pending event");
+        *cell = Some(v);
     }
 
     fn cell(&mut self, slot: u32) -> &mut Option<T> {
@@ -592,16 +674,24 @@ impl<T: Stored> Slots<T> {
         self.get(slot).is_some_and(|v| v.id() == id)
     }
 
-    /// Takes the value out of `slot`, which becomes free.
-    fn take(&mut self, slot: u32) -> T {
+    /// Takes the value out of `slot`, which becomes free (for [`Slots::put`] unless the
+    /// slots are claimed ones, whose claimer frees them).
+    fn take(&mut self, slot: u32, claimed: bool) -> T {
         let v = self.cell(slot).take().expect("a pending event");
-        self.free.push(slot);
+        if !claimed {
+            self.free.push(slot);
+        }
         v
     }
 
-    /// Every value, in slot order.
-    fn iter(&self) -> impl Iterator<Item = &T> {
-        self.chunks.iter().flat_map(|c| c.iter().flatten())
+    /// Every value with its slot, in slot order.
+    fn iter(&self) -> impl Iterator<Item = (&T, u32)> {
+        self.chunks.iter().enumerate().flat_map(|(k, c)| {
+            c.iter().enumerate().filter_map(move |(i, v)| {
+                v.as_ref()
+                    .map(|v| (v, ((k as u32) << CHUNK_BITS) | i as u32))
+            })
+        })
     }
 }
 
@@ -660,16 +750,25 @@ impl CompactStep {
     }
 }
 
-/// The queue's pending events: motion steps compact, the others whole. A slot number's top
-/// bit says which store it is in.
+/// The queue's pending events: motion steps compact, the others whole, each in slots the
+/// queue hands out or in slots claimed by handle keepers ([`Claims`]). A slot number's top
+/// bit says whether it holds a step, the next bit whether it is claimed.
 #[derive(Debug, Default)]
 struct Store {
     events: Slots<Event>,
     steps: Slots<CompactStep>,
+    claimed_events: Slots<Event>,
+    claimed_steps: Slots<CompactStep>,
 }
 
 /// The top bit of a slot number in [`Store`]: a compact step's.
 const STEP: u32 = 1 << 31;
+
+/// The second bit of a slot number in [`Store`]: a claimed slot.
+const CLAIMED: u32 = 1 << 30;
+
+/// A slot number without its kind bits.
+const NUMBER: u32 = CLAIMED - 1;
 
 impl Store {
     fn put(&mut self, ev: Event) -> u32 {
@@ -679,83 +778,70 @@ impl Store {
         }
     }
 
-    fn holds(&self, slot: u32, id: EventId) -> bool {
+    /// Puts `ev` in the claimed `slot`: a step slot if and only if `ev` is kept compact (as
+    /// [`Claims`] chose it).
+    fn put_at(&mut self, slot: u32, ev: Event) {
+        assert!(slot & CLAIMED != 0, "a claimed slot");
+        let n = slot & NUMBER;
         if slot & STEP != 0 {
-            self.steps.holds(slot & !STEP, id)
+            let step = CompactStep::of(&ev).expect("a compact step in a step slot");
+            self.claimed_steps.put_at(n, step);
         } else {
-            self.events.holds(slot, id)
+            self.claimed_events.put_at(n, ev);
+        }
+    }
+
+    fn holds(&self, slot: u32, id: EventId) -> bool {
+        let n = slot & NUMBER;
+        match (slot & STEP != 0, slot & CLAIMED != 0) {
+            (true, false) => self.steps.holds(n, id),
+            (false, false) => self.events.holds(n, id),
+            (true, true) => self.claimed_steps.holds(n, id),
+            (false, true) => self.claimed_events.holds(n, id),
         }
     }
 
     fn take(&mut self, slot: u32) -> Event {
-        if slot & STEP != 0 {
-            self.steps.take(slot & !STEP).event()
-        } else {
-            self.events.take(slot)
+        let n = slot & NUMBER;
+        match (slot & STEP != 0, slot & CLAIMED != 0) {
+            (true, false) => self.steps.take(n, false).event(),
+            (false, false) => self.events.take(n, false),
+            (true, true) => self.claimed_steps.take(n, true).event(),
+            (false, true) => self.claimed_events.take(n, true),
         }
     }
 
     /// A copy of the event in `slot`, if any (for listings).
     fn get(&self, slot: u32) -> Option<Event> {
-        if slot & STEP != 0 {
-            self.steps.get(slot & !STEP).map(CompactStep::event)
-        } else {
-            self.events.get(slot).cloned()
+        let n = slot & NUMBER;
+        match (slot & STEP != 0, slot & CLAIMED != 0) {
+            (true, false) => self.steps.get(n).map(CompactStep::event),
+            (false, false) => self.events.get(n).cloned(),
+            (true, true) => self.claimed_steps.get(n).map(CompactStep::event),
+            (false, true) => self.claimed_events.get(n).cloned(),
         }
     }
 
-    /// Copies of every pending event.
-    fn all(&self) -> impl Iterator<Item = Event> + '_ {
-        (self.events.iter().cloned()).chain(self.steps.iter().map(CompactStep::event))
-    }
-}
-
-/// Hashes event ids so that the first eight events of a handling fall in neighbouring
-/// buckets of [`EventQueue::place`] (a handling's new entries share cache lines, and so do
-/// the cancellations of events predicted together) while everything else is spread: the low
-/// three bits are the index's, the rest is mixed from the cause and the index's higher bits
-/// (longer runs of neighbours made long probes: a setup's million events at cause 0 filled
-/// one run of a million buckets).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct IdHash;
-
-impl std::hash::BuildHasher for IdHash {
-    type Hasher = IdHasher;
-
-    fn build_hasher(&self) -> IdHasher {
-        IdHasher { cause: 0, index: 0 }
-    }
-}
-
-/// The hasher of [`IdHash`].
-#[derive(Clone, Copy, Debug)]
-pub struct IdHasher {
-    cause: u64,
-    index: u32,
-}
-
-impl std::hash::Hasher for IdHasher {
-    fn finish(&self) -> u64 {
-        // A 64-bit finalizer (splitmix64's) of the cause and the index's run of eight.
-        let mut x = self.cause ^ u64::from(self.index >> 3).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        x ^= x >> 31;
-        (x & !7) | u64::from(self.index & 7)
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.cause = (self.cause ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
-        }
-    }
-
-    fn write_u64(&mut self, cause: u64) {
-        self.cause ^= cause;
-    }
-
-    fn write_u32(&mut self, index: u32) {
-        self.index ^= index;
+    /// Copies of every pending event, with their slots.
+    fn all(&self) -> impl Iterator<Item = (Event, u32)> + '_ {
+        let events = |s: &'_ Slots<Event>, bits: u32| {
+            s.iter()
+                .map(move |(e, n)| (e.clone(), n | bits))
+                .collect::<Vec<_>>()
+        };
+        let steps = |s: &'_ Slots<CompactStep>, bits: u32| {
+            s.iter()
+                .map(move |(e, n)| (e.event(), n | bits))
+                .collect::<Vec<_>>()
+        };
+        [
+            events(&self.events, 0),
+            steps(&self.steps, STEP),
+            events(&self.claimed_events, CLAIMED),
+            steps(&self.claimed_steps, STEP | CLAIMED),
+        ]
+        .into_iter()
+        .flatten()
     }
 }
 
@@ -830,16 +916,49 @@ mod tests {
         assert_eq!(order, vec![(9, 0), (3, 1), (3, 5), (7, 0)]);
     }
 
+    /// Schedules `e` as cancellable, through an outbox, as the world does.
+    fn claim(q: &mut EventQueue, claims: &mut Claims, e: &Event) -> Handle {
+        let mut out = Outbox::new(e.time, e.id.cause);
+        out.next = e.id.index;
+        let h = out.schedule_in(
+            claims,
+            e.time,
+            e.target,
+            e.class,
+            e.robots(),
+            e.payload.clone(),
+        );
+        for effect in out.into_effects() {
+            match effect {
+                Effect::ScheduleIn(ev, slot) => q.register_in(ev, slot),
+                other => panic!("unexpected {other:?}"),
+            }
+        }
+        h
+    }
+
     #[test]
     fn cancelled_events_never_fire_and_leave_the_robot_listing() {
         let mut q = EventQueue::new();
+        let mut claims = Claims::default();
         q.register(ev(2.0, 1, 0, 4));
-        q.register(ev(1.0, 1, 1, 4));
+        let h = claim(&mut q, &mut claims, &ev(1.0, 1, 1, 4));
+        let s = claim(&mut q, &mut claims, &step(1.5, 1, 2, 4));
+        assert_eq!(EventId::from(h), EventId { cause: 1, index: 1 });
+        assert_eq!(q.future_of(4).len(), 3);
+        assert!(q.cancel(h));
+        assert!(!q.cancel(h));
         assert_eq!(q.future_of(4).len(), 2);
-        assert!(q.cancel(EventId { cause: 1, index: 1 }));
-        assert!(!q.cancel(EventId { cause: 1, index: 1 }));
-        assert_eq!(q.future_of(4).len(), 1);
+        // Its slot, released, takes the next claimed event; the old handle finds another id.
+        claims.release(h);
+        let h2 = claim(&mut q, &mut claims, &ev(3.0, 2, 0, 4));
+        assert_eq!({ h2.slot }, { h.slot });
+        assert!(!q.cancel(h));
+        assert_eq!(q.pop().map(|e| e.time), Some(1.5));
+        assert!(!q.cancel(s));
         assert_eq!(q.pop().map(|e| e.time), Some(2.0));
+        assert_eq!(q.future_of(4).len(), 1);
+        assert!(q.cancel(h2));
         assert!(q.pop().is_none());
         assert!(q.future_of(4).is_empty());
     }
@@ -851,11 +970,14 @@ mod tests {
 
         #[derive(Clone, Debug)]
         enum Op {
-            /// Handle the next event: it schedules events this far ahead (0: now) for robots.
-            Step(Vec<(u8, u16, RobotId)>),
-            /// Cancel the `k`-th pending event (in the oracle's order), or an unknown id.
+            /// Handle the next event: it schedules events this far ahead (0: now) for robots,
+            /// cancellable ones (claimed slots, as the world's) or not.
+            Step(Vec<(u8, u16, RobotId, bool)>),
+            /// Cancel the `k`-th pending cancellable event (in the oracle's order) and release
+            /// its slot, as the world does.
             Cancel(usize),
-            /// Cancel the `k`-th last event that fired (or was cancelled): nothing happens.
+            /// Drop the `k`-th last held handle of a cancellable event that fired: cancelling
+            /// it does nothing; its slot is released.
             CancelGone(usize),
             /// List a robot's future events.
             List(RobotId),
@@ -864,7 +986,7 @@ mod tests {
         }
 
         fn ops() -> impl Strategy<Value = Vec<Op>> {
-            let ahead = (0u8..4, 0u16..500, 0u32..6);
+            let ahead = (0u8..4, 0u16..500, 0u32..6, any::<bool>());
             prop::collection::vec(
                 prop_oneof![
                     4 => prop::collection::vec(ahead, 0..4).prop_map(Op::Step),
@@ -877,7 +999,7 @@ mod tests {
             )
         }
 
-        type Oracle = BTreeMap<(u64, EventId), (f64, RobotId)>;
+        type Oracle = BTreeMap<(u64, EventId), (f64, RobotId, Option<Handle>)>;
 
         fn key(t: f64, id: EventId) -> (u64, EventId) {
             (time_key(t), id)
@@ -886,13 +1008,15 @@ mod tests {
         proptest! {
             /// The queue against a sorted map: the same events come out in the same order,
             /// the same cancellations succeed, the same listings, as handlers schedule at
-            /// the current instant (many ties), just after it and far ahead.
+            /// the current instant (many ties), just after it and far ahead, and keepers of
+            /// handles release slots that are then claimed again.
             #[test]
             fn the_queue_agrees_with_a_sorted_map(ops in ops()) {
                 let mut q = EventQueue::new();
+                let mut claims = Claims::default();
                 let mut oracle = Oracle::new();
-                // Events that fired or were cancelled, latest last.
-                let mut gone: Vec<EventId> = Vec::new();
+                // Handles of cancellable events that fired, still held, latest last.
+                let mut held: Vec<Handle> = Vec::new();
                 let (mut now, mut seq) = (0.0f64, 0u64);
                 for op in ops {
                     match op {
@@ -903,12 +1027,14 @@ mod tests {
                                 let first = oracle.pop_first().expect("oracle has it too");
                                 prop_assert_eq!(key(e.time, e.id), first.0);
                                 now = e.time;
-                                gone.push(e.id);
+                                held.extend(first.1 .2);
                             } else {
                                 prop_assert!(oracle.is_empty());
                             }
                             seq += 1;
-                            for (index, (kind, d, robot)) in children.into_iter().enumerate() {
+                            for (index, (kind, d, robot, cancellable)) in
+                                children.into_iter().enumerate()
+                            {
                                 let t = match kind {
                                     0 => now,
                                     1 => now + f64::from(d) * 1e-6,
@@ -921,28 +1047,33 @@ mod tests {
                                 } else {
                                     ev(t, seq, index as u32, robot)
                                 };
-                                oracle.insert(key(t, e.id), (t, robot));
-                                q.register(e);
+                                let h = if cancellable {
+                                    Some(claim(&mut q, &mut claims, &e))
+                                } else {
+                                    q.register(e.clone());
+                                    None
+                                };
+                                oracle.insert(key(t, e.id), (t, robot, h));
                             }
                         }
                         Op::Cancel(k) => {
-                            let id = match oracle.keys().nth(k) {
-                                Some(&(_, id)) => id,
-                                None => EventId { cause: 1_000_000 + k as u64, index: 0 },
-                            };
-                            let had = oracle
-                                .keys()
-                                .find(|(_, i)| *i == id)
-                                .copied()
-                                .and_then(|k| oracle.remove(&k));
-                            prop_assert_eq!(q.cancel(id), had.is_some());
-                            if had.is_some() {
-                                gone.push(id);
+                            let found = oracle
+                                .iter()
+                                .filter(|(_, (_, _, h))| h.is_some())
+                                .nth(k)
+                                .map(|(key, (_, _, h))| (*key, *h));
+                            if let Some((key, Some(h))) = found {
+                                oracle.remove(&key);
+                                prop_assert!(q.cancel(h));
+                                prop_assert!(!q.cancel(h));
+                                claims.release(h);
                             }
                         }
                         Op::CancelGone(k) => {
-                            if let Some(&id) = gone.iter().rev().nth(k) {
-                                prop_assert!(!q.cancel(id));
+                            if k < held.len() {
+                                let h = held.remove(held.len() - 1 - k);
+                                prop_assert!(!q.cancel(h));
+                                claims.release(h);
                             }
                         }
                         Op::List(robot) => {
@@ -950,7 +1081,7 @@ mod tests {
                                 q.future_of(robot).iter().map(|e| key(e.time, e.id)).collect();
                             let want: Vec<(u64, EventId)> = oracle
                                 .iter()
-                                .filter(|(_, (_, r))| *r == robot)
+                                .filter(|(_, (_, r, _))| *r == robot)
                                 .map(|(k, _)| *k)
                                 .collect();
                             prop_assert_eq!(got, want);
@@ -959,13 +1090,13 @@ mod tests {
                             let until = now + f64::from(d);
                             let got = q.pop_until(until).map(|e| key(e.time, e.id));
                             let want = match oracle.first_key_value() {
-                                Some((k, (t, _))) if *t <= until => Some(*k),
+                                Some((k, (t, _, _))) if *t <= until => Some(*k),
                                 _ => None,
                             };
                             if let Some(k) = want {
-                                oracle.remove(&k);
+                                let (_, _, h) = oracle.remove(&k).expect("listed");
                                 now = key_time(k.0);
-                                gone.push(k.1);
+                                held.extend(h);
                             }
                             prop_assert_eq!(got, want);
                         }

@@ -21,7 +21,7 @@ use super::collision::{
     predict_cell_exit, predict_contact, predict_entry, predict_reentry, predict_wall, Track,
     CONTACT_TOLERANCE,
 };
-use super::event::{EventClass, EventId, Notice, Outbox, Payload, Target};
+use super::event::{Claims, EventClass, EventId, Handle, Notice, Outbox, Payload, Target};
 use super::geometry::Point;
 use super::grid::{Cell, Grid};
 use super::motion::{Kinematics, Motion, MotionPattern, Pose};
@@ -139,10 +139,10 @@ struct RobotState {
     /// Index of the next step event of the current motion.
     next_step: u32,
     /// Own conditional events: motion steps, cell crossings, boundary contact.
-    own: Vec<EventId>,
+    own: Vec<Handle>,
     /// The first obstacle contact predicted against the obstacles around the robot's cell
     /// (predicted again whenever it changes cell).
-    obstacle: Option<EventId>,
+    obstacle: Option<Handle>,
     /// Partner -> pair events predicted under the current motions of both.
     pairs: Pairs,
     cell: Cell,
@@ -186,7 +186,7 @@ struct Pairs(Vec<(RobotId, PairEvents)>);
 
 /// The events predicted for a pair of robots: mostly none or one collision, kept inline (a
 /// vector was an allocation per prediction, in each of the two robots' tables).
-type PairEvents = smallvec::SmallVec<[EventId; 1]>;
+type PairEvents = smallvec::SmallVec<[Handle; 1]>;
 
 impl Pairs {
     fn find(&self, partner: RobotId) -> Result<usize, usize> {
@@ -236,6 +236,8 @@ pub struct VirtualWorld {
     grid: Grid,
     max_radius: f64,
     obstacles: ObstacleIndex,
+    /// The queue slots of the conditional events whose handles the robots keep.
+    claims: Claims,
 }
 
 impl VirtualWorld {
@@ -299,12 +301,14 @@ impl VirtualWorld {
                 });
             }
         }
+        let grid = Grid::new(size);
         let mut world = Self {
             cfg,
             robots: Vec::with_capacity(specs.len()),
-            grid: Grid::new(size),
+            grid,
             max_radius,
             obstacles,
+            claims: Claims::default(),
         };
         for (i, s) in specs.iter().enumerate() {
             let id = i as RobotId;
@@ -432,7 +436,7 @@ impl VirtualWorld {
     fn cancel_pairs(&mut self, id: RobotId, out: &mut Outbox) {
         let pairs = std::mem::take(&mut self.robots[id as usize].pairs);
         for (p, ids) in pairs {
-            ids.into_iter().for_each(|e| out.cancel(e));
+            ids.into_iter().for_each(|h| self.drop_handle(h, out));
             self.robots[p as usize].pairs.remove(&id);
         }
     }
@@ -440,21 +444,32 @@ impl VirtualWorld {
     /// Cancels every conditional event that depends on `id`'s path.
     fn invalidate(&mut self, id: RobotId, out: &mut Outbox) {
         let own = std::mem::take(&mut self.robots[id as usize].own);
-        own.into_iter().for_each(|e| out.cancel(e));
-        if let Some(e) = self.robots[id as usize].obstacle.take() {
-            out.cancel(e);
+        own.into_iter().for_each(|h| self.drop_handle(h, out));
+        if let Some(h) = self.robots[id as usize].obstacle.take() {
+            self.drop_handle(h, out);
         }
         self.cancel_pairs(id, out);
     }
 
+    /// Cancels the event of a handle that is dropped (a no-op if it fired) and releases its
+    /// slot. Each handle is dropped once: a pair's handles, kept by both robots, when the
+    /// pair's entries go.
+    fn drop_handle(&mut self, h: Handle, out: &mut Outbox) {
+        out.cancel(h);
+        self.claims.release(h);
+    }
+
     fn predict_pair(&mut self, a: RobotId, b: RobotId, out: &mut Outbox) {
         let now = out.now();
+        // The tracks borrow the world: the claims are taken out meanwhile.
+        let mut claims = std::mem::take(&mut self.claims);
         let (ta, tb) = (self.track(a), self.track(b));
         let (ra, rb) = (self.radius(a), self.radius(b));
         let mut ids = PairEvents::new();
         if !self.cfg.ghost_mode {
             if let Some(t) = predict_contact(&ta, &tb, ra + rb, now) {
-                ids.push(out.schedule(
+                ids.push(out.schedule_in(
+                    &mut claims,
                     t,
                     Target::MotionManager,
                     EventClass::Conditional,
@@ -466,7 +481,8 @@ impl VirtualWorld {
         for (s, o, ts, to) in [(a, b, &ta, &tb), (b, a, &tb, &ta)] {
             for &(sensor, range) in self.robots[s as usize].entry() {
                 if let Some(t) = predict_entry(ts, to, range + ra + rb, now) {
-                    ids.push(out.schedule(
+                    ids.push(out.schedule_in(
+                        &mut claims,
                         t,
                         Target::SensorManager,
                         EventClass::Conditional,
@@ -480,6 +496,7 @@ impl VirtualWorld {
                 }
             }
         }
+        self.claims = claims;
         self.robots[a as usize].pairs.insert(b, ids.clone());
         self.robots[b as usize].pairs.insert(a, ids);
     }
@@ -504,7 +521,8 @@ impl VirtualWorld {
         if let Some((t, offset)) =
             predict_cell_exit(&self.track(id), lo, self.grid.cell_size(), now)
         {
-            let e = out.schedule(
+            let e = out.schedule_in(
+                &mut self.claims,
                 t,
                 Target::MotionManager,
                 EventClass::Conditional,
@@ -522,7 +540,7 @@ impl VirtualWorld {
             let r = self.radius(id);
             let wall = predict_wall(&self.track(id), r, min, max, now);
             if let Some((t, contact)) = wall {
-                let e = schedule_contact(out, id, t, Obstacle::Boundary, contact);
+                let e = schedule_contact(out, &mut self.claims, id, t, Obstacle::Boundary, contact);
                 self.robots[id as usize].own.push(e);
             }
         }
@@ -535,8 +553,8 @@ impl VirtualWorld {
     /// earlier prediction): a contact farther away happens after a cell crossing, which
     /// predicts again.
     fn predict_obstacles(&mut self, id: RobotId, out: &mut Outbox) {
-        if let Some(e) = self.robots[id as usize].obstacle.take() {
-            out.cancel(e);
+        if let Some(h) = self.robots[id as usize].obstacle.take() {
+            self.drop_handle(h, out);
         }
         if self.obstacles.is_empty() || self.robots[id as usize].motion.is_none() {
             return;
@@ -553,7 +571,7 @@ impl VirtualWorld {
             }
         }
         if let Some((t, contact, k)) = first {
-            let e = schedule_contact(out, id, t, Obstacle::Object(k), contact);
+            let e = schedule_contact(out, &mut self.claims, id, t, Obstacle::Object(k), contact);
             self.robots[id as usize].obstacle = Some(e);
         }
     }
@@ -588,7 +606,8 @@ impl VirtualWorld {
                 None => Vec::new(),
             };
             for (k, t) in pending {
-                let e = out.schedule(
+                let e = out.schedule_in(
+                    &mut self.claims,
                     t,
                     Target::MotionManager,
                     EventClass::Conditional,
@@ -611,12 +630,14 @@ impl VirtualWorld {
 /// `contact`: a conditional collision event on the motion manager.
 fn schedule_contact(
     out: &mut Outbox,
+    claims: &mut Claims,
     id: RobotId,
     t: f64,
     with: Obstacle,
     contact: Point,
-) -> EventId {
-    out.schedule(
+) -> Handle {
+    out.schedule_in(
+        claims,
         t,
         Target::MotionManager,
         EventClass::Conditional,

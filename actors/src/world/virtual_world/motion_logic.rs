@@ -32,8 +32,29 @@ impl VirtualWorld {
         true
     }
 
-    /// Handles an event addressed to the motion manager (seed fig. 4.4 and 4.6-4.8).
-    pub fn handle_motion(&mut self, payload: Payload, out: &mut Outbox) {
+    /// A robot's own conditional event `id` fired: its handle is dropped and its slot released
+    /// now rather than at the robot's next change of path (a million robots would otherwise
+    /// keep the slots of their fired motion steps and crossings).
+    fn fired(&mut self, robot: RobotId, id: EventId) {
+        let r = &mut self.robots[robot as usize];
+        if let Some(k) = r.own.iter().position(|h| EventId::from(*h) == id) {
+            let h = r.own.swap_remove(k);
+            self.claims.release(h);
+        } else if r.obstacle.is_some_and(|h| EventId::from(h) == id) {
+            if let Some(h) = r.obstacle.take() {
+                self.claims.release(h);
+            }
+        }
+    }
+
+    /// Handles the event `id` addressed to the motion manager (seed fig. 4.4 and 4.6-4.8).
+    pub fn handle_motion(&mut self, id: EventId, payload: Payload, out: &mut Outbox) {
+        match payload {
+            Payload::MotionStep { robot, .. }
+            | Payload::CellCrossing { robot, .. }
+            | Payload::Contact { robot, .. } => self.fired(robot, id),
+            _ => {}
+        }
         match payload {
             Payload::MotionRequest { robot, .. } if self.robots[robot as usize].crashed => {}
             Payload::MotionRequest {
@@ -111,7 +132,8 @@ impl VirtualWorld {
                     } else {
                         EventClass::Conditional
                     };
-                    let e = out.schedule(
+                    let e = out.schedule_in(
+                        &mut self.claims,
                         s.t,
                         Target::MotionManager,
                         class,
@@ -273,7 +295,7 @@ impl VirtualWorld {
             .collect();
         for &(x, y) in &pairs {
             if let Some(ids) = self.robots[x as usize].pairs.remove(&y) {
-                ids.into_iter().for_each(|e| out.cancel(e));
+                ids.into_iter().for_each(|h| self.drop_handle(h, out));
                 self.robots[y as usize].pairs.remove(&x);
             }
         }

@@ -176,7 +176,8 @@ impl Sensing {
                 if let Some(t) =
                     predict_reentry(&world.track(robot), &world.track(other), reach, now)
                 {
-                    let e = out.schedule(
+                    let e = out.schedule_in(
+                        &mut world.claims,
                         t,
                         Target::SensorManager,
                         EventClass::Conditional,
