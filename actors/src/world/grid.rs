@@ -7,7 +7,11 @@
 //! can touch are always in neighbouring cells, and predictions only ever look at the 3×3 block
 //! around a robot: O(1) per request at uniform density. Cells are keyed by integer coordinates
 //! in a hash map, so an infinite world costs only the occupied cells. The map is only ever
-//! looked up, never iterated, so its hashing cannot affect the order of anything.
+//! looked up, never iterated, so its hashing cannot affect the order of anything. A bounded
+//! world whose cells are not many more than its robots also has a dense table of the cells
+//! over its area ([`Grid::for_area`]): a 3×3 look-up reads three short runs of it instead of
+//! hashing nine keys into a table of a million cells (issue 17). A cell's robots are in the
+//! same order either way.
 
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
@@ -20,15 +24,64 @@ use super::RobotId;
 /// Integer coordinates of a cell.
 pub type Cell = [i64; 2];
 
+/// A cell's robots, inline (24 bytes, as a `Vec`'s header) up to four: most cells hold one
+/// or two, and a separate allocation was a second cache miss at every look and an allocation
+/// at every crossing into an empty cell (issue 17).
+type Robots = SmallVec<[RobotId; 4]>;
+
 /// A uniform grid of robots.
 #[derive(Clone, Debug)]
 pub struct Grid {
     size: f64,
-    /// A cell's robots inline (24 bytes, as a `Vec`'s header) up to four: most cells hold one
-    /// or two, and a separate allocation was a second cache miss at every look and an
-    /// allocation at every crossing into an empty cell (issue 17).
-    cells: HashMap<Cell, SmallVec<[RobotId; 4]>, FixedHash>,
+    /// The cells over a bounded world's area, if it has them.
+    dense: Option<Dense>,
+    /// The other cells.
+    cells: HashMap<Cell, Robots, FixedHash>,
 }
+
+/// The cells of a rectangle of them, row by row.
+#[derive(Clone)]
+struct Dense {
+    lo: Cell,
+    width: i64,
+    height: i64,
+    /// Per cell, 0 when empty, else 1 + the index of its robots in `lists` (four bytes a cell:
+    /// a million robots at the seed's density have 16 million cells).
+    heads: Vec<u32>,
+    lists: Vec<Robots>,
+    /// Indices of empty lists in `lists`.
+    free: Vec<u32>,
+}
+
+impl std::fmt::Debug for Dense {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Dense")
+            .field("lo", &self.lo)
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("occupied", &(self.lists.len() - self.free.len()))
+            .finish()
+    }
+}
+
+impl Dense {
+    /// The index of `c` in `heads`, if it is in the rectangle.
+    fn index(&self, c: Cell) -> Option<usize> {
+        let (x, y) = (c[0].wrapping_sub(self.lo[0]), c[1].wrapping_sub(self.lo[1]));
+        ((0..self.width).contains(&x) && (0..self.height).contains(&y))
+            .then(|| (y * self.width + x) as usize)
+    }
+
+    fn get(&self, i: usize) -> Option<&Robots> {
+        match self.heads[i] {
+            0 => None,
+            h => Some(&self.lists[h as usize - 1]),
+        }
+    }
+}
+
+/// The most cells a dense table may have per robot (four bytes each), beyond a floor.
+const DENSE_PER_ROBOT: f64 = 32.0;
 
 impl Grid {
     /// An empty grid of cells `size` wide [units].
@@ -36,8 +89,31 @@ impl Grid {
         assert!(size.is_finite() && size > 0.0, "cell size must be > 0");
         Self {
             size,
+            dense: None,
             cells: HashMap::default(),
         }
+    }
+
+    /// An empty grid of cells `size` wide [units] for `robots` robots in the rectangle
+    /// `[min, max]`: with a dense table of the cells over it (and a margin of one cell) when
+    /// they are at most 32 a robot (or 65,536); cells outside it, where robots can only be
+    /// if nothing holds them in, are kept as in [`Grid::new`].
+    pub fn for_area(size: f64, min: Point, max: Point, robots: usize) -> Self {
+        let mut grid = Self::new(size);
+        let (a, b) = (grid.cell_of(min), grid.cell_of(max));
+        let (width, height) = ((b[0] - a[0] + 3) as f64, (b[1] - a[1] + 3) as f64);
+        let cells = width * height;
+        if cells.is_finite() && cells <= (DENSE_PER_ROBOT * robots as f64).max(65_536.0) {
+            grid.dense = Some(Dense {
+                lo: [a[0] - 1, a[1] - 1],
+                width: width as i64,
+                height: height as i64,
+                heads: vec![0; cells as usize],
+                lists: Vec::new(),
+                free: Vec::new(),
+            });
+        }
+        grid
     }
 
     /// Width of a cell [units].
@@ -59,10 +135,46 @@ impl Grid {
     }
 
     pub fn insert(&mut self, id: RobotId, c: Cell) {
+        if let Some(d) = self.dense.as_mut() {
+            if let Some(i) = d.index(c) {
+                let h = match d.heads[i] {
+                    0 => {
+                        let k = d.free.pop().unwrap_or_else(|| {
+                            d.lists.push(Robots::new());
+                            u32::try_from(d.lists.len()).expect("fewer than 2^32 cells") - 1
+                        });
+                        d.heads[i] = k + 1;
+                        k + 1
+                    }
+                    h => h,
+                };
+                d.lists[h as usize - 1].push(id);
+                return;
+            }
+        }
         self.cells.entry(c).or_default().push(id);
     }
 
     pub fn remove(&mut self, id: RobotId, c: Cell) {
+        if let Some(d) = self.dense.as_mut() {
+            if let Some(i) = d.index(c) {
+                let h = d.heads[i];
+                if h != 0 {
+                    let v = &mut d.lists[h as usize - 1];
+                    if let Some(k) = v.iter().position(|&x| x == id) {
+                        v.swap_remove(k);
+                    }
+                    if v.is_empty() {
+                        if v.spilled() {
+                            *v = Robots::new();
+                        }
+                        d.heads[i] = 0;
+                        d.free.push(h - 1);
+                    }
+                }
+                return;
+            }
+        }
         // One look-up, also when the cell empties (most cells hold one robot).
         if let Entry::Occupied(mut cell) = self.cells.entry(c) {
             let v = cell.get_mut();
@@ -75,11 +187,21 @@ impl Grid {
         }
     }
 
+    /// The robots of cell `c`, if any.
+    fn get(&self, c: Cell) -> Option<&Robots> {
+        if let Some(d) = &self.dense {
+            if let Some(i) = d.index(c) {
+                return d.get(i);
+            }
+        }
+        self.cells.get(&c)
+    }
+
     /// Robots in the 3×3 block of cells around `c`.
     pub fn neighbours(&self, c: Cell) -> impl Iterator<Item = RobotId> + '_ {
         (-1..=1)
             .flat_map(move |dx| (-1..=1).map(move |dy| [c[0] + dx, c[1] + dy]))
-            .filter_map(|k| self.cells.get(&k))
+            .filter_map(|k| self.get(k))
             .flatten()
             .copied()
     }
@@ -95,7 +217,7 @@ impl Grid {
         let mut out = Vec::new();
         for i in a[0]..=b[0] {
             for j in a[1]..=b[1] {
-                if let Some(v) = self.cells.get(&[i, j]) {
+                if let Some(v) = self.get([i, j]) {
                     out.extend_from_slice(v);
                 }
             }
@@ -132,6 +254,58 @@ impl std::hash::BuildHasher for FixedHash {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The dense table and the hash map hold the same robots in the same order: the same
+        /// neighbours in the same sequence (predictions are made in that order), the same
+        /// boxes, after any inserts and removes, also of cells outside the dense area.
+        #[test]
+        fn a_dense_grid_agrees_with_the_hashed_one(
+            ops in prop::collection::vec((any::<bool>(), 0u32..40, -3i64..9, -3i64..9), 0..300),
+            probes in prop::collection::vec((-4i64..10, -4i64..10), 1..20),
+        ) {
+            let mut hashed = Grid::new(10.0);
+            // Cells 0..=5 (and a margin) dense: the others hashed.
+            let mut dense = Grid::for_area(10.0, Point::new(0.0, 0.0), Point::new(55.0, 55.0), 1);
+            prop_assert!(dense.dense.is_some());
+            let mut at: Vec<Option<Cell>> = vec![None; 40];
+            for (add, id, x, y) in ops {
+                match (add, at[id as usize]) {
+                    (true, None) => {
+                        hashed.insert(id, [x, y]);
+                        dense.insert(id, [x, y]);
+                        at[id as usize] = Some([x, y]);
+                    }
+                    (false, Some(c)) => {
+                        hashed.remove(id, c);
+                        dense.remove(id, c);
+                        at[id as usize] = None;
+                    }
+                    _ => {}
+                }
+            }
+            for (x, y) in probes {
+                let a: Vec<RobotId> = hashed.neighbours([x, y]).collect();
+                let b: Vec<RobotId> = dense.neighbours([x, y]).collect();
+                prop_assert_eq!(a, b);
+                let (lo, hi) = (Point::new(x as f64 * 10.0, y as f64 * 10.0), Point::new(55.0, 55.0));
+                prop_assert_eq!(hashed.in_box(lo, hi, 1000), dense.in_box(lo, hi, 1000));
+            }
+        }
+    }
+
+    #[test]
+    fn only_a_bounded_area_of_few_cells_a_robot_is_dense() {
+        let (lo, hi) = (Point::new(0.0, 0.0), Point::new(800.0, 800.0));
+        // 40 x 40 cells (42 x 42 with the margin) for 100 robots: under the floor.
+        assert!(Grid::for_area(20.0, lo, hi, 100).dense.is_some());
+        // 8,003 x 8,003 cells for 1,000 robots: too many; for 2.1 million, at most 32 a robot.
+        let far = Point::new(160_000.0, 160_000.0);
+        assert!(Grid::for_area(20.0, lo, far, 1_000).dense.is_none());
+        assert!(Grid::for_area(20.0, lo, far, 2_000_000).dense.is_none());
+        assert!(Grid::for_area(20.0, lo, far, 2_100_000).dense.is_some());
+    }
 
     #[test]
     fn neighbours_are_the_robots_of_the_three_by_three_block() {

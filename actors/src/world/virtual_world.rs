@@ -301,7 +301,7 @@ impl VirtualWorld {
                 });
             }
         }
-        let grid = Grid::new(size);
+        let grid = grid_for(size, &cfg.size, specs.len());
         let mut world = Self {
             cfg,
             robots: Vec::with_capacity(specs.len()),
@@ -589,7 +589,7 @@ impl VirtualWorld {
         }
         let now = out.now();
         tracing::debug!(reach, "widening the spatial index's cells");
-        self.grid = Grid::new(reach * (1.0 + 1e-9));
+        self.grid = grid_for(reach * (1.0 + 1e-9), &self.cfg.size, self.robots.len());
         self.obstacles.reindex(self.grid.cell_size());
         for id in 0..self.robots.len() as RobotId {
             self.invalidate(id, out);
@@ -623,6 +623,15 @@ impl VirtualWorld {
         for id in 0..self.robots.len() as RobotId {
             self.predict_all(id, out);
         }
+    }
+}
+
+/// The spatial index of a world of `robots` robots, with cells `size` wide: over a bounded
+/// world's area, a dense one.
+fn grid_for(size: f64, world: &WorldSize, robots: usize) -> Grid {
+    match *world {
+        WorldSize::Bounded { min, max } => Grid::for_area(size, min, max, robots),
+        WorldSize::Infinite => Grid::new(size),
     }
 }
 
