@@ -162,7 +162,7 @@ impl Actor for LayerActor {
 
 impl HandleEvent for LayerActor {
     fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
-        let mut out = Outbox::new(msg.now, msg.seq);
+        let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
         let input = match msg.event.payload {
             Payload::LayerInput { input, .. } => {
                 if let Input::Indication {

@@ -29,7 +29,7 @@ impl Actor for MotionManager {
 
 impl HandleEvent for MotionManager {
     fn handle_event(&mut self, msg: Deliver) -> Vec<Effect> {
-        let mut out = Outbox::new(msg.now, msg.seq);
+        let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
         // The scheduler has one event in flight at a time, so this lock is never contended.
         let mut world = self.world.lock().expect("world lock");
         world.handle_motion(msg.event.id, msg.event.payload, &mut out);

@@ -40,7 +40,7 @@ impl Actor for NetworkActor {
 
 impl HandleEvent for NetworkActor {
     fn handle_event(&mut self, m: Deliver) -> Vec<crate::world::event::Effect> {
-        let mut out = Outbox::new(m.now, m.seq);
+        let mut out = Outbox::reusing(m.now, m.seq, m.effects);
         if let Payload::NetSend {
             from,
             layer,

@@ -687,7 +687,7 @@ impl Actor for RobotActor {
 
 impl HandleEvent for RobotActor {
     fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
-        let mut out = Outbox::new(msg.now, msg.seq);
+        let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
         let id = self.handle.shared.info.id;
         self.handle.shared.io.borrow_mut().now = msg.now;
         match msg.event.payload {

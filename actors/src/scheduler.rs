@@ -43,6 +43,9 @@ pub struct Deliver {
     /// The event's processing number (the `cause` of whatever it creates).
     pub seq: u64,
     pub event: Event,
+    /// An empty buffer for the handling's effects ([`Outbox::reusing`]): the scheduler's,
+    /// handed back in the reply and reused, so no handling allocates its effects' vector.
+    pub effects: Vec<Effect>,
 }
 
 /// Who handles which events.
@@ -122,7 +125,12 @@ pub(crate) struct Core {
     /// declared a livelock.
     at_instant: u64,
     instant_limit: u64,
+    /// The effects buffer that the next delivery carries (see [`Deliver::effects`]).
+    spare: Vec<Effect>,
 }
+
+/// The largest effects buffer kept for reuse: the setup's million start notices are not.
+const SPARE_EFFECTS: usize = 1 << 10;
 
 /// What the core says to do next.
 pub(crate) enum Next {
@@ -212,14 +220,15 @@ impl Core {
             recorded: 0,
             at_instant: 0,
             instant_limit: u64::MAX,
+            spare: Vec::new(),
         };
         core.apply(setup.into_effects());
         core
     }
 
     /// Applies the effects of one handling, in order.
-    pub(crate) fn apply(&mut self, effects: Vec<Effect>) {
-        for e in effects {
+    pub(crate) fn apply(&mut self, mut effects: Vec<Effect>) {
+        for e in effects.drain(..) {
             match e {
                 Effect::Schedule(ev) => {
                     assert!(ev.time >= self.now, "an event was scheduled in the past");
@@ -252,6 +261,9 @@ impl Core {
                     }
                 }
             }
+        }
+        if effects.capacity() <= SPARE_EFFECTS && effects.capacity() > self.spare.capacity() {
+            self.spare = effects;
         }
     }
 
@@ -306,6 +318,7 @@ impl Core {
                 now: self.now,
                 seq: self.seq,
                 event,
+                effects: std::mem::take(&mut self.spare),
             };
             return Next::Deliver(target, deliver);
         }
@@ -313,7 +326,7 @@ impl Core {
 
     /// The event manager's own events: a robot's listing of its future events.
     fn handle_inline(&mut self, event: Event) {
-        let mut out = Outbox::new(self.now, self.seq);
+        let mut out = Outbox::reusing(self.now, self.seq, std::mem::take(&mut self.spare));
         if let Payload::Crash { robot } = event.payload {
             // From now on the robot's own actors get nothing; the motion manager stops it.
             self.crashed.insert(robot);

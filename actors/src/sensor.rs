@@ -45,7 +45,7 @@ impl Actor for Sensor {
 
 impl HandleEvent for Sensor {
     fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
-        let mut out = Outbox::new(msg.now, msg.seq);
+        let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
         if let Payload::SensorCompute(compute) = msg.event.payload {
             let SensorCompute {
                 robot,

@@ -31,7 +31,7 @@ impl Actor for SensorManager {
 
 impl HandleEvent for SensorManager {
     fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
-        let mut out = Outbox::new(msg.now, msg.seq);
+        let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
         let mut world = self.world.lock().expect("world lock");
         self.sensing.handle(&mut world, msg.event.payload, &mut out);
         out.into_effects()

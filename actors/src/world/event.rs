@@ -331,6 +331,18 @@ impl Outbox {
         }
     }
 
+    /// An outbox as [`Outbox::new`] that collects into `effects`, emptied first (a buffer
+    /// reused from an earlier handling: no allocation per event).
+    pub fn reusing(now: f64, cause: u64, mut effects: Vec<Effect>) -> Self {
+        effects.clear();
+        Self {
+            now,
+            cause,
+            next: 0,
+            effects,
+        }
+    }
+
     /// Current virtual time [s].
     pub fn now(&self) -> f64 {
         self.now
