@@ -18,6 +18,9 @@ use super::motion::{MotionPattern, Piece, Shape};
 /// Gap [units] below which conservative advancement reports a contact on a curved piece.
 pub const CONTACT_TOLERANCE: f64 = 1e-10;
 
+/// A track's pieces ([`Track::pieces_from`]).
+pub type Pieces = smallvec::SmallVec<[Piece; 4]>;
+
 /// The future of one robot's centre: its current motion, if any, then rest.
 #[derive(Clone, Copy, Debug)]
 pub struct Track<'a> {
@@ -44,9 +47,10 @@ impl Track<'_> {
         }
     }
 
-    /// The pieces of the path from `now` on, the last one resting until infinity.
-    pub fn pieces_from(&self, now: f64) -> Vec<Piece> {
-        let mut out = Vec::with_capacity(3);
+    /// The pieces of the path from `now` on, the last one resting until infinity (inline up
+    /// to four: no allocation per prediction for the built-in motions).
+    pub fn pieces_from(&self, now: f64) -> Pieces {
+        let mut out = Pieces::new();
         let mut rest_from = now;
         if let Some(m) = self.motion {
             let end = m.end_time();
@@ -63,11 +67,11 @@ impl Track<'_> {
                         },
                     });
                 }
-                for p in m.pieces() {
+                m.for_each_piece(&mut |p| {
                     if p.t1 > now && p.t1 > p.t0 {
                         out.push(clip_start(p, now));
                     }
-                }
+                });
                 rest_from = end;
             }
         }

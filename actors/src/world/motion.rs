@@ -147,6 +147,12 @@ pub trait MotionPattern: fmt::Debug + Send + Sync {
     }
     /// The path from start to end as consecutive pieces.
     fn pieces(&self) -> Vec<Piece>;
+    /// Calls `f` with each of [`MotionPattern::pieces`], in order. The engine asks at every
+    /// prediction; this default builds the list, the built-in patterns answer without
+    /// allocating.
+    fn for_each_piece(&self, f: &mut dyn FnMut(Piece)) {
+        self.pieces().into_iter().for_each(f);
+    }
     /// What is left of the motion at `t`, for the Neko log.
     fn progress_at(&self, _t: f64) -> Progress {
         Progress {
@@ -515,25 +521,29 @@ impl MotionPattern for TurnForward {
     }
 
     fn pieces(&self) -> Vec<Piece> {
+        let mut out = Vec::with_capacity(2);
+        self.for_each_piece(&mut |p| out.push(p));
+        out
+    }
+
+    fn for_each_piece(&self, f: &mut dyn FnMut(Piece)) {
         let u = heading_vector(self.heading);
-        vec![
-            Piece {
-                t0: self.t0,
-                t1: self.t_turned,
-                shape: Shape::Linear {
-                    p0: self.from.pos,
-                    v: Vector::zeros(),
-                },
+        f(Piece {
+            t0: self.t0,
+            t1: self.t_turned,
+            shape: Shape::Linear {
+                p0: self.from.pos,
+                v: Vector::zeros(),
             },
-            Piece {
-                t0: self.t_turned,
-                t1: self.t_end,
-                shape: Shape::Linear {
-                    p0: self.from.pos,
-                    v: u * self.move_speed,
-                },
+        });
+        f(Piece {
+            t0: self.t_turned,
+            t1: self.t_end,
+            shape: Shape::Linear {
+                p0: self.from.pos,
+                v: u * self.move_speed,
             },
-        ]
+        });
     }
 
     fn progress_at(&self, t: f64) -> Progress {
