@@ -139,7 +139,7 @@ struct RobotState {
     /// Index of the next step event of the current motion.
     next_step: u32,
     /// Own conditional events: motion steps, cell crossings, boundary contact.
-    own: Vec<Handle>,
+    own: OwnEvents,
     /// The first obstacle contact predicted against the obstacles around the robot's cell
     /// (predicted again whenever it changes cell).
     obstacle: Option<Handle>,
@@ -183,6 +183,10 @@ impl RobotState {
 /// B-tree's first node alone took about 280 bytes (issue 17).
 #[derive(Debug, Default)]
 struct Pairs(Vec<(RobotId, PairEvents)>);
+
+/// A robot's own conditional events, inline up to six (a motion's four steps, a wall contact,
+/// a cell crossing): a firing step looks its handle up without a second cache miss.
+type OwnEvents = smallvec::SmallVec<[Handle; 6]>;
 
 /// The events predicted for a pair of robots: mostly none or one collision, kept inline (a
 /// vector was an allocation per prediction, in each of the two robots' tables).
@@ -329,7 +333,7 @@ impl VirtualWorld {
                 motion: None,
                 ticket: 0,
                 next_step: 0,
-                own: Vec::new(),
+                own: OwnEvents::new(),
                 obstacle: None,
                 pairs: Pairs::default(),
                 cell,
