@@ -274,8 +274,16 @@ impl Motion {
         from: Pose,
         rule: TurnRule,
     ) -> Result<Box<dyn MotionPattern>, MotionError> {
+        Ok(match self.path(t0, from, rule)? {
+            Path::Builtin(m) => Box::new(m),
+            Path::Custom(m) => m,
+        })
+    }
+
+    /// [`Motion::begin_with`], with a built-in pattern kept inline.
+    pub(crate) fn path(&self, t0: f64, from: Pose, rule: TurnRule) -> Result<Path, MotionError> {
         Ok(match self {
-            Motion::Turn { angle, turn_speed } => Box::new(TurnForward::new(
+            Motion::Turn { angle, turn_speed } => Path::Builtin(TurnForward::new(
                 t0,
                 from,
                 check_finite("turn angle", *angle)?,
@@ -296,7 +304,7 @@ impl Motion {
                         value: distance,
                     });
                 }
-                Box::new(TurnForward::new(
+                Path::Builtin(TurnForward::new(
                     t0,
                     from,
                     0.0,
@@ -324,7 +332,7 @@ impl Motion {
                 } else {
                     0.0
                 };
-                Box::new(TurnForward::new(
+                Path::Builtin(TurnForward::new(
                     t0,
                     from,
                     turn,
@@ -334,8 +342,27 @@ impl Motion {
                     (true, true),
                 ))
             }
-            Motion::Custom(spec) => spec.begin(t0, from)?,
+            Motion::Custom(spec) => Path::Custom(spec.begin(t0, from)?),
         })
+    }
+}
+
+/// A motion in progress as the world keeps it: the built-in pattern inline (a million robots'
+/// predictions read their partners' motions: a boxed one was a second cache miss each time,
+/// issue 17), a user's boxed.
+#[derive(Debug)]
+pub(crate) enum Path {
+    Builtin(TurnForward),
+    Custom(Box<dyn MotionPattern>),
+}
+
+impl Path {
+    /// The pattern.
+    pub(crate) fn pattern(&self) -> &dyn MotionPattern {
+        match self {
+            Path::Builtin(m) => m,
+            Path::Custom(m) => m.as_ref(),
+        }
     }
 }
 

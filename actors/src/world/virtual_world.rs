@@ -24,7 +24,7 @@ use super::collision::{
 use super::event::{Claims, EventClass, EventId, Handle, Notice, Outbox, Payload, Target};
 use super::geometry::Point;
 use super::grid::{Cell, Grid};
-use super::motion::{Kinematics, Motion, MotionPattern, Pose};
+use super::motion::{Kinematics, Motion, Path, Pose};
 use super::observation::Observation;
 use super::obstacle::{predict_obstacle, ObstacleIndex, Shape, ShapeError};
 use super::sensor::{Datum, SensorKind, SensorQuery, SensorValue, Sensors, Trigger, WorldView};
@@ -134,7 +134,7 @@ struct RobotState {
     rest: Pose,
     /// The motion in progress; its step events are asked of it (`events`) when needed
     /// rather than kept beside it (issue 17: 128 bytes a robot).
-    motion: Option<Box<dyn MotionPattern>>,
+    motion: Option<Path>,
     ticket: u64,
     /// Index of the next step event of the current motion.
     next_step: u32,
@@ -372,7 +372,7 @@ impl VirtualWorld {
     fn track(&self, id: RobotId) -> Track<'_> {
         let r = &self.robots[id as usize];
         Track {
-            motion: r.motion.as_deref(),
+            motion: r.motion.as_ref().map(Path::pattern),
             rest: r.rest.pos,
         }
     }
@@ -381,7 +381,7 @@ impl VirtualWorld {
     pub fn state_at(&self, id: RobotId, t: f64) -> Kinematics {
         let r = &self.robots[id as usize];
         match &r.motion {
-            Some(m) => m.state_at(t),
+            Some(m) => m.pattern().state_at(t),
             None => Kinematics::at_rest(r.rest),
         }
     }
@@ -601,6 +601,7 @@ impl VirtualWorld {
             let r = &self.robots[id as usize];
             let pending: Vec<(usize, f64)> = match &r.motion {
                 Some(m) => m
+                    .pattern()
                     .events()
                     .iter()
                     .enumerate()

@@ -104,7 +104,7 @@ impl VirtualWorld {
             motion: motion.name().to_string(),
             params: motion.params(),
         });
-        match motion.begin_with(now, from, self.cfg.turn) {
+        match motion.path(now, from, self.cfg.turn) {
             Err(e) => {
                 let outcome = MotionOutcome::Rejected(e.to_string());
                 out.record(Observation::MotionFinish {
@@ -122,7 +122,7 @@ impl VirtualWorld {
                 );
             }
             Ok(pattern) => {
-                let steps = pattern.events();
+                let steps = pattern.pattern().events();
                 let r = &mut self.robots[robot as usize];
                 r.motion = Some(pattern);
                 r.ticket = ticket;
@@ -156,7 +156,7 @@ impl VirtualWorld {
         }
         r.next_step = step as u32 + 1;
         let r = &self.robots[robot as usize];
-        let m = r.motion.as_deref().expect("checked above");
+        let m = r.motion.as_ref().map(Path::pattern).expect("checked above");
         let (crate::world::motion::MotionStep { kind, .. }, last) =
             m.step(step).expect("a step of the motion");
         out.record(Observation::MotionStep {
