@@ -292,6 +292,7 @@ impl Core {
             } else {
                 self.at_instant = 1;
             }
+            self.queue.prefetch_next();
             self.now = event.time;
             self.seq += 1;
             self.output.stats.events += 1;
