@@ -60,6 +60,10 @@ pub struct Routes {
     pub layers: Vec<Vec<Recipient<Deliver>>>,
     /// Starts a robot's sensor actor on the robot's arbiter when it is first needed.
     pub spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Recipient<Deliver>>,
+    /// Called with an event for a manager or the network just before it is sent: asks for
+    /// the world's state of the robots it concerns ([`crate::world::prefetch`]), which
+    /// arrives while the message travels. Only a hint: it changes nothing.
+    pub prefetch: Box<dyn Fn(&Event)>,
 }
 
 impl std::fmt::Debug for Routes {
@@ -473,6 +477,7 @@ impl Handler<Step> for Scheduler {
                 self.await_reply(ctx, target, reply);
             }
             _ => {
+                (self.routes.prefetch)(&deliver.event);
                 let reply = self.route(target).send(deliver);
                 self.await_reply(ctx, target, reply);
             }

@@ -257,6 +257,15 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
         let network = NetworkActor::new(p.network, world.clone(), wiring.clone())
             .start()
             .recipient();
+        let prefetch = {
+            let world = world.clone();
+            Box::new(move |ev: &crate::world::event::Event| {
+                // One event is in flight at a time, so the world is never held here.
+                if let Ok(w) = world.try_lock() {
+                    w.prefetch(ev);
+                }
+            })
+        };
         let sensor_manager = SensorManager::new(world, p.sensing).start().recipient();
         let arbiter_of = {
             let handles = handles.clone();
@@ -332,6 +341,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
                 })
                 .recipient()
             }),
+            prefetch,
         };
         let on_finish = Box::new(move |out: RunOutput| {
             for a in &extra {
