@@ -60,10 +60,11 @@ pub struct Routes {
     pub layers: Vec<Vec<Recipient<Deliver>>>,
     /// Starts a robot's sensor actor on the robot's arbiter when it is first needed.
     pub spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Recipient<Deliver>>,
-    /// Called with an event for a manager or the network just before it is sent: asks for
-    /// the world's state of the robots it concerns ([`crate::world::prefetch`]), which
-    /// arrives while the message travels. Only a hint: it changes nothing.
-    pub prefetch: Box<dyn Fn(&Event)>,
+    /// Called, while an event is delivered, with the robots that the next pending event
+    /// concerns when that one is for a manager or the network: asks for their state in the
+    /// world ([`crate::world::prefetch`]), so that it arrives while this event is handled.
+    /// Only a hint: it changes nothing.
+    pub prefetch: Box<dyn Fn([RobotId; 2])>,
 }
 
 impl std::fmt::Debug for Routes {
@@ -131,6 +132,9 @@ pub(crate) struct Core {
     instant_limit: u64,
     /// The effects buffer that the next delivery carries (see [`Deliver::effects`]).
     spare: Vec<Effect>,
+    /// The target and robots of the next pending event, seen when the last was taken
+    /// ([`EventQueue::look_ahead`]).
+    ahead: Option<(Target, [RobotId; 2])>,
 }
 
 /// The largest effects buffer kept for reuse: the setup's million start notices are not.
@@ -225,6 +229,7 @@ impl Core {
             at_instant: 0,
             instant_limit: u64::MAX,
             spare: Vec::new(),
+            ahead: None,
         };
         core.apply(setup.into_effects());
         core
@@ -296,7 +301,7 @@ impl Core {
             } else {
                 self.at_instant = 1;
             }
-            self.queue.prefetch_next();
+            self.ahead = self.queue.look_ahead();
             self.now = event.time;
             self.seq += 1;
             self.output.stats.events += 1;
@@ -471,13 +476,17 @@ impl Handler<Step> for Scheduler {
             Next::Finish => return self.finish(ctx),
             Next::Deliver(target, deliver) => (target, deliver),
         };
+        if let Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) =
+            self.core.ahead
+        {
+            (self.routes.prefetch)(robots);
+        }
         match target {
             Target::Robot(r) => {
                 let reply = self.routes.robots[r as usize].send(deliver);
                 self.await_reply(ctx, target, reply);
             }
             _ => {
-                (self.routes.prefetch)(&deliver.event);
                 let reply = self.route(target).send(deliver);
                 self.await_reply(ctx, target, reply);
             }

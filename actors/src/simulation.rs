@@ -259,10 +259,10 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             .recipient();
         let prefetch = {
             let world = world.clone();
-            Box::new(move |ev: &crate::world::event::Event| {
+            Box::new(move |robots: [RobotId; 2]| {
                 // One event is in flight at a time, so the world is never held here.
                 if let Ok(w) = world.try_lock() {
-                    w.prefetch(ev);
+                    w.prefetch(robots);
                 }
             })
         };

@@ -582,14 +582,19 @@ impl EventQueue {
         None
     }
 
-    /// Asks for the next entry's event to be brought into cache ([`super::prefetch`]): called
-    /// once an event is taken, so that the next one's slot, somewhere in a million robots'
-    /// events, is read from cache when its turn comes. It takes nothing; the queue's order
-    /// moves on to the next instant early, which changes nothing of what it gives.
-    pub fn prefetch_next(&mut self) {
-        if let Some(e) = self.order.peek() {
+    /// Looks two events ahead, once an event is taken: asks for the slot of the event after
+    /// next to be brought into cache ([`super::prefetch`]), and returns the target and robots
+    /// of the next one, whose slot was asked for one event ago (or `None`), so that the
+    /// caller can ask for what its handling will read. At a million robots every slot and
+    /// every robot's state is a cache miss of its own (issue 17). It takes nothing; the
+    /// queue's order may move on to the next instant early, which changes nothing of what it
+    /// gives.
+    pub fn look_ahead(&mut self) -> Option<(Target, [RobotId; 2])> {
+        if let Some(e) = self.order.peek_second() {
             self.slots.prefetch(e.slot);
         }
+        let e = *self.order.peek()?;
+        self.slots.route(e.slot)
     }
 
     /// Number of pending events.
@@ -709,7 +714,7 @@ impl<T: Stored> Slots<T> {
         self.get(slot).is_some_and(|v| v.id() == id)
     }
 
-    /// Asks for `slot`'s cache line.
+    /// Asks for `slot`'s cache lines.
     fn prefetch(&self, slot: u32) {
         if let Some(chunk) = self.chunks.get((slot >> CHUNK_BITS) as usize) {
             if let Some(v) = chunk.get((slot & ((1 << CHUNK_BITS) - 1)) as usize) {
@@ -842,6 +847,19 @@ impl Store {
             (false, false) => self.events.holds(n, id),
             (true, true) => self.claimed_steps.holds(n, id),
             (false, true) => self.claimed_events.holds(n, id),
+        }
+    }
+
+    /// The target and robots of the event in `slot`, if any.
+    fn route(&self, slot: u32) -> Option<(Target, [RobotId; 2])> {
+        let n = slot & NUMBER;
+        let step = |s: &CompactStep| (Target::MotionManager, [s.robot, NO_ROBOT]);
+        let event = |e: &Event| (e.target, e.concerns);
+        match (slot & STEP != 0, slot & CLAIMED != 0) {
+            (true, false) => self.steps.get(n).map(step),
+            (false, false) => self.events.get(n).map(event),
+            (true, true) => self.claimed_steps.get(n).map(step),
+            (false, true) => self.claimed_events.get(n).map(event),
         }
     }
 

@@ -145,6 +145,20 @@ impl RadixQueue {
         self.now.front()
     }
 
+    /// The entry after the next one, without taking either. When the current instant has no
+    /// second entry this moves on to the next instant early: its entries join the run behind
+    /// the current one, which stays first (an entry pushed later between the two instants
+    /// is put in its place in the run), so the order taken is the same.
+    pub fn peek_second(&mut self) -> Option<&Entry> {
+        if self.now.is_empty() {
+            self.refill();
+        }
+        if self.now.len() == 1 {
+            self.refill();
+        }
+        self.now.get(1)
+    }
+
     /// Takes the next entry.
     pub fn pop(&mut self) -> Option<Entry> {
         if self.now.is_empty() {
@@ -156,14 +170,16 @@ impl RadixQueue {
     }
 
     /// Moves on to the next instant: the first non-empty bucket's smallest key becomes
-    /// `last`, and its entries move to `now` (those at `last`, sorted) or to lower buckets.
+    /// `last`, and its entries move to `now` (those at `last`, sorted, behind any entries
+    /// still there, which are before them) or to lower buckets.
     fn refill(&mut self) {
-        if self.now.capacity() > KEEP {
+        if self.now.is_empty() && self.now.capacity() > KEEP {
             self.now = VecDeque::new();
         }
         let Some(i) = self.buckets.iter().position(|b| !b.is_empty()) else {
             return;
         };
+        let kept = self.now.len();
         let mut bucket = std::mem::take(&mut self.buckets[i]);
         self.last = bucket
             .iter()
@@ -183,7 +199,8 @@ impl RadixQueue {
             }
             self.pool.push(block);
         }
-        self.now.make_contiguous().sort_unstable();
+        let (_, run) = self.now.make_contiguous().split_at_mut(kept);
+        run.sort_unstable();
         // The emptied list of blocks is kept for the bucket's next entries.
         self.buckets[i] = bucket;
     }
@@ -224,6 +241,7 @@ mod tests {
         Push(u8, u32),
         Pop,
         Peek,
+        PeekSecond,
     }
 
     fn ops() -> impl Strategy<Value = Vec<Op>> {
@@ -232,14 +250,16 @@ mod tests {
                 3 => (0u8..6, 0u32..1000).prop_map(|(k, d)| Op::Push(k, d)),
                 2 => Just(Op::Pop),
                 1 => Just(Op::Peek),
+                2 => Just(Op::PeekSecond),
             ],
             0..400,
         )
     }
 
     proptest! {
-        /// Against a sorted set: every pop is the set's least element, for monotone pushes at
-        /// the current instant (in causal order), just after it and far ahead.
+        /// Against a sorted set: every pop is the set's least element, and a look at the second
+        /// entry its second, for monotone pushes at the current instant (in causal order),
+        /// just after it and far ahead.
         #[test]
         fn pops_in_key_order(ops in ops()) {
             let mut q = RadixQueue::default();
@@ -268,6 +288,10 @@ mod tests {
                     Op::Peek => {
                         let got = q.peek().copied();
                         prop_assert_eq!(got.as_ref(), oracle.first());
+                    }
+                    Op::PeekSecond => {
+                        let got = q.peek_second().copied();
+                        prop_assert_eq!(got.as_ref(), oracle.iter().nth(1));
                     }
                     Op::Pop => {
                         let got = q.pop();
@@ -310,6 +334,11 @@ mod tests {
             };
             q.push(e);
             oracle.insert(e);
+            if rand() % 5 == 0 {
+                // Looking two ahead moves on to the next instant early.
+                let second = q.peek_second().copied();
+                assert_eq!(second.as_ref(), oracle.iter().nth(1));
+            }
             if rand() % 3 == 0 {
                 let got = q.pop();
                 assert_eq!(got, oracle.pop_first());

@@ -21,7 +21,7 @@ use super::collision::{
     predict_cell_exit, predict_contact, predict_entry, predict_reentry, predict_wall, Track,
     CONTACT_TOLERANCE,
 };
-use super::event::{Claims, Event, EventClass, EventId, Handle, Notice, Outbox, Payload, Target};
+use super::event::{Claims, EventClass, EventId, Handle, Notice, Outbox, Payload, Target};
 use super::geometry::Point;
 use super::grid::{Cell, Grid};
 use super::motion::{Kinematics, Motion, Path, Pose};
@@ -364,10 +364,10 @@ impl VirtualWorld {
         self.robots[id as usize].radius
     }
 
-    /// Asks for the state of the robots `ev` concerns to be brought into cache
-    /// ([`super::prefetch`]), ahead of the event's handling.
-    pub fn prefetch(&self, ev: &Event) {
-        for r in ev.concerns {
+    /// Asks for the state of `robots` to be brought into cache ([`super::prefetch`]), ahead
+    /// of the handling of an event that concerns them (ids out of range are ignored).
+    pub fn prefetch(&self, robots: [RobotId; 2]) {
+        for r in robots {
             if let Some(state) = self.robots.get(r as usize) {
                 super::prefetch::prefetch(state);
             }
