@@ -68,6 +68,14 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     let mut core = Core::new(p.until, p.setup, p.observers);
     core.set_instant_limit(p.instant_limit);
     while let Next::Deliver(target, msg) = core.next() {
+        // The same look ahead as the scheduler actor's ([`crate::scheduler::Routes::prefetch`]).
+        if let Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) =
+            core.ahead()
+        {
+            if let Ok(w) = p.world.try_lock() {
+                w.prefetch(robots);
+            }
+        }
         let handler: &mut dyn HandleEvent = match target {
             Target::EventManager => unreachable!("the event manager's events are handled inline"),
             Target::MotionManager => &mut motion,

@@ -383,6 +383,11 @@ impl Core {
         output
     }
 
+    /// The target and robots of the next pending event, as seen when the last was taken.
+    pub(crate) fn ahead(&self) -> Option<(Target, [RobotId; 2])> {
+        self.ahead
+    }
+
     /// Fails the run when more than `limit` events happen at one instant of virtual time.
     pub(crate) fn set_instant_limit(&mut self, limit: u64) {
         self.instant_limit = limit;
@@ -477,7 +482,7 @@ impl Handler<Step> for Scheduler {
             Next::Deliver(target, deliver) => (target, deliver),
         };
         if let Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) =
-            self.core.ahead
+            self.core.ahead()
         {
             (self.routes.prefetch)(robots);
         }
