@@ -34,9 +34,10 @@ use crate::world::observation::{Observation, Record};
 use crate::world::sensor::SensorKind;
 use crate::world::RobotId;
 
-/// Delivery of one event to the actor that handles it; the reply is the handling's effects.
+/// Delivery of one event to the actor that handles it; the reply, the handling's effects,
+/// goes back to the scheduler as a message of its own ([`Replied`]).
 #[derive(Debug, Message)]
-#[rtype(result = "Vec<Effect>")]
+#[rtype(result = "()")]
 pub struct Deliver {
     /// Virtual time of the event [s].
     pub now: f64,
@@ -46,7 +47,41 @@ pub struct Deliver {
     /// An empty buffer for the handling's effects ([`Outbox::reusing`]): the scheduler's,
     /// handed back in the reply and reused, so no handling allocates its effects' vector.
     pub effects: Vec<Effect>,
+    /// Where the reply goes (none when the kernel-alone reference calls the handling itself).
+    pub reply: Option<ReplyTo>,
 }
+
+/// The way back to the scheduler for one delivery's reply. Issue 17: a request with a
+/// one-shot reply channel, awaited by the scheduler, cost a channel, a boxed future and a
+/// message to itself per event; a reply message costs one message. Dropped without a reply
+/// (the actor stopped, or its handling panicked), it tells the scheduler so, and the run ends
+/// with [`RunFailure::NoAnswer`] instead of waiting forever.
+#[derive(Debug)]
+pub struct ReplyTo(Option<std::sync::Arc<Addr<Scheduler>>>);
+
+impl ReplyTo {
+    /// Sends the handling's effects back.
+    pub fn send(mut self, effects: Vec<Effect>) {
+        if let Some(addr) = self.0.take() {
+            addr.do_send(Replied(Ok(effects)));
+        }
+    }
+}
+
+impl Drop for ReplyTo {
+    fn drop(&mut self) {
+        if let Some(addr) = self.0.take() {
+            addr.do_send(Replied(
+                Err("the actor dropped the event unanswered".into()),
+            ));
+        }
+    }
+}
+
+/// The reply to a delivery: the handling's effects, or why there are none.
+#[derive(Debug, Message)]
+#[rtype(result = "()")]
+pub struct Replied(Result<Vec<Effect>, String>);
 
 /// Who handles which events.
 pub struct Routes {
@@ -152,6 +187,10 @@ pub(crate) enum Next {
 pub struct Scheduler {
     core: Core,
     routes: Routes,
+    /// Its own address, for the replies ([`ReplyTo`]), once started.
+    me: Option<std::sync::Arc<Addr<Scheduler>>>,
+    /// The target of the delivery in flight.
+    in_flight: Option<Target>,
     sensors: HashMap<(RobotId, SensorKind), Recipient<Deliver>>,
     on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
 }
@@ -207,11 +246,6 @@ impl std::fmt::Debug for Scheduler {
             .finish()
     }
 }
-
-/// Take and deliver the next event.
-#[derive(Debug, Message)]
-#[rtype(result = "()")]
-struct Step;
 
 impl Core {
     /// A core that runs until `until` [s]; `setup` holds the effects of the setup at t = 0
@@ -329,6 +363,7 @@ impl Core {
                 seq: self.seq,
                 event,
                 effects: std::mem::take(&mut self.spare),
+                reply: None,
             };
             return Next::Deliver(target, deliver);
         }
@@ -407,6 +442,8 @@ impl Scheduler {
         Self {
             core: Core::new(until, setup, observers),
             routes,
+            me: None,
+            in_flight: None,
             sensors: HashMap::new(),
             on_finish: Some(on_finish),
         }
@@ -427,21 +464,27 @@ impl Scheduler {
         }
     }
 
-    /// Waits for the reply `reply` of the actor behind `target`, applies it and steps on.
-    fn await_reply<F>(&mut self, ctx: &mut Context<Self>, target: Target, reply: F)
-    where
-        F: std::future::Future<Output = Result<Vec<Effect>, MailboxError>> + 'static,
-    {
-        ctx.wait(reply.into_actor(self).map(move |res, act, ctx| match res {
-            Ok(effects) => {
-                act.core.apply(effects);
-                ctx.notify(Step);
-            }
-            Err(e) => {
-                act.core.no_answer(target, e.to_string());
-                act.finish(ctx);
-            }
-        }));
+    /// Takes the next event and sends it to its actor, whose reply ([`Replied`]) steps on.
+    fn step(&mut self, ctx: &mut Context<Self>) {
+        let (target, mut deliver) = match self.core.next() {
+            Next::Finish => return self.finish(ctx),
+            Next::Deliver(target, deliver) => (target, deliver),
+        };
+        if let Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) =
+            self.core.ahead()
+        {
+            (self.routes.prefetch)(robots);
+        }
+        let me = self
+            .me
+            .get_or_insert_with(|| std::sync::Arc::new(ctx.address()));
+        deliver.reply = Some(ReplyTo(Some(me.clone())));
+        self.in_flight = Some(target);
+        // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
+        match target {
+            Target::Robot(r) => self.routes.robots[r as usize].do_send(deliver),
+            _ => self.route(target).do_send(deliver),
+        }
     }
 
     fn finish(&mut self, ctx: &mut Context<Self>) {
@@ -469,31 +512,26 @@ impl Actor for Scheduler {
     type Context = Context<Self>;
 
     fn started(&mut self, ctx: &mut Self::Context) {
-        ctx.notify(Step);
+        self.step(ctx);
     }
 }
 
-impl Handler<Step> for Scheduler {
+impl Handler<Replied> for Scheduler {
     type Result = ();
 
-    fn handle(&mut self, _: Step, ctx: &mut Context<Self>) {
-        let (target, deliver) = match self.core.next() {
-            Next::Finish => return self.finish(ctx),
-            Next::Deliver(target, deliver) => (target, deliver),
-        };
-        if let Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) =
-            self.core.ahead()
-        {
-            (self.routes.prefetch)(robots);
-        }
-        match target {
-            Target::Robot(r) => {
-                let reply = self.routes.robots[r as usize].send(deliver);
-                self.await_reply(ctx, target, reply);
+    fn handle(&mut self, reply: Replied, ctx: &mut Context<Self>) {
+        let target = self
+            .in_flight
+            .take()
+            .expect("a reply to the delivery in flight");
+        match reply.0 {
+            Ok(effects) => {
+                self.core.apply(effects);
+                self.step(ctx);
             }
-            _ => {
-                let reply = self.route(target).send(deliver);
-                self.await_reply(ctx, target, reply);
+            Err(e) => {
+                self.core.no_answer(target, e);
+                self.finish(ctx);
             }
         }
     }
@@ -512,14 +550,19 @@ pub trait HandleEvent {
 macro_rules! hosted {
     ($actor:ty) => {
         impl actix::Handler<$crate::scheduler::Deliver> for $actor {
-            type Result = actix::MessageResult<$crate::scheduler::Deliver>;
+            type Result = ();
 
             fn handle(
                 &mut self,
-                msg: $crate::scheduler::Deliver,
+                mut msg: $crate::scheduler::Deliver,
                 _: &mut actix::Context<Self>,
-            ) -> Self::Result {
-                actix::MessageResult($crate::scheduler::HandleEvent::handle_event(self, msg))
+            ) {
+                // Held across the handling: should it panic, dropping it tells the scheduler.
+                let reply = msg.reply.take();
+                let effects = $crate::scheduler::HandleEvent::handle_event(self, msg);
+                if let Some(reply) = reply {
+                    reply.send(effects);
+                }
             }
         }
     };
