@@ -40,3 +40,56 @@ fn a_billion_simulated_seconds_take_well_under_a_wall_clock_second() {
     assert!(matches!(last.obs, Observation::MotionFinish { .. }));
     assert!(out.stats.events < 1_000, "{} events", out.stats.events);
 }
+
+/// An algorithm that panics at its second handling.
+#[derive(Debug)]
+struct Faulty;
+
+impl nekosim::Algorithm for Faulty {
+    fn name(&self) -> &str {
+        "Faulty"
+    }
+    fn run(&self, robot: nekosim::Robot) -> nekosim::AlgorithmFuture {
+        Box::pin(async move {
+            robot.sleep(2.0).await;
+            panic!("a bug in the user's algorithm");
+        })
+    }
+}
+
+/// A robot whose handling panics never answers its event: the run ends there with
+/// `NoAnswer` for that robot (the records up to then kept), on every number of arbiters,
+/// instead of waiting for the reply forever.
+#[test]
+fn a_panicking_algorithm_ends_the_run_instead_of_hanging_it() {
+    for arbiters in [1, 2] {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let out = nekosim::run(nekosim::SimConfig {
+                sensors: Default::default(),
+                seed: 1,
+                until: 10.0,
+                world: infinite(),
+                robots: vec![
+                    (spec(0.0, 0.0, 0.0, 1.0), idle()),
+                    (spec(10.0, 0.0, 0.0, 1.0), Box::new(Faulty)),
+                ],
+                arbiters,
+                record: true,
+                observers: Default::default(),
+                comms: Default::default(),
+            });
+            let _ = tx.send(out.map(|o| o.stats));
+        });
+        let out = rx
+            .recv_timeout(std::time::Duration::from_secs(60))
+            .expect("the run ended");
+        match out {
+            Err(nekosim::SimError::Stopped(nekosim::scheduler::RunFailure::NoAnswer {
+                target,
+                ..
+            })) => assert_eq!(target, "Robot(1)"),
+            other => panic!("expected NoAnswer from robot 1, got {other:?}"),
+        }
+    }
+}
