@@ -364,12 +364,14 @@ impl VirtualWorld {
         self.robots[id as usize].radius
     }
 
-    /// Asks for the state of `robots` to be brought into cache ([`super::prefetch`]), ahead
-    /// of the handling of an event that concerns them (ids out of range are ignored).
+    /// Asks for the state of `robots`, and the grid's cells around them, to be brought into
+    /// cache ([`super::prefetch`]), ahead of the handling of an event that concerns them (ids
+    /// out of range are ignored).
     pub fn prefetch(&self, robots: [RobotId; 2]) {
         for r in robots {
             if let Some(state) = self.robots.get(r as usize) {
                 super::prefetch::prefetch(state);
+                self.grid.prefetch_around(r);
             }
         }
     }
