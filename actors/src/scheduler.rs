@@ -470,10 +470,17 @@ impl Scheduler {
             Next::Finish => return self.finish(ctx),
             Next::Deliver(target, deliver) => (target, deliver),
         };
-        if let Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) =
-            self.core.ahead()
-        {
-            (self.routes.prefetch)(robots);
+        match self.core.ahead() {
+            Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) => {
+                (self.routes.prefetch)(robots);
+            }
+            // The robot's address, read first when the next event is sent to it.
+            Some((Target::Robot(r), _)) => {
+                if let Some(addr) = self.routes.robots.get(r as usize) {
+                    crate::world::prefetch::prefetch(addr);
+                }
+            }
+            _ => {}
         }
         let me = self
             .me
