@@ -434,6 +434,7 @@ impl VirtualWorld {
 
     /// Setup at t = 0: records the spawns and starts every algorithm.
     pub fn start(&self, out: &mut Outbox) {
+        out.reserve(2 * self.robots.len());
         for (i, r) in self.robots.iter().enumerate() {
             out.record(Observation::Spawn {
                 robot: i as RobotId,
