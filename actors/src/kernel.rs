@@ -69,9 +69,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     core.set_instant_limit(p.instant_limit);
     while let Next::Deliver(target, msg) = core.next() {
         // The same look ahead as the scheduler actor's ([`crate::scheduler::Routes::prefetch`]).
-        if let Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) =
-            core.ahead()
-        {
+        if let Some(robots) = core.ahead_in_world() {
             if let Ok(w) = p.world.try_lock() {
                 w.prefetch(robots);
             }

@@ -423,6 +423,17 @@ impl Core {
         self.ahead
     }
 
+    /// The robots of the next pending event when it is for a manager or the network, whose
+    /// handling reads their state in the world: what the look-ahead prefetches there.
+    pub(crate) fn ahead_in_world(&self) -> Option<[RobotId; 2]> {
+        match self.ahead {
+            Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) => {
+                Some(robots)
+            }
+            _ => None,
+        }
+    }
+
     /// Fails the run when more than `limit` events happen at one instant of virtual time.
     pub(crate) fn set_instant_limit(&mut self, limit: u64) {
         self.instant_limit = limit;
@@ -470,17 +481,13 @@ impl Scheduler {
             Next::Finish => return self.finish(ctx),
             Next::Deliver(target, deliver) => (target, deliver),
         };
-        match self.core.ahead() {
-            Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) => {
-                (self.routes.prefetch)(robots);
-            }
+        if let Some(robots) = self.core.ahead_in_world() {
+            (self.routes.prefetch)(robots);
+        } else if let Some((Target::Robot(r), _)) = self.core.ahead() {
             // The robot's address, read first when the next event is sent to it.
-            Some((Target::Robot(r), _)) => {
-                if let Some(addr) = self.routes.robots.get(r as usize) {
-                    crate::world::prefetch::prefetch(addr);
-                }
+            if let Some(addr) = self.routes.robots.get(r as usize) {
+                crate::world::prefetch::prefetch(addr);
             }
-            _ => {}
         }
         let me = self
             .me
