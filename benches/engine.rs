@@ -239,6 +239,10 @@ struct Timed {
     /// touches of memory and the teardown stay outside, and so does the noise between two
     /// separate runs.
     inrun: (f64, u64, f64),
+    /// Wall seconds from the start of the run to the end of spawning (the last start-up
+    /// call), and from the last progress call to the run's return (the teardown).
+    spawned: f64,
+    teardown: f64,
 }
 
 fn timed(host: Host, n: usize, until: f64) -> Timed {
@@ -256,6 +260,13 @@ fn timed(host: Host, n: usize, until: f64) -> Timed {
         }
     }));
     let started = std::time::Instant::now();
+    let spawned = std::rc::Rc::new(std::cell::Cell::new(None));
+    let spawn_seen = spawned.clone();
+    cfg.observers.startup = Some(Box::new(move |i: usize, n: usize| {
+        if i == n {
+            spawn_seen.set(Some(started.elapsed().as_secs_f64()));
+        }
+    }));
     let stats = match host {
         Host::Actors => nekosim::run(cfg),
         Host::Kernel => nekosim::kernel::run(cfg),
@@ -266,11 +277,16 @@ fn timed(host: Host, n: usize, until: f64) -> Timed {
     let inrun = marks.get().map_or((0.0, 0, 0.0), |(a, b)| {
         ((b.0 - a.0).as_secs_f64(), b.1 - a.1, b.2 - a.2)
     });
+    let teardown = marks
+        .get()
+        .map_or(f64::NAN, |(_, b)| wall - (b.0 - started).as_secs_f64());
     Timed {
         wall,
         placement,
         events: stats.events,
         inrun,
+        spawned: spawned.get().unwrap_or(f64::NAN),
+        teardown,
     }
 }
 
@@ -330,7 +346,8 @@ fn scale(_: &mut Criterion) {
                  {} events in {:.3} s; steady state (the difference): {:.2} us per event ({:.2}x \
                  1k's), {:.2}x real time; within the long run from simulated second 1: {} events \
                  in {:.3} s, {:.2} us per event ({:.2}x 1k's), {:.2}x real time; to simulated \
-                 second 1: {:.2} s + placement {:.2} s; peak RSS {:.2} GB",
+                 second 1: {:.2} s + placement {:.2} s (spawned at {:.2} s); teardown of the long \
+                 run {:.2} s; peak RSS {:.2} GB",
                 b.events,
                 b.wall,
                 b.events as f64 / b.wall,
@@ -346,6 +363,8 @@ fn scale(_: &mut Criterion) {
                 in_sim / in_wall,
                 if short == 1.0 { a.wall } else { f64::NAN },
                 a.placement,
+                a.spawned,
+                b.teardown,
                 peak_rss() as f64 / 1e9,
             );
         }
