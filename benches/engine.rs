@@ -10,8 +10,9 @@
 //!   for the actor-hosted run and for the kernel-alone reference (`nekosim::kernel::run`: the
 //!   same handling code without actors), and the ratio of the two; also the same figures
 //!   within the long run, from its first progress call at simulated second 1 to its last
-//!   (start-up and teardown outside, no difference of two runs). Timed by hand (a 1M run
-//!   takes 15-25 s here), least of a few runs; run it alone with
+//!   (start-up and teardown outside, no difference of two runs); then the later phase, seconds
+//!   30 to 40 of a 40 s run, where the robots have turned and move on (`scale_late`). Timed by
+//!   hand (a 1M run takes 5-40 s here), least of a few runs; run it alone with
 //!   `cargo bench --bench engine -- scale`.
 //!
 //! The allocator is the `nekosim` binary's (mimalloc, keeping freed memory:
@@ -246,13 +247,19 @@ struct Timed {
 }
 
 fn timed(host: Host, n: usize, until: f64) -> Timed {
+    timed_from(host, n, until, 1.0)
+}
+
+/// [`timed`], its in-run figures taken from the first progress call at simulated second
+/// `from` or later.
+fn timed_from(host: Host, n: usize, until: f64, from: f64) -> Timed {
     let placed = std::time::Instant::now();
     let mut cfg = random_config(n, until);
     let placement = placed.elapsed().as_secs_f64();
     let marks = std::rc::Rc::new(std::cell::Cell::new(None));
     let seen = marks.clone();
     cfg.observers.progress = Some(Box::new(move |t: f64, events: u64| {
-        if t >= 1.0 {
+        if t >= from {
             let now = (std::time::Instant::now(), events, t);
             seen.set(Some(
                 seen.get().map_or((now, now), |(first, _)| (first, now)),
@@ -374,6 +381,57 @@ fn scale(_: &mut Criterion) {
             println!(
                 "scale/{n}: actors against the kernel alone: {:.2}x the steady cost per event, \
                  {:.2}x the long span's wall time",
+                ac / kc,
+                aw / kw
+            );
+        }
+    }
+    late(&wanted);
+}
+
+/// The scale series' later phase: seconds 30 to 40 of a 40 s run. At the start every robot
+/// of the seed's random movement turns in place towards its first destination (up to a
+/// minute at the seed's turn speeds), so the first seconds have fewer events, and cheaper
+/// ones, than the phase where the robots move on and collide; seconds 1 to 11 say little
+/// about that phase. `scale_late` as the filter runs only this; one run per size and host.
+fn late(wanted: &dyn Fn(&str) -> bool) {
+    let hosts: Vec<Host> = [
+        (Host::Kernel, "scale_late_kernel"),
+        (Host::Actors, "scale_late_actors"),
+    ]
+    .into_iter()
+    .filter(|(_, name)| wanted(name))
+    .map(|(h, _)| h)
+    .collect();
+    let (from, until) = (30.0, 40.0);
+    let mut base = [None, None];
+    for n in [1_000usize, 100_000, 1_000_000] {
+        let mut seen = [None, None];
+        for &host in &hosts {
+            let r = timed_from(host, n, until, from);
+            let (wall, events, sim) = r.inrun;
+            let cost = wall / events as f64;
+            let k = host as usize;
+            let b = *base[k].get_or_insert(cost);
+            seen[k] = Some((cost, r.wall));
+            println!(
+                "scale_late/{host:?}/{n}: simulated seconds {from}-{until} of a {until} s run: \
+                 {events} events in {wall:.3} s ({:.0} events per simulated second), {:.2} us per \
+                 event ({:.2}x 1k's), {:.2}x real time; the whole run {:.3} s ({} events)",
+                events as f64 / sim,
+                cost * 1e6,
+                cost / b,
+                sim / wall,
+                r.wall,
+                r.events,
+            );
+        }
+        if let [Some((ac, aw)), Some((kc, kw))] =
+            [seen[Host::Actors as usize], seen[Host::Kernel as usize]]
+        {
+            println!(
+                "scale_late/{n}: actors against the kernel alone: {:.2}x the cost per event in \
+                 seconds {from}-{until}, {:.2}x the whole run's wall time",
                 ac / kc,
                 aw / kw
             );
