@@ -11,7 +11,8 @@
 //!   same handling code without actors), and the ratio of the two; also the same figures
 //!   within the long run, from its first progress call at simulated second 1 to its last
 //!   (start-up and teardown outside, no difference of two runs); then the later phase, seconds
-//!   30 to 40 of a 40 s run, where the robots have turned and move on (`scale_late`). Timed by
+//!   30 to 40 of a 40 s run (30 to 330 at 1k), where the robots have turned and move on
+//!   (`scale_late`). Timed by
 //!   hand (a 1M run takes 5-40 s here), least of a few runs; run it alone with
 //!   `cargo bench --bench engine -- scale`.
 //!
@@ -389,11 +390,12 @@ fn scale(_: &mut Criterion) {
     late(&wanted);
 }
 
-/// The scale series' later phase: seconds 30 to 40 of a 40 s run. At the start every robot
-/// of the seed's random movement turns in place towards its first destination (up to a
-/// minute at the seed's turn speeds), so the first seconds have fewer events, and cheaper
-/// ones, than the phase where the robots move on and collide; seconds 1 to 11 say little
-/// about that phase. `scale_late` as the filter runs only this; one run per size and host.
+/// The scale series' later phase: seconds 30 to 40 of a 40 s run (30 to 330 at 1k). At the
+/// start every robot of the seed's random movement turns in place towards its first
+/// destination (up to a minute at the seed's turn speeds), so the first seconds have fewer
+/// events, and cheaper ones, than the phase where the robots move on and collide; seconds 1
+/// to 11 say little about that phase. `scale_late` as the filter runs only this; one run per
+/// size and host.
 fn late(wanted: &dyn Fn(&str) -> bool) {
     let hosts: Vec<Host> = [
         (Host::Kernel, "scale_late_kernel"),
@@ -403,9 +405,13 @@ fn late(wanted: &dyn Fn(&str) -> bool) {
     .filter(|(_, name)| wanted(name))
     .map(|(h, _)| h)
     .collect();
-    let (from, until) = (30.0, 40.0);
     let mut base = [None, None];
-    for n in [1_000usize, 100_000, 1_000_000] {
+    // 1k robots make 561 events a simulated second: 300 s of them for a stable figure.
+    for (n, from, until) in [
+        (1_000usize, 30.0, 330.0),
+        (100_000, 30.0, 40.0),
+        (1_000_000, 30.0, 40.0),
+    ] {
         let mut seen = [None, None];
         for &host in &hosts {
             let r = timed_from(host, n, until, from);
