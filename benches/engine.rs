@@ -394,8 +394,8 @@ fn scale(_: &mut Criterion) {
 /// start every robot of the seed's random movement turns in place towards its first
 /// destination (up to a minute at the seed's turn speeds), so the first seconds have fewer
 /// events, and cheaper ones, than the phase where the robots move on and collide; seconds 1
-/// to 11 say little about that phase. `scale_late` as the filter runs only this; one run per
-/// size and host.
+/// to 11 say little about that phase. `scale_late` as the filter runs only this; least of
+/// three runs at 1k, two at 100k, one at 1M.
 fn late(wanted: &dyn Fn(&str) -> bool) {
     let hosts: Vec<Host> = [
         (Host::Kernel, "scale_late_kernel"),
@@ -407,14 +407,18 @@ fn late(wanted: &dyn Fn(&str) -> bool) {
     .collect();
     let mut base = [None, None];
     // 1k robots make 561 events a simulated second: 300 s of them for a stable figure.
-    for (n, from, until) in [
-        (1_000usize, 30.0, 330.0),
-        (100_000, 30.0, 40.0),
-        (1_000_000, 30.0, 40.0),
+    for (n, from, until, repeats) in [
+        (1_000usize, 30.0, 330.0, 3),
+        (100_000, 30.0, 40.0, 2),
+        (1_000_000, 30.0, 40.0, 1),
     ] {
         let mut seen = [None, None];
         for &host in &hosts {
-            let r = timed_from(host, n, until, from);
+            // The run with the least wall time within the window.
+            let r = (0..repeats)
+                .map(|_| timed_from(host, n, until, from))
+                .min_by(|a, b| a.inrun.0.total_cmp(&b.inrun.0))
+                .expect("a run");
             let (wall, events, sim) = r.inrun;
             let cost = wall / events as f64;
             let k = host as usize;
