@@ -313,6 +313,16 @@ fn spans(host: Host, n: usize, short: f64, long: f64, repeats: usize) -> (Timed,
     (a.expect("a run"), b.expect("a run"))
 }
 
+/// The hosts that the filter asks for, by the names `{series}_kernel` and `{series}_actors`,
+/// the kernel first.
+fn hosts_wanted(series: &str, wanted: &dyn Fn(&str) -> bool) -> Vec<Host> {
+    [(Host::Kernel, "kernel"), (Host::Actors, "actors")]
+        .into_iter()
+        .filter(|(_, host)| wanted(&format!("{series}_{host}")))
+        .map(|(h, _)| h)
+        .collect()
+}
+
 /// Issue 17's scale series, smallest first so that the process's peak RSS after each size is
 /// that size's; at each size the kernel-alone reference runs first, so the peak printed after
 /// it is its own. `scale_actors` or `scale_kernel` as the filter runs one host only. Skipped
@@ -324,14 +334,7 @@ fn scale(_: &mut Criterion) {
         .filter(|a| !a.starts_with('-'))
         .collect();
     let wanted = |name: &str| filter.is_empty() || filter.iter().any(|f| name.contains(f.as_str()));
-    let hosts: Vec<Host> = [
-        (Host::Kernel, "scale_kernel"),
-        (Host::Actors, "scale_actors"),
-    ]
-    .into_iter()
-    .filter(|(_, name)| wanted(name))
-    .map(|(h, _)| h)
-    .collect();
+    let hosts = hosts_wanted("scale", &wanted);
     let mut base_cost = [None, None];
     let mut base_inrun = [None, None];
     for (n, short, long, repeats) in [
@@ -397,14 +400,7 @@ fn scale(_: &mut Criterion) {
 /// to 11 say little about that phase. `scale_late` as the filter runs only this; least of
 /// three runs at 1k, two at 100k, one at 1M.
 fn late(wanted: &dyn Fn(&str) -> bool) {
-    let hosts: Vec<Host> = [
-        (Host::Kernel, "scale_late_kernel"),
-        (Host::Actors, "scale_late_actors"),
-    ]
-    .into_iter()
-    .filter(|(_, name)| wanted(name))
-    .map(|(h, _)| h)
-    .collect();
+    let hosts = hosts_wanted("scale_late", wanted);
     let mut base = [None, None];
     // 1k robots make 561 events a simulated second: 300 s of them for a stable figure.
     for (n, from, until, repeats) in [
