@@ -308,6 +308,17 @@ impl Grid {
             .copied()
     }
 
+    /// Robots in the cells of the 3×3 block around `new` that are not in the block around
+    /// `old`: those a robot moving from cell `old` to `new` comes next to (three cells for a
+    /// crossing of one side, five across a corner), in the order [`Grid::neighbours`] gives.
+    pub fn entered(&self, old: Cell, new: Cell) -> impl Iterator<Item = RobotId> + '_ {
+        (-1..=1)
+            .flat_map(move |dx| (-1..=1).map(move |dy| [new[0] + dx, new[1] + dy]))
+            .filter(move |k| (k[0] - old[0]).abs() > 1 || (k[1] - old[1]).abs() > 1)
+            .flat_map(|k| self.get(k))
+            .copied()
+    }
+
     /// Robots registered in cells that intersect the square `[lo, hi]`, or `None` when that
     /// square spans more cells than `limit` (the caller should then scan every robot).
     pub fn in_box(&self, lo: Point, hi: Point, limit: usize) -> Option<Vec<RobotId>> {
@@ -440,6 +451,15 @@ mod tests {
         let mut n: Vec<RobotId> = g.neighbours([0, 0]).collect();
         n.sort_unstable();
         assert_eq!(n, vec![0, 1, 3, 4]);
+        // From [-1, 0] to [0, 0]: the column x = 1 comes next.
+        let mut e: Vec<RobotId> = g.entered([-1, 0], [0, 0]).collect();
+        e.sort_unstable();
+        assert_eq!(e, vec![1]);
+        // Across a corner, from [-1, -1]: five cells come next, [-1, -1]'s own block not.
+        let mut e: Vec<RobotId> = g.entered([-1, -1], [0, 0]).collect();
+        e.sort_unstable();
+        assert_eq!(e, vec![1]);
+        assert_eq!(g.entered([1, 1], [0, 0]).collect::<Vec<_>>(), vec![3]);
         g.remove(0, [0, 0]);
         n = g.neighbours([0, 0]).collect();
         n.sort_unstable();

@@ -422,6 +422,9 @@ pub struct TurnForward {
     has_forward: bool,
     /// Heading after the turn [deg].
     heading: f64,
+    /// Unit vector of `heading`, worked out once: positions and predictions asked for it
+    /// every time (a sine and a cosine, issue 17: 6 % of a 1k-robot run's instructions).
+    u: Vector,
     /// Instant the turn ends and the forward part starts [s].
     t_turned: f64,
     t_end: f64,
@@ -449,13 +452,14 @@ impl TurnForward {
             has_turn,
             has_forward,
             heading,
+            u: heading_vector(heading),
             t_turned,
             t_end: t_turned + distance / move_speed,
         }
     }
 
     fn end_pos(&self) -> Point {
-        self.from.pos + heading_vector(self.heading) * self.distance
+        self.from.pos + self.u * self.distance
     }
 }
 
@@ -485,7 +489,7 @@ impl MotionPattern for TurnForward {
                 omega,
             };
         }
-        let u = heading_vector(self.heading);
+        let u = self.u;
         let s = self.move_speed * (t - self.t_turned);
         Kinematics {
             pos: self.from.pos + u * s,
@@ -554,7 +558,7 @@ impl MotionPattern for TurnForward {
     }
 
     fn for_each_piece(&self, f: &mut dyn FnMut(Piece)) {
-        let u = heading_vector(self.heading);
+        let u = self.u;
         f(Piece {
             t0: self.t0,
             t1: self.t_turned,

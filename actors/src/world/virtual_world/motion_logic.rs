@@ -85,7 +85,7 @@ impl VirtualWorld {
                 let new = r.cell;
                 self.grid.remove(robot, old);
                 self.grid.insert(robot, new);
-                self.predict_neighbours(robot, out);
+                self.predict_entered(robot, old, out);
                 self.predict_obstacles(robot, out);
                 self.predict_crossing(robot, out);
             }
