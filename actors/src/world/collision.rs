@@ -329,6 +329,75 @@ pub fn predict_cell_exit(a: &Track, lo: Point, size: f64, now: f64) -> Option<(f
     None
 }
 
+/// The cells a robot following `a` passes through from `now` on, from the grid cell `cell`
+/// of cells `size` wide: [`predict_cell_exit`] again and again, from each cell it enters at the
+/// instant it enters it. `step` is given the offset into each next cell, at most `max` times;
+/// returns when it leaves the last cell, and by which offset, if it does. A track of linear
+/// pieces is cut into pieces once for the whole walk.
+pub fn cell_walk(
+    a: &Track,
+    cell: [i64; 2],
+    size: f64,
+    now: f64,
+    max: usize,
+    mut step: impl FnMut([i64; 2]),
+) -> Option<(f64, [i64; 2])> {
+    // The pieces as they are, not cut at `now`: positions later on are worked out from
+    // their own starts, as a prediction from then would.
+    let pieces = a.pieces_from(a.motion.map_or(now, |m| m.start_time().min(now)));
+    let linear = pieces
+        .iter()
+        .all(|x| matches!(x.shape, Shape::Linear { .. }));
+    let mut cell = cell;
+    let corner = |c: [i64; 2]| Point::new(c[0] as f64 * size, c[1] as f64 * size);
+    let mut lo = corner(cell);
+    let mut taken = 0;
+    if !linear {
+        let mut exit = predict_cell_exit(a, lo, size, now);
+        while taken < max {
+            let Some((t, offset)) = exit else { break };
+            step(offset);
+            taken += 1;
+            cell = [cell[0] + offset[0], cell[1] + offset[1]];
+            lo = corner(cell);
+            exit = predict_cell_exit(a, lo, size, t);
+        }
+        return exit;
+    }
+    let mut t = now;
+    for x in &pieces {
+        let Shape::Linear { p0, v } = x.shape else {
+            unreachable!("linear pieces only")
+        };
+        loop {
+            let s = t.max(x.t0);
+            if x.t1 <= s {
+                // Over by then: a prediction from then does not see it.
+                break;
+            }
+            let start = if s > x.t0 {
+                linear_at(p0, v, x.t0, s)
+            } else {
+                p0
+            };
+            let Some((tau, offset)) =
+                cell_exit_linear(start, v, lo, size).filter(|(tau, _)| *tau <= x.t1 - s)
+            else {
+                break;
+            };
+            if taken == max {
+                return Some((s + tau, offset));
+            }
+            step(offset);
+            taken += 1;
+            cell = [cell[0] + offset[0], cell[1] + offset[1]];
+            lo = corner(cell);
+            t = s + tau;
+        }
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -611,5 +680,40 @@ mod tests {
         };
         assert_eq!(predict_contact(&a, &b, 4.0, 0.0), None);
         assert_eq!(predict_contact(&a, &b, 5.0, 0.0), Some(5.0));
+    }
+
+    proptest! {
+        /// The walk is the cell exit predicted again and again from each cell it enters, at
+        /// the instant it enters it.
+        #[test]
+        fn cell_walk_is_the_cell_exit_again_and_again(
+            x in 0.0f64..100.0, y in 0.0f64..100.0, a in 0.0f64..360.0,
+            dx in -300.0f64..300.0, dy in -300.0f64..300.0, ms in 0.5f64..20.0,
+            ts in 1.0f64..90.0, late in 0.0f64..30.0, max in 0usize..12,
+        ) {
+            let m = Motion::MoveTo { dest: Point::new(x + dx, y + dy), move_speed: ms, turn_speed: ts }
+                .begin(0.0, Pose { pos: Point::new(x, y), angle: a })
+                .unwrap();
+            let track = Track { motion: Some(&*m), rest: Point::new(x, y) };
+            let size = 20.0;
+            let now = late.min(m.end_time());
+            let p = track.pos_at(now);
+            let first = [(p.x / size).floor() as i64, (p.y / size).floor() as i64];
+            let mut steps = Vec::new();
+            let exit = cell_walk(&track, first, size, now, max, |o| steps.push(o));
+            // Again and again.
+            let (mut cell, mut t, mut want) = (first, now, Vec::new());
+            let corner = |c: [i64; 2]| Point::new(c[0] as f64 * size, c[1] as f64 * size);
+            let mut next = predict_cell_exit(&track, corner(cell), size, t);
+            while want.len() < max {
+                let Some((te, o)) = next else { break };
+                want.push(o);
+                cell = [cell[0] + o[0], cell[1] + o[1]];
+                t = te;
+                next = predict_cell_exit(&track, corner(cell), size, t);
+            }
+            prop_assert_eq!(steps, want);
+            prop_assert_eq!(exit, next);
+        }
     }
 }

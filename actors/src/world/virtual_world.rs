@@ -15,20 +15,22 @@
 //! Invalidation is cheap and local: each robot keeps the ids of its own conditional events
 //! (motion steps, cell crossings, boundary contact) and, per partner robot, of the pair events
 //! (collision, sensor entries) predicted under the current motions. A change of path cancels
-//! exactly those and re-predicts against the 3×3 block of cells around the robot.
+//! exactly those and re-predicts against the 3×3 blocks around the cells the robot is
+//! registered in (its own and the next ones on its path, [`super::grid::Span`]).
 
 use super::collision::{
-    predict_cell_exit, predict_contact, predict_entry, predict_reentry, predict_wall, Track,
+    cell_walk, predict_contact, predict_entry, predict_reentry, predict_wall, Track,
     CONTACT_TOLERANCE,
 };
 use super::event::{Claims, EventClass, EventId, Handle, Notice, Outbox, Payload, Target};
 use super::geometry::Point;
-use super::grid::{Cell, Grid};
+use super::grid::{blocks, next_to, Cell, Grid, Span, SPAN};
 use super::motion::{Kinematics, Motion, Path, Pose};
 use super::observation::Observation;
 use super::obstacle::{predict_obstacle, ObstacleIndex, Shape, ShapeError};
 use super::sensor::{Datum, SensorKind, SensorQuery, SensorValue, Sensors, Trigger, WorldView};
 use super::{MotionOutcome, Obstacle, RobotId};
+use smallvec::SmallVec;
 
 mod motion_logic;
 mod sensing;
@@ -145,7 +147,10 @@ struct RobotState {
     obstacle: Option<Handle>,
     /// Partner -> pair events predicted under the current motions of both.
     pairs: Pairs,
+    /// The first cell the robot is registered in: its cell when it was registered.
     cell: Cell,
+    /// The cells after `cell` it is registered in, along its path.
+    span: Span,
     /// What the world shows of the robot's armed push sensors, once it arms one.
     listening: Option<Box<Listening>>,
     crashed: bool,
@@ -337,6 +342,7 @@ impl VirtualWorld {
                 obstacle: None,
                 pairs: Pairs::default(),
                 cell,
+                span: Span::default(),
                 listening: None,
                 crashed: false,
             });
@@ -419,6 +425,10 @@ impl VirtualWorld {
             .grid
             .in_box(centre - m, centre + m, self.robots.len().max(9))
             .unwrap_or_else(|| (0..self.robots.len() as RobotId).collect());
+        // A moving robot is registered in several cells.
+        let mut candidates = candidates;
+        candidates.sort_unstable();
+        candidates.dedup();
         let mut out: Vec<_> = candidates
             .into_iter()
             .filter(|&id| id != me)
@@ -518,54 +528,36 @@ impl VirtualWorld {
         self.robots[b as usize].pairs.insert(a, ids);
     }
 
-    /// Predicts `id` against every neighbour it has no prediction with yet.
-    fn predict_neighbours(&mut self, id: RobotId, out: &mut Outbox) {
-        let cell = self.robots[id as usize].cell;
-        let fresh: Vec<RobotId> = self
-            .grid
-            .neighbours(cell)
-            .filter(|&o| o != id && !self.robots[id as usize].pairs.contains_key(&o))
-            .collect();
-        for o in fresh {
-            self.predict_pair(id, o, out);
-        }
+    /// The cells `id` is registered in, in order along its path.
+    fn span_cells(&self, id: RobotId) -> SmallVec<[Cell; SPAN]> {
+        let r = &self.robots[id as usize];
+        r.span.cells(r.cell).collect()
     }
 
-    /// Predicts `id`, which has just moved from cell `old` to its cell, against the robots it
-    /// comes next to: those of the cells of its new 3×3 block that were not in its old one.
-    /// The robots of the cells the two blocks share already have predictions with a moving
-    /// robot (made when its motion began, when they came next to it, or when either's path
-    /// changed), so a crossing reads three cells instead of nine (issue 17: the crossing
-    /// is more than half of a run's events).
-    fn predict_entered(&mut self, id: RobotId, old: Cell, out: &mut Outbox) {
-        let cell = self.robots[id as usize].cell;
-        debug_assert!(
-            self.grid.neighbours(cell).all(|o| {
-                let c = self.robots[o as usize].cell;
-                o == id
-                    || (c[0] - old[0]).abs() > 1
-                    || (c[1] - old[1]).abs() > 1
-                    || self.robots[id as usize].pairs.contains_key(&o)
-            }),
-            "a robot next to a moving robot without a prediction with it"
-        );
-        let fresh: Vec<RobotId> = self
-            .grid
-            .entered(old, cell)
-            .filter(|&o| o != id && !self.robots[id as usize].pairs.contains_key(&o))
-            .collect();
-        for o in fresh {
-            self.predict_pair(id, o, out);
+    /// Registers `id` in the cells its centre passes through from `first` on, from now: up to
+    /// [`SPAN`] of them, ending where it stops (replacing its earlier registration). Returns
+    /// when and into which neighbour it leaves the last one, if it does.
+    fn seat(&mut self, id: RobotId, first: Cell, now: f64) -> Option<(f64, [i64; 2])> {
+        for c in self.span_cells(id) {
+            self.grid.remove(id, c);
         }
+        let (track, size) = (self.track(id), self.grid.cell_size());
+        let mut span = Span::default();
+        let exit = cell_walk(&track, first, size, now, SPAN - 1, |offset| {
+            span.push(offset)
+        });
+        let r = &mut self.robots[id as usize];
+        r.cell = first;
+        r.span = span;
+        for c in span.cells(first) {
+            self.grid.insert(id, c);
+        }
+        exit
     }
 
-    fn predict_crossing(&mut self, id: RobotId, out: &mut Outbox) {
-        let now = out.now();
-        let cell = self.robots[id as usize].cell;
-        let lo = self.grid.lower_corner(cell);
-        if let Some((t, offset)) =
-            predict_cell_exit(&self.track(id), lo, self.grid.cell_size(), now)
-        {
+    /// Schedules `id`'s crossing out of the last cell it is registered in.
+    fn schedule_crossing(&mut self, id: RobotId, exit: Option<(f64, [i64; 2])>, out: &mut Outbox) {
+        if let Some((t, offset)) = exit {
             let e = out.schedule_in(
                 &mut self.claims,
                 t,
@@ -575,6 +567,80 @@ impl VirtualWorld {
                 Payload::CellCrossing { robot: id, offset },
             );
             self.robots[id as usize].own.push(e);
+        }
+    }
+
+    /// Predicts `id` against the robots next to `cells` (the cells it is registered in) that
+    /// it has no prediction with yet, each once, leaving out the cells next to `skip`. The
+    /// cells are read block by block in order, each block row by row as
+    /// [`Grid::neighbours`] reads it, a cell of an earlier block not again.
+    fn predict_around(&mut self, id: RobotId, cells: &[Cell], skip: &[Cell], out: &mut Outbox) {
+        let mut fresh: SmallVec<[RobotId; 8]> = SmallVec::new();
+        for (k, &c) in cells.iter().enumerate() {
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    let b = [c[0] + dx, c[1] + dy];
+                    if cells[..k].iter().chain(skip).any(|&e| next_to(e, b)) {
+                        continue;
+                    }
+                    for &o in self.grid.robots_in(b) {
+                        if o != id
+                            && !fresh.contains(&o)
+                            && !self.robots[id as usize].pairs.contains_key(&o)
+                        {
+                            fresh.push(o);
+                        }
+                    }
+                }
+            }
+        }
+        for o in fresh {
+            self.predict_pair(id, o, out);
+        }
+    }
+
+    /// Predicts `id` against every robot next to the cells it is registered in that it has no
+    /// prediction with yet.
+    fn predict_neighbours(&mut self, id: RobotId, out: &mut Outbox) {
+        let cells = self.span_cells(id);
+        self.predict_around(id, &cells, &[], out);
+    }
+
+    /// Predicts `id`, registered anew along its path after it was in the cells `old`, against
+    /// the robots it comes next to: those of the cells next to its new cells that were not
+    /// next to its old ones. The robots of the others already have predictions with a moving
+    /// robot (made when its motion began, when either came next to the other, or when either's
+    /// path changed), so a crossing reads only the cells ahead (issue 17).
+    fn predict_entered(&mut self, id: RobotId, old: &[Cell], out: &mut Outbox) {
+        let cells = self.span_cells(id);
+        debug_assert!(
+            blocks(&cells)
+                .into_iter()
+                .filter(|&c| old.iter().any(|&o| next_to(o, c)))
+                .flat_map(|c| self.grid.robots_in(c).to_vec())
+                .all(|o| o == id || self.robots[id as usize].pairs.contains_key(&o)),
+            "a robot next to a moving robot without a prediction with it"
+        );
+        self.predict_around(id, &cells, old, out);
+    }
+
+    /// A crossing out of the last cell `robot` is registered in, by `offset`: it is registered
+    /// anew from the cell it enters.
+    fn cross(&mut self, robot: RobotId, offset: [i64; 2], out: &mut Outbox) {
+        let old = self.span_cells(robot);
+        let last = old[old.len() - 1];
+        let exit = self.seat(robot, [last[0] + offset[0], last[1] + offset[1]], out.now());
+        self.predict_entered(robot, &old, out);
+        self.predict_obstacles(robot, out);
+        self.schedule_crossing(robot, exit, out);
+    }
+
+    /// Registers a robot whose motion ended in the one cell it stopped in, the last of its
+    /// cells (the cells behind it are no longer its).
+    fn settle(&mut self, id: RobotId, now: f64) {
+        if !self.robots[id as usize].span.is_single() {
+            let old = self.span_cells(id);
+            self.seat(id, old[old.len() - 1], now);
         }
     }
 
@@ -589,14 +655,16 @@ impl VirtualWorld {
                 self.robots[id as usize].own.push(e);
             }
         }
+        let here = self.grid.cell_of(self.state_at(id, now).pos);
+        let exit = self.seat(id, here, now);
         self.predict_neighbours(id, out);
         self.predict_obstacles(id, out);
-        self.predict_crossing(id, out);
+        self.schedule_crossing(id, exit, out);
     }
 
-    /// Predicts `id`'s first contact with the obstacles around its cell (replacing the
-    /// earlier prediction): a contact farther away happens after a cell crossing, which
-    /// predicts again.
+    /// Predicts `id`'s first contact with the obstacles around the cells it is registered in
+    /// (replacing the earlier prediction): a contact farther away happens after a cell
+    /// crossing, which predicts again.
     fn predict_obstacles(&mut self, id: RobotId, out: &mut Outbox) {
         if let Some(h) = self.robots[id as usize].obstacle.take() {
             self.drop_handle(h, out);
@@ -607,7 +675,12 @@ impl VirtualWorld {
         let now = out.now();
         let (track, r) = (self.track(id), self.radius(id));
         let mut first: Option<(f64, Point, u32)> = None;
-        for i in self.obstacles.around(self.robots[id as usize].cell) {
+        let around: Vec<u32> = self
+            .span_cells(id)
+            .into_iter()
+            .flat_map(|c| self.obstacles.around(c))
+            .collect();
+        for i in around {
             let (k, prim) = self.obstacles.get(i);
             if let Some((t, c)) = predict_obstacle(&track, r, &prim, now) {
                 if first.is_none_or(|f| t < f.0) {
@@ -664,6 +737,7 @@ impl VirtualWorld {
             }
             let cell = self.grid.cell_of(self.state_at(id, now).pos);
             self.robots[id as usize].cell = cell;
+            self.robots[id as usize].span = Span::default();
             self.grid.insert(id, cell);
         }
         for id in 0..self.robots.len() as RobotId {

@@ -78,17 +78,7 @@ impl VirtualWorld {
             Payload::MotionStep { robot, step } => self.motion_step(robot, step, out),
             Payload::Collision { a, b } => self.collision(a, Obstacle::Robot(b), None, out),
             Payload::Contact { robot, with, at } => self.collision(robot, with, Some(at), out),
-            Payload::CellCrossing { robot, offset } => {
-                let r = &mut self.robots[robot as usize];
-                let old = r.cell;
-                r.cell = [old[0] + offset[0], old[1] + offset[1]];
-                let new = r.cell;
-                self.grid.remove(robot, old);
-                self.grid.insert(robot, new);
-                self.predict_entered(robot, old, out);
-                self.predict_obstacles(robot, out);
-                self.predict_crossing(robot, out);
-            }
+            Payload::CellCrossing { robot, offset } => self.cross(robot, offset, out),
             other => tracing::warn!(?other, "motion manager ignores an event it does not serve"),
         }
     }
@@ -171,6 +161,7 @@ impl VirtualWorld {
             let r = &mut self.robots[robot as usize];
             r.rest = state.pose();
             r.motion = None;
+            self.settle(robot, now);
             out.record(Observation::MotionFinish {
                 robot,
                 state,
@@ -204,9 +195,15 @@ impl VirtualWorld {
                 (p == x && q == o) || (q == Obstacle::Robot(x) && Obstacle::Robot(p) == o)
             })
         };
+        // The cell `x` is in now (it is registered in the cells ahead of it too).
+        let here = self.grid.cell_of(kx.pos);
         if !self.cfg.ghost_mode {
-            for o in self.grid.neighbours(self.robots[x as usize].cell) {
-                if o == x || listed(Obstacle::Robot(o)) {
+            for o in self.grid.neighbours(here) {
+                // A moving robot is registered in several cells.
+                if o == x
+                    || listed(Obstacle::Robot(o))
+                    || out.iter().any(|(p, _)| *p == Obstacle::Robot(o))
+                {
                     continue;
                 }
                 let ko = self.state_at(o, now);
@@ -231,7 +228,7 @@ impl VirtualWorld {
                 }
             }
         }
-        for i in self.obstacles.around(self.robots[x as usize].cell) {
+        for i in self.obstacles.around(here) {
             let (k, prim) = self.obstacles.get(i);
             if listed(Obstacle::Object(k)) || out.iter().any(|(o, _)| *o == Obstacle::Object(k)) {
                 continue;
