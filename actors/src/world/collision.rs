@@ -331,14 +331,16 @@ pub fn predict_cell_exit(a: &Track, lo: Point, size: f64, now: f64) -> Option<(f
 
 /// The cells a robot following `a` passes through from `now` on, from the grid cell `cell`
 /// of cells `size` wide: [`predict_cell_exit`] again and again, from each cell it enters at the
-/// instant it enters it. `step` is given the offset into each next cell, at most `max` times;
-/// returns when it leaves the last cell, and by which offset, if it does. A track of linear
+/// instant it enters it. `step` is given the offset into each next cell, at most `max` times
+/// and only for cells entered by `until`; returns when it leaves the last cell, and by which
+/// offset, if it does. A track of linear
 /// pieces is cut into pieces once for the whole walk.
 pub fn cell_walk(
     a: &Track,
     cell: [i64; 2],
     size: f64,
     now: f64,
+    until: f64,
     max: usize,
     mut step: impl FnMut([i64; 2]),
 ) -> Option<(f64, [i64; 2])> {
@@ -355,7 +357,9 @@ pub fn cell_walk(
     if !linear {
         let mut exit = predict_cell_exit(a, lo, size, now);
         while taken < max {
-            let Some((t, offset)) = exit else { break };
+            let Some((t, offset)) = exit.filter(|(t, _)| *t <= until) else {
+                break;
+            };
             step(offset);
             taken += 1;
             cell = [cell[0] + offset[0], cell[1] + offset[1]];
@@ -385,7 +389,7 @@ pub fn cell_walk(
             else {
                 break;
             };
-            if taken == max {
+            if taken == max || s + tau > until {
                 return Some((s + tau, offset));
             }
             step(offset);
@@ -700,7 +704,7 @@ mod tests {
             let p = track.pos_at(now);
             let first = [(p.x / size).floor() as i64, (p.y / size).floor() as i64];
             let mut steps = Vec::new();
-            let exit = cell_walk(&track, first, size, now, max, |o| steps.push(o));
+            let exit = cell_walk(&track, first, size, now, f64::INFINITY, max, |o| steps.push(o));
             // Again and again.
             let (mut cell, mut t, mut want) = (first, now, Vec::new());
             let corner = |c: [i64; 2]| Point::new(c[0] as f64 * size, c[1] as f64 * size);

@@ -537,13 +537,13 @@ impl VirtualWorld {
     /// Registers `id` in the cells its centre passes through from `first` on, from now: up to
     /// [`SPAN`] of them, ending where it stops (replacing its earlier registration). Returns
     /// when and into which neighbour it leaves the last one, if it does.
-    fn seat(&mut self, id: RobotId, first: Cell, now: f64) -> Option<(f64, [i64; 2])> {
+    fn seat(&mut self, id: RobotId, first: Cell, now: f64, until: f64) -> Option<(f64, [i64; 2])> {
         for c in self.span_cells(id) {
             self.grid.remove(id, c);
         }
         let (track, size) = (self.track(id), self.grid.cell_size());
         let mut span = Span::default();
-        let exit = cell_walk(&track, first, size, now, SPAN - 1, |offset| {
+        let exit = cell_walk(&track, first, size, now, until, SPAN - 1, |offset| {
             span.push(offset)
         });
         let r = &mut self.robots[id as usize];
@@ -629,7 +629,8 @@ impl VirtualWorld {
     fn cross(&mut self, robot: RobotId, offset: [i64; 2], out: &mut Outbox) {
         let old = self.span_cells(robot);
         let last = old[old.len() - 1];
-        let exit = self.seat(robot, [last[0] + offset[0], last[1] + offset[1]], out.now());
+        let first = [last[0] + offset[0], last[1] + offset[1]];
+        let exit = self.seat(robot, first, out.now(), f64::INFINITY);
         self.predict_entered(robot, &old, out);
         self.predict_obstacles(robot, out);
         self.schedule_crossing(robot, exit, out);
@@ -640,7 +641,7 @@ impl VirtualWorld {
     fn settle(&mut self, id: RobotId, now: f64) {
         if !self.robots[id as usize].span.is_single() {
             let old = self.span_cells(id);
-            self.seat(id, old[old.len() - 1], now);
+            self.seat(id, old[old.len() - 1], now, now);
         }
     }
 
@@ -656,7 +657,12 @@ impl VirtualWorld {
             }
         }
         let here = self.grid.cell_of(self.state_at(id, now).pos);
-        let exit = self.seat(id, here, now);
+        // Its own cell only (the cells it is in now): a new motion mostly begins with a turn
+        // on the spot, and the robots around the cells it would reach after the turn are
+        // mostly gone by then, each a prediction for nothing (1k robots: 101,549 pair
+        // predictions against 73,212, with 4.4 % fewer events). Its first crossing registers it
+        // ahead.
+        let exit = self.seat(id, here, now, now);
         self.predict_neighbours(id, out);
         self.predict_obstacles(id, out);
         self.schedule_crossing(id, exit, out);
