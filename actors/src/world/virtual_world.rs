@@ -572,8 +572,8 @@ impl VirtualWorld {
 
     /// Predicts `id` against the robots next to `cells` (the cells it is registered in) that
     /// it has no prediction with yet, each once, leaving out the cells next to `skip`. The
-    /// cells are read block by block in order, each block row by row as
-    /// [`Grid::neighbours`] reads it, a cell of an earlier block not again.
+    /// cells are read in the order of [`blocks`], written out here: the same loop over an
+    /// iterator form of it took 6 % more of a 1k-robot run's instructions.
     fn predict_around(&mut self, id: RobotId, cells: &[Cell], skip: &[Cell], out: &mut Outbox) {
         let mut fresh: SmallVec<[RobotId; 8]> = SmallVec::new();
         for (k, &c) in cells.iter().enumerate() {
