@@ -170,6 +170,9 @@ pub(crate) struct Core {
     /// The target and robots of the next pending event, seen when the last was taken
     /// ([`EventQueue::look_ahead`]).
     ahead: Option<(Target, [RobotId; 2])>,
+    /// Events for the end of the current instant ([`Outbox::at_instant_end`]), in the order
+    /// they were scheduled.
+    closing: std::collections::VecDeque<Event>,
 }
 
 /// The largest effects buffer kept for reuse: the setup's million start notices are not.
@@ -264,6 +267,7 @@ impl Core {
             instant_limit: u64::MAX,
             spare: Vec::new(),
             ahead: None,
+            closing: std::collections::VecDeque::new(),
         };
         core.apply(setup.into_effects());
         core
@@ -280,6 +284,13 @@ impl Core {
                 Effect::ScheduleIn(ev, slot) => {
                     assert!(ev.time >= self.now, "an event was scheduled in the past");
                     self.queue.register_in(ev, slot);
+                }
+                Effect::AtInstantEnd(ev) => {
+                    debug_assert!(
+                        ev.time == self.now,
+                        "an instant's end event at another time"
+                    );
+                    self.closing.push_back(ev);
                 }
                 Effect::Cancel(h) => {
                     if self.queue.cancel(h) {
@@ -319,9 +330,26 @@ impl Core {
                 self.output.stats.interrupted = true;
                 return Next::Finish;
             }
-            let Some(event) = self.queue.pop_until(self.until) else {
+            // The instant's end events once nothing else is pending at this instant.
+            let closing =
+                !self.closing.is_empty() && self.queue.peek_time().is_none_or(|t| t > self.now);
+            let event = if closing {
+                self.closing.pop_front()
+            } else {
+                self.queue.pop_until(self.until)
+            };
+            let Some(event) = event else {
                 return Next::Finish;
             };
+            if !closing
+                && !self.closing.is_empty()
+                && matches!(event.payload, Payload::ListEvents { .. })
+            {
+                // A listing waits for the instant's end events, so that it shows what they
+                // predict.
+                self.closing.push_back(event);
+                continue;
+            }
             debug_assert!(event.time >= self.now, "time went backwards");
             if event.time == self.now {
                 self.at_instant += 1;
@@ -582,3 +610,115 @@ macro_rules! hosted {
     };
 }
 pub(crate) use hosted;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::event::EventClass;
+
+    fn timer(robot: RobotId) -> Payload {
+        Payload::Timer { robot, ticket: 0 }
+    }
+
+    /// Takes the next delivery: its time, robot (of the timers used here) and processing number.
+    fn take(core: &mut Core) -> Option<(f64, Payload, u64)> {
+        match core.next() {
+            Next::Deliver(_, d) => Some((d.now, d.event.payload, d.seq)),
+            Next::Finish => None,
+        }
+    }
+
+    fn robot_of(p: &Payload) -> RobotId {
+        match p {
+            Payload::Timer { robot, .. } => *robot,
+            Payload::Notice(_) => 100,
+            Payload::Settle => 99,
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+
+    /// An instant's end event comes after every other event of its instant, those caused after
+    /// it was scheduled included, and before the next instant; its own events at the instant
+    /// follow it. A listing of events taken while one is pending waits for it.
+    #[test]
+    fn an_instants_end_event_comes_after_the_instant_and_before_the_next() {
+        let mut setup = Outbox::new(0.0, 0);
+        for (t, r) in [(1.0, 1), (1.0, 2), (2.0, 3)] {
+            setup.schedule(
+                t,
+                Target::Robot(r),
+                EventClass::Eventual,
+                [Some(r), None],
+                timer(r),
+            );
+        }
+        let mut core = Core::new(10.0, setup, Observers::default());
+        let mut order = Vec::new();
+        while let Some((now, payload, seq)) = take(&mut core) {
+            let r = robot_of(&payload);
+            order.push((now, r));
+            let mut out = Outbox::new(now, seq);
+            match r {
+                // Robot 1 asks for the end of the instant, then causes robot 4's timer now
+                // and a listing now.
+                1 => {
+                    out.at_instant_end(Target::MotionManager, [None, None], Payload::Settle);
+                    out.schedule(
+                        now,
+                        Target::Robot(4),
+                        EventClass::Eventual,
+                        [None, None],
+                        timer(4),
+                    );
+                    out.schedule(
+                        now,
+                        Target::EventManager,
+                        EventClass::Eventual,
+                        [Some(1), None],
+                        Payload::ListEvents {
+                            robot: 1,
+                            of: 1,
+                            ticket: 0,
+                        },
+                    );
+                }
+                // Robot 4 causes robot 5's timer now.
+                4 => {
+                    out.schedule(
+                        now,
+                        Target::Robot(5),
+                        EventClass::Eventual,
+                        [None, None],
+                        timer(5),
+                    );
+                }
+                // The end of the instant causes robot 6's timer now.
+                99 => {
+                    out.schedule(
+                        now,
+                        Target::Robot(6),
+                        EventClass::Eventual,
+                        [None, None],
+                        timer(6),
+                    );
+                }
+                _ => {}
+            }
+            core.apply(out.into_effects());
+        }
+        // 100: the listing's notice, sent after the end of the instant.
+        assert_eq!(
+            order,
+            [
+                (1.0, 1),
+                (1.0, 2),
+                (1.0, 4),
+                (1.0, 5),
+                (1.0, 99),
+                (1.0, 6),
+                (1.0, 100),
+                (2.0, 3)
+            ]
+        );
+    }
+}

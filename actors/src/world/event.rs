@@ -188,6 +188,9 @@ pub enum Payload {
     },
     /// The robot crashes (handled by the event manager, then the motion manager).
     Crash { robot: RobotId },
+    /// The end of an instant at which robots stopped ([`Outbox::at_instant_end`]): the motion
+    /// manager predicts for those still at rest.
+    Settle,
 }
 
 /// What a sensor actor computes its reply from (the content of [`Payload::SensorCompute`]).
@@ -223,6 +226,7 @@ impl Payload {
             Payload::LayerInput { .. } => "layer_input",
             Payload::LayerTimer { .. } => "layer_timer",
             Payload::Crash { .. } => "crash",
+            Payload::Settle => "settle",
         }
     }
 }
@@ -259,6 +263,8 @@ pub enum Effect {
     ScheduleIn(Event, u32),
     Cancel(Handle),
     Record(Observation),
+    /// An event at the end of the current instant ([`Outbox::at_instant_end`]).
+    AtInstantEnd(Event),
 }
 
 /// A cancellable event's handle: its id and the queue slot it is kept in, which whoever keeps
@@ -367,6 +373,24 @@ impl Outbox {
         let ev = self.event(time, target, class, robots, payload);
         let id = ev.id;
         self.effects.push(Effect::Schedule(ev));
+        id
+    }
+
+    /// Schedules an event for the end of the current instant: it is taken once no other event
+    /// is pending at this instant, before time moves on; such events are taken in the order
+    /// they were scheduled. Its own effects at this instant follow as usual. The motion
+    /// manager's [`Payload::Settle`]: most robots that a collision stops start their next
+    /// motion at the same instant, so what a robot at rest needs is predicted only for those
+    /// still at rest then (issue 17).
+    pub fn at_instant_end(
+        &mut self,
+        target: Target,
+        robots: [Option<RobotId>; 2],
+        payload: Payload,
+    ) -> EventId {
+        let ev = self.event(self.now, target, EventClass::Eventual, robots, payload);
+        let id = ev.id;
+        self.effects.push(Effect::AtInstantEnd(ev));
         id
     }
 

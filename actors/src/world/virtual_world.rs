@@ -154,6 +154,8 @@ struct RobotState {
     /// What the world shows of the robot's armed push sensors, once it arms one.
     listening: Option<Box<Listening>>,
     crashed: bool,
+    /// Stopped at this instant and not predicted for at rest yet ([`VirtualWorld::settle_all`]).
+    unsettled: bool,
 }
 
 /// What the world shows of a robot's armed push sensors (the sensor manager owns the rest),
@@ -228,12 +230,12 @@ impl Pairs {
     }
 }
 
-impl IntoIterator for Pairs {
-    type Item = (RobotId, PairEvents);
-    type IntoIter = std::vec::IntoIter<(RobotId, PairEvents)>;
-
-    fn into_iter(self) -> Self::IntoIter {
-        self.0.into_iter()
+impl Pairs {
+    /// Takes every partner's events out, in partner order, keeping the table's room: a robot
+    /// whose path changes soon has as many partners again (issue 17: freeing the table and
+    /// growing it anew was an allocation or more per change of path).
+    fn drain(&mut self) -> std::vec::Drain<'_, (RobotId, PairEvents)> {
+        self.0.drain(..)
     }
 }
 
@@ -247,6 +249,8 @@ pub struct VirtualWorld {
     obstacles: ObstacleIndex,
     /// The queue slots of the conditional events whose handles the robots keep.
     claims: Claims,
+    /// The robots stopped at this instant whose predictions at rest wait for its end.
+    unsettled: Vec<RobotId>,
 }
 
 impl VirtualWorld {
@@ -318,6 +322,7 @@ impl VirtualWorld {
             max_radius,
             obstacles,
             claims: Claims::default(),
+            unsettled: Vec::new(),
         };
         for (i, s) in specs.iter().enumerate() {
             let id = i as RobotId;
@@ -345,6 +350,7 @@ impl VirtualWorld {
                 span: Span::default(),
                 listening: None,
                 crashed: false,
+                unsettled: false,
             });
         }
         Ok(world)
@@ -461,11 +467,12 @@ impl VirtualWorld {
     // ----- invalidation and prediction -------------------------------------------------
 
     fn cancel_pairs(&mut self, id: RobotId, out: &mut Outbox) {
-        let pairs = std::mem::take(&mut self.robots[id as usize].pairs);
-        for (p, ids) in pairs {
+        let mut pairs = std::mem::take(&mut self.robots[id as usize].pairs);
+        for (p, ids) in pairs.drain() {
             ids.into_iter().for_each(|h| self.drop_handle(h, out));
             self.robots[p as usize].pairs.remove(&id);
         }
+        self.robots[id as usize].pairs = pairs;
     }
 
     /// Cancels every conditional event that depends on `id`'s path.
@@ -625,7 +632,9 @@ impl VirtualWorld {
                 .into_iter()
                 .filter(|&c| old.iter().any(|&o| next_to(o, c)))
                 .flat_map(|c| self.grid.robots_in(c).to_vec())
-                .all(|o| o == id || self.robots[id as usize].pairs.contains_key(&o)),
+                .all(|o| o == id
+                    || self.is_unsettled(o)
+                    || self.robots[id as usize].pairs.contains_key(&o)),
             "a robot next to a moving robot without a prediction with it"
         );
         self.predict_around(id, &cells, old, out);
@@ -654,6 +663,7 @@ impl VirtualWorld {
 
     /// All predictions of a robot whose path just changed.
     fn predict_all(&mut self, id: RobotId, out: &mut Outbox) {
+        self.robots[id as usize].unsettled = false;
         let now = out.now();
         if let (WorldSize::Bounded { min, max }, true) = (self.cfg.size, self.cfg.walls) {
             let r = self.radius(id);
@@ -674,6 +684,42 @@ impl VirtualWorld {
         self.predict_neighbours(id, out);
         self.predict_obstacles(id, out);
         self.schedule_crossing(id, exit, out);
+    }
+
+    /// Leaves the predictions of `id`, which stopped, to the end of this instant: a robot that
+    /// a collision stops mostly starts its next motion at the same instant (its algorithm
+    /// runs at once), which predicts anew, so the predictions at rest would be made for
+    /// nothing. Until then it has none with the robots around it; it is still registered in
+    /// the cells it was, which hold the one it stopped in.
+    fn unsettle(&mut self, id: RobotId, out: &mut Outbox) {
+        let r = &mut self.robots[id as usize];
+        if r.unsettled {
+            return;
+        }
+        r.unsettled = true;
+        if self.unsettled.is_empty() {
+            out.at_instant_end(Target::MotionManager, [None, None], Payload::Settle);
+        }
+        self.unsettled.push(id);
+    }
+
+    /// Whether `id` stopped at this instant and waits for its predictions at rest.
+    fn is_unsettled(&self, id: RobotId) -> bool {
+        self.robots[id as usize].unsettled
+    }
+
+    /// The end of an instant at which robots stopped: predicts for each one still at rest
+    /// (those that started a motion since were predicted for then), in the order they
+    /// stopped.
+    fn settle_all(&mut self, out: &mut Outbox) {
+        let ids = std::mem::take(&mut self.unsettled);
+        for &id in &ids {
+            if self.robots[id as usize].unsettled {
+                self.predict_all(id, out);
+            }
+        }
+        self.unsettled = ids;
+        self.unsettled.clear();
     }
 
     /// Predicts `id`'s first contact with the obstacles around the cells it is registered in

@@ -3,6 +3,7 @@
 //! robots touch.
 
 use super::*;
+use smallvec::smallvec;
 
 impl VirtualWorld {
     /// Ends `id`'s motion in progress, if any, with `outcome`; the robot rests where it is.
@@ -79,6 +80,7 @@ impl VirtualWorld {
             Payload::Collision { a, b } => self.collision(a, Obstacle::Robot(b), None, out),
             Payload::Contact { robot, with, at } => self.collision(robot, with, Some(at), out),
             Payload::CellCrossing { robot, offset } => self.cross(robot, offset, out),
+            Payload::Settle => self.settle_all(out),
             other => tracing::warn!(?other, "motion manager ignores an event it does not serve"),
         }
     }
@@ -185,11 +187,11 @@ impl VirtualWorld {
         x: RobotId,
         now: f64,
         known: &[(RobotId, Obstacle)],
-    ) -> Vec<(Obstacle, Option<Point>)> {
+    ) -> SmallVec<[(Obstacle, Option<Point>); 2]> {
         const TOUCH: f64 = 1e-9;
         let kx = self.state_at(x, now);
         let rx = self.radius(x);
-        let mut out = Vec::new();
+        let mut out = SmallVec::new();
         let listed = |o: Obstacle| {
             known.iter().any(|&(p, q)| {
                 (p == x && q == o) || (q == Obstacle::Robot(x) && Obstacle::Robot(p) == o)
@@ -245,8 +247,11 @@ impl VirtualWorld {
     /// the same instant is a collision too.
     fn collision(&mut self, a: RobotId, b: Obstacle, contact: Option<Point>, out: &mut Outbox) {
         let now = out.now();
-        let mut contacts = vec![(a, b, contact)];
-        let mut stopped = Vec::new();
+        // Inline: a collision has mostly one contact and stops two robots (issue 17: these
+        // were six allocations a collision).
+        let mut contacts: SmallVec<[(RobotId, Obstacle, Option<Point>); 4]> =
+            smallvec![(a, b, contact)];
+        let mut stopped: SmallVec<[RobotId; 4]> = SmallVec::new();
         let mut k = 0;
         while k < contacts.len() {
             let (x, y, c) = contacts[k];
@@ -263,12 +268,12 @@ impl VirtualWorld {
                 angle: kx.angle,
                 other_pos,
             });
-            let mut sides = vec![(x, y)];
+            let mut sides: SmallVec<[(RobotId, Obstacle); 2]> = smallvec![(x, y)];
             if let Obstacle::Robot(y) = y {
                 sides.push((y, Obstacle::Robot(x)));
             }
             for (r, with) in sides {
-                let known: Vec<(RobotId, Obstacle)> =
+                let known: SmallVec<[(RobotId, Obstacle); 4]> =
                     contacts.iter().map(|&(p, q, _)| (p, q)).collect();
                 for (o, c) in self.simultaneous_contacts(r, now, &known) {
                     contacts.push((r, o, c));
@@ -283,7 +288,7 @@ impl VirtualWorld {
         }
         // A pair's collision has been consumed even if neither path changed: drop the pair's
         // remaining predictions and make them again from the new state.
-        let pairs: Vec<(RobotId, RobotId)> = contacts
+        let pairs: SmallVec<[(RobotId, RobotId); 4]> = contacts
             .iter()
             .filter_map(|&(x, y, _)| match y {
                 Obstacle::Robot(y) => Some((x, y)),
@@ -296,16 +301,21 @@ impl VirtualWorld {
                 self.robots[y as usize].pairs.remove(&x);
             }
         }
+        // The robots stopped are predicted for at the end of the instant, if still at rest;
+        // that covers their pairs too.
         for &x in &stopped {
-            self.predict_all(x, out);
+            self.unsettle(x, out);
         }
         for &(x, y) in &pairs {
-            if !self.robots[x as usize].pairs.contains_key(&y) {
+            if !self.is_unsettled(x)
+                && !self.is_unsettled(y)
+                && !self.robots[x as usize].pairs.contains_key(&y)
+            {
                 self.predict_pair(x, y, out);
             }
         }
         for &(x, y, _) in &contacts {
-            let mut sides = vec![(x, y)];
+            let mut sides: SmallVec<[(RobotId, Obstacle); 2]> = smallvec![(x, y)];
             if let Obstacle::Robot(y) = y {
                 sides.push((y, Obstacle::Robot(x)));
             }
