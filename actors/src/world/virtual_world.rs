@@ -24,7 +24,7 @@ use super::collision::{
 };
 use super::event::{Claims, EventClass, EventId, Handle, Notice, Outbox, Payload, Target};
 use super::geometry::Point;
-use super::grid::{blocks, next_to, Cell, Grid, Span, SPAN};
+use super::grid::{blocks, blocks_beyond, next_to, Cell, Grid, Span, SPAN};
 use super::motion::{Kinematics, Motion, Path, Pose};
 use super::observation::Observation;
 use super::obstacle::{predict_obstacle, ObstacleIndex, Shape, ShapeError};
@@ -589,29 +589,18 @@ impl VirtualWorld {
     }
 
     /// Predicts `id` against the robots next to `cells` (the cells it is registered in) that
-    /// it has no prediction with yet, each once, leaving out the cells next to `skip`. The
-    /// cells are read in the order of [`blocks`], written out here: the same loop over an
-    /// iterator form of it took 6 % more of a 1k-robot run's instructions.
+    /// it has no prediction with yet, each once, leaving out the cells next to `skip`, in the
+    /// order of [`blocks`] ([`blocks_beyond`]).
     fn predict_around(&mut self, id: RobotId, cells: &[Cell], skip: &[Cell], out: &mut Outbox) {
         let mut fresh: SmallVec<[RobotId; 8]> = SmallVec::new();
-        for (k, &c) in cells.iter().enumerate() {
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    let b = [c[0] + dx, c[1] + dy];
-                    if cells[..k].iter().chain(skip).any(|&e| next_to(e, b)) {
-                        continue;
-                    }
-                    for &o in self.grid.robots_in(b) {
-                        if o != id
-                            && !fresh.contains(&o)
-                            && !self.robots[id as usize].pairs.contains_key(&o)
-                        {
-                            fresh.push(o);
-                        }
-                    }
+        let pairs = &self.robots[id as usize].pairs;
+        blocks_beyond(cells, skip, |b| {
+            for &o in self.grid.robots_in(b) {
+                if o != id && !fresh.contains(&o) && !pairs.contains_key(&o) {
+                    fresh.push(o);
                 }
             }
-        }
+        });
         for o in fresh {
             self.predict_pair(id, o, out);
         }
