@@ -147,7 +147,7 @@ pub fn blocks_beyond(cells: &[Cell], skip: &[Cell], mut visit: impl FnMut(Cell))
     }
     for &c in cells {
         let (x, y) = at(c);
-        for column in x - 1..=x + 1 {
+        for column in [x - 1, x, x + 1] {
             let mut free = (0b111 << (y - 1)) & !seen[column];
             while free != 0 {
                 let bit = free.trailing_zeros();
