@@ -534,6 +534,13 @@ impl EventQueue {
     }
 
     /// Cancels an event; returns whether it was still pending.
+    /// Asks for the slot of `h` to be brought into cache ahead of its cancellation
+    /// ([`super::prefetch`]): a handling's cancellations are then read together rather than
+    /// one cache miss after the other.
+    pub fn prefetch_handle(&self, h: Handle) {
+        self.slots.prefetch(h.slot);
+    }
+
     pub fn cancel(&mut self, h: Handle) -> bool {
         let (id, slot) = (h.id, h.slot);
         if !self.slots.holds(slot, id) {

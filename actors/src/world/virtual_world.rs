@@ -472,6 +472,10 @@ impl VirtualWorld {
 
     fn cancel_pairs(&mut self, id: RobotId, out: &mut Outbox) {
         let mut pairs = std::mem::take(&mut self.robots[id as usize].pairs);
+        // The partners' states, asked for together rather than one miss after the other.
+        for &(p, _) in &pairs.0 {
+            super::prefetch::prefetch(&self.robots[p as usize]);
+        }
         for (p, ids) in pairs.drain() {
             ids.into_iter().for_each(|h| self.drop_handle(h, out));
             self.robots[p as usize].pairs.remove(&id);
@@ -601,6 +605,10 @@ impl VirtualWorld {
                 }
             }
         });
+        // Their states, asked for together rather than one miss after the other.
+        for &o in &fresh {
+            super::prefetch::prefetch(&self.robots[o as usize]);
+        }
         for o in fresh {
             self.predict_pair(id, o, out);
         }
