@@ -297,6 +297,11 @@ impl Core {
                     );
                     self.closing.push_back(ev);
                 }
+                Effect::WithdrawAtInstantEnd(id) => {
+                    if let Some(k) = self.closing.iter().position(|e| e.id == id) {
+                        self.closing.remove(k);
+                    }
+                }
                 Effect::Cancel(h) => {
                     if self.queue.cancel(h) {
                         self.output.stats.cancelled += 1;
@@ -724,6 +729,58 @@ mod tests {
                 (1.0, 100),
                 (2.0, 3)
             ]
+        );
+    }
+
+    /// An instant's end event withdrawn before it is taken never comes; withdrawing one that
+    /// was taken changes nothing.
+    #[test]
+    fn an_instants_end_event_withdrawn_never_comes() {
+        let mut setup = Outbox::new(0.0, 0);
+        for (t, r) in [(1.0, 1), (1.0, 2), (2.0, 3), (2.0, 4)] {
+            setup.schedule(
+                t,
+                Target::Robot(r),
+                EventClass::Eventual,
+                [Some(r), None],
+                timer(r),
+            );
+        }
+        let mut core = Core::new(10.0, setup, Observers::default());
+        let mut order = Vec::new();
+        let mut pending = None;
+        while let Some((now, payload, seq)) = take(&mut core) {
+            let r = robot_of(&payload);
+            order.push((now, r));
+            let mut out = Outbox::new(now, seq);
+            match r {
+                // Robots 1 and 3 ask for the end of their instant; robot 2 withdraws it at
+                // instant 1; at instant 2 the end comes and causes robot 5's timer, which
+                // withdraws it after it was taken.
+                1 | 3 => {
+                    pending = Some(out.at_instant_end(
+                        Target::MotionManager,
+                        [None, None],
+                        Payload::Settle,
+                    ));
+                }
+                2 | 5 => out.withdraw_at_instant_end(pending.expect("asked for")),
+                99 => {
+                    out.schedule(
+                        now,
+                        Target::Robot(5),
+                        EventClass::Eventual,
+                        [None, None],
+                        timer(5),
+                    );
+                }
+                _ => {}
+            }
+            core.apply(out.into_effects());
+        }
+        assert_eq!(
+            order,
+            [(1.0, 1), (1.0, 2), (2.0, 3), (2.0, 4), (2.0, 99), (2.0, 5)]
         );
     }
 }

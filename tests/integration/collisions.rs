@@ -286,3 +286,55 @@ fn a_robot_stopped_by_a_collision_is_told_with_whom() {
         "{t} {pos:?}"
     );
 }
+
+/// A robot that a collision stops and that stays at rest is predicted for at rest (at the end
+/// of the instant it stopped, docs/architecture.md "Events"): a third robot, whose path missed
+/// the stopped robot's original one, runs into it where it stands.
+#[test]
+fn a_robot_left_at_rest_by_a_collision_is_run_into_later() {
+    use nekosim::algorithm::ScriptStep;
+    let step = |x: f64, y: f64, move_speed: f64| ScriptStep::MoveTo {
+        x,
+        y,
+        move_speed,
+        turn_speed: 90.0,
+    };
+    let out = run(
+        infinite(),
+        100.0,
+        vec![
+            // Stops against robot 1 with its centre at x = 46 at t = 11.5; its script then ends.
+            (
+                spec(0.0, 0.0, 0.0, 2.0),
+                script(vec![step(100.0, 0.0, 4.0)]),
+            ),
+            (spec(50.0, 0.0, 0.0, 2.0), idle()),
+            // Facing down, it passes y = 18.5 when robot 0 passes x = 46, and would have
+            // missed it; robot 0 at rest at (46, 0) it touches at y = 4, t = 26.
+            (
+                spec(46.0, 30.0, -90.0, 2.0),
+                script(vec![step(46.0, -100.0, 1.0)]),
+            ),
+        ],
+    );
+    let collisions: Vec<(f64, u32, Obstacle)> = out
+        .records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::Collision { robot, other, .. } => Some((r.t, *robot, *other)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(collisions.len(), 2, "{collisions:?}");
+    assert_eq!((collisions[0].1, collisions[0].2), (0, Obstacle::Robot(1)));
+    assert!((collisions[0].0 - 11.5).abs() < 1e-9, "{collisions:?}");
+    // Either robot may be the one recorded first.
+    assert!(
+        matches!(
+            (collisions[1].1, collisions[1].2),
+            (2, Obstacle::Robot(0)) | (0, Obstacle::Robot(2))
+        ),
+        "{collisions:?}"
+    );
+    assert!((collisions[1].0 - 26.0).abs() < 1e-9, "{collisions:?}");
+}

@@ -265,6 +265,9 @@ pub enum Effect {
     Record(Observation),
     /// An event at the end of the current instant ([`Outbox::at_instant_end`]).
     AtInstantEnd(Event),
+    /// Withdraws an event at the end of the current instant that has not been taken yet
+    /// ([`Outbox::withdraw_at_instant_end`]).
+    WithdrawAtInstantEnd(EventId),
 }
 
 /// A cancellable event's handle: its id and the queue slot it is kept in, which whoever keeps
@@ -392,6 +395,13 @@ impl Outbox {
         let id = ev.id;
         self.effects.push(Effect::AtInstantEnd(ev));
         id
+    }
+
+    /// Withdraws the event `id` scheduled for the end of this instant, if not taken yet: the
+    /// motion manager's [`Payload::Settle`] once every robot it was for has started a motion
+    /// (issue 17: it was a hop for nothing after most collisions).
+    pub fn withdraw_at_instant_end(&mut self, id: EventId) {
+        self.effects.push(Effect::WithdrawAtInstantEnd(id));
     }
 
     /// Schedules a cancellable event in a slot claimed from `claims` and returns its handle,

@@ -253,8 +253,12 @@ pub struct VirtualWorld {
     obstacles: ObstacleIndex,
     /// The queue slots of the conditional events whose handles the robots keep.
     claims: Claims,
-    /// The robots stopped at this instant whose predictions at rest wait for its end.
+    /// The robots stopped at this instant whose predictions at rest wait for its end,
     unsettled: Vec<RobotId>,
+    /// how many of them still wait,
+    waiting: usize,
+    /// and the event at the instant's end that predicts for them, until it is taken.
+    settle: Option<EventId>,
 }
 
 impl VirtualWorld {
@@ -327,6 +331,8 @@ impl VirtualWorld {
             obstacles,
             claims: Claims::default(),
             unsettled: Vec::new(),
+            waiting: 0,
+            settle: None,
         };
         for (i, s) in specs.iter().enumerate() {
             let id = i as RobotId;
@@ -664,7 +670,18 @@ impl VirtualWorld {
 
     /// All predictions of a robot whose path just changed.
     fn predict_all(&mut self, id: RobotId, out: &mut Outbox) {
-        self.robots[id as usize].unsettled = false;
+        let r = &mut self.robots[id as usize];
+        if r.unsettled {
+            r.unsettled = false;
+            self.waiting -= 1;
+            if self.waiting == 0 {
+                // Every robot stopped at this instant has been predicted for: no settling.
+                if let Some(e) = self.settle.take() {
+                    out.withdraw_at_instant_end(e);
+                }
+                self.unsettled.clear();
+            }
+        }
         let now = out.now();
         if let (WorldSize::Bounded { min, max }, true) = (self.cfg.size, self.cfg.walls) {
             let r = self.radius(id);
@@ -699,9 +716,11 @@ impl VirtualWorld {
         }
         r.unsettled = true;
         if self.unsettled.is_empty() {
-            out.at_instant_end(Target::MotionManager, [None, None], Payload::Settle);
+            let e = out.at_instant_end(Target::MotionManager, [None, None], Payload::Settle);
+            self.settle = Some(e);
         }
         self.unsettled.push(id);
+        self.waiting += 1;
     }
 
     /// Whether `id` stopped at this instant and waits for its predictions at rest.
@@ -713,6 +732,7 @@ impl VirtualWorld {
     /// (those that started a motion since were predicted for then), in the order they
     /// stopped.
     fn settle_all(&mut self, out: &mut Outbox) {
+        self.settle = None;
         let ids = std::mem::take(&mut self.unsettled);
         for &id in &ids {
             if self.robots[id as usize].unsettled {
