@@ -422,7 +422,10 @@ impl Grid {
         }
         // Away from its tile's edges, the block is three runs of three cells a row apart in
         // the same tile: found without turning the index back into a cell (a division).
-        let (x, y) = (i64::from(i) & (TILE - 1), (i64::from(i) >> TILE_BITS) & (TILE - 1));
+        let (x, y) = (
+            i64::from(i) & (TILE - 1),
+            (i64::from(i) >> TILE_BITS) & (TILE - 1),
+        );
         if (1..TILE - 1).contains(&x) && (1..TILE - 1).contains(&y) {
             let i = i as usize;
             for row in [i - TILE as usize, i, i + TILE as usize] {

@@ -224,6 +224,13 @@ impl Pairs {
         self.find(*partner).ok().map(|i| self.0.remove(i).1)
     }
 
+    /// Takes every partner's events out, in partner order, keeping the table's room: a robot
+    /// whose path changes soon has as many partners again (issue 17: freeing the table and
+    /// growing it anew was an allocation or more per change of path).
+    fn drain(&mut self) -> smallvec::Drain<'_, [(RobotId, PairEvents); 2]> {
+        self.0.drain(..)
+    }
+
     /// The pair events with `partner`, made empty if there were none.
     fn events_mut(&mut self, partner: RobotId) -> &mut PairEvents {
         let i = self.find(partner).unwrap_or_else(|i| {
@@ -231,15 +238,6 @@ impl Pairs {
             i
         });
         &mut self.0[i].1
-    }
-}
-
-impl Pairs {
-    /// Takes every partner's events out, in partner order, keeping the table's room: a robot
-    /// whose path changes soon has as many partners again (issue 17: freeing the table and
-    /// growing it anew was an allocation or more per change of path).
-    fn drain(&mut self) -> smallvec::Drain<'_, [(RobotId, PairEvents); 2]> {
-        self.0.drain(..)
     }
 }
 
