@@ -630,30 +630,15 @@ mod tests {
         Payload::Timer { robot, ticket: 0 }
     }
 
-    /// Takes the next delivery: its time, robot (of the timers used here) and processing number.
-    fn take(core: &mut Core) -> Option<(f64, Payload, u64)> {
-        match core.next() {
-            Next::Deliver(_, d) => Some((d.now, d.event.payload, d.seq)),
-            Next::Finish => None,
-        }
-    }
-
-    fn robot_of(p: &Payload) -> RobotId {
-        match p {
-            Payload::Timer { robot, .. } => *robot,
-            Payload::Notice(_) => 100,
-            Payload::Settle => 99,
-            other => panic!("unexpected {other:?}"),
-        }
-    }
-
-    /// An instant's end event comes after every other event of its instant, those caused after
-    /// it was scheduled included, and before the next instant; its own events at the instant
-    /// follow it. A listing of events taken while one is pending waits for it.
-    #[test]
-    fn an_instants_end_event_comes_after_the_instant_and_before_the_next() {
+    /// Runs a core from timers `(time, robot)` set at the setup, with `handle` as every
+    /// actor's handling (given the robot of the event, see `robot_of`); returns the events
+    /// taken as `(time, robot)`, in order.
+    fn run_timers(
+        timers: &[(f64, RobotId)],
+        mut handle: impl FnMut(RobotId, &mut Outbox),
+    ) -> Vec<(f64, RobotId)> {
         let mut setup = Outbox::new(0.0, 0);
-        for (t, r) in [(1.0, 1), (1.0, 2), (2.0, 3)] {
+        for &(t, r) in timers {
             setup.schedule(
                 t,
                 Target::Robot(r),
@@ -664,58 +649,67 @@ mod tests {
         }
         let mut core = Core::new(10.0, setup, Observers::default());
         let mut order = Vec::new();
-        while let Some((now, payload, seq)) = take(&mut core) {
-            let r = robot_of(&payload);
-            order.push((now, r));
-            let mut out = Outbox::new(now, seq);
-            match r {
-                // Robot 1 asks for the end of the instant, then causes robot 4's timer now
-                // and a listing now.
-                1 => {
-                    out.at_instant_end(Target::MotionManager, [None, None], Payload::Settle);
-                    out.schedule(
-                        now,
-                        Target::Robot(4),
-                        EventClass::Eventual,
-                        [None, None],
-                        timer(4),
-                    );
-                    out.schedule(
-                        now,
-                        Target::EventManager,
-                        EventClass::Eventual,
-                        [Some(1), None],
-                        Payload::ListEvents {
-                            robot: 1,
-                            of: 1,
-                            ticket: 0,
-                        },
-                    );
-                }
-                // Robot 4 causes robot 5's timer now.
-                4 => {
-                    out.schedule(
-                        now,
-                        Target::Robot(5),
-                        EventClass::Eventual,
-                        [None, None],
-                        timer(5),
-                    );
-                }
-                // The end of the instant causes robot 6's timer now.
-                99 => {
-                    out.schedule(
-                        now,
-                        Target::Robot(6),
-                        EventClass::Eventual,
-                        [None, None],
-                        timer(6),
-                    );
-                }
-                _ => {}
-            }
+        while let Next::Deliver(_, d) = core.next() {
+            let r = robot_of(&d.event.payload);
+            order.push((d.now, r));
+            let mut out = Outbox::new(d.now, d.seq);
+            handle(r, &mut out);
             core.apply(out.into_effects());
         }
+        order
+    }
+
+    /// The robot an event stands for here: its timer's, 99 for the end of an instant, 100
+    /// for a listing's notice.
+    fn robot_of(p: &Payload) -> RobotId {
+        match p {
+            Payload::Timer { robot, .. } => *robot,
+            Payload::Notice(_) => 100,
+            Payload::Settle => 99,
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+
+    /// Sets robot `r`'s timer now.
+    fn wake(out: &mut Outbox, r: RobotId) {
+        out.schedule(
+            out.now(),
+            Target::Robot(r),
+            EventClass::Eventual,
+            [None, None],
+            timer(r),
+        );
+    }
+
+    /// An instant's end event comes after every other event of its instant, those caused after
+    /// it was scheduled included, and before the next instant; its own events at the instant
+    /// follow it. A listing of events taken while one is pending waits for it.
+    #[test]
+    fn an_instants_end_event_comes_after_the_instant_and_before_the_next() {
+        let order = run_timers(&[(1.0, 1), (1.0, 2), (2.0, 3)], |r, out| match r {
+            // Robot 1 asks for the end of the instant, then causes robot 4's timer now and a
+            // listing now.
+            1 => {
+                out.at_instant_end(Target::MotionManager, [None, None], Payload::Settle);
+                wake(out, 4);
+                out.schedule(
+                    out.now(),
+                    Target::EventManager,
+                    EventClass::Eventual,
+                    [Some(1), None],
+                    Payload::ListEvents {
+                        robot: 1,
+                        of: 1,
+                        ticket: 0,
+                    },
+                );
+            }
+            // Robot 4 causes robot 5's timer now.
+            4 => wake(out, 5),
+            // The end of the instant causes robot 6's timer now.
+            99 => wake(out, 6),
+            _ => {}
+        });
         // 100: the listing's notice, sent after the end of the instant.
         assert_eq!(
             order,
@@ -736,24 +730,10 @@ mod tests {
     /// was taken changes nothing.
     #[test]
     fn an_instants_end_event_withdrawn_never_comes() {
-        let mut setup = Outbox::new(0.0, 0);
-        for (t, r) in [(1.0, 1), (1.0, 2), (2.0, 3), (2.0, 4)] {
-            setup.schedule(
-                t,
-                Target::Robot(r),
-                EventClass::Eventual,
-                [Some(r), None],
-                timer(r),
-            );
-        }
-        let mut core = Core::new(10.0, setup, Observers::default());
-        let mut order = Vec::new();
         let mut pending = None;
-        while let Some((now, payload, seq)) = take(&mut core) {
-            let r = robot_of(&payload);
-            order.push((now, r));
-            let mut out = Outbox::new(now, seq);
-            match r {
+        let order = run_timers(
+            &[(1.0, 1), (1.0, 2), (2.0, 3), (2.0, 4)],
+            |r, out| match r {
                 // Robots 1 and 3 ask for the end of their instant; robot 2 withdraws it at
                 // instant 1; at instant 2 the end comes and causes robot 5's timer, which
                 // withdraws it after it was taken.
@@ -765,19 +745,10 @@ mod tests {
                     ));
                 }
                 2 | 5 => out.withdraw_at_instant_end(pending.expect("asked for")),
-                99 => {
-                    out.schedule(
-                        now,
-                        Target::Robot(5),
-                        EventClass::Eventual,
-                        [None, None],
-                        timer(5),
-                    );
-                }
+                99 => wake(out, 5),
                 _ => {}
-            }
-            core.apply(out.into_effects());
-        }
+            },
+        );
         assert_eq!(
             order,
             [(1.0, 1), (1.0, 2), (2.0, 3), (2.0, 4), (2.0, 99), (2.0, 5)]
