@@ -543,7 +543,6 @@ impl EventQueue {
         }
     }
 
-    /// Cancels an event; returns whether it was still pending.
     /// Asks for the slot of `h` to be brought into cache ahead of its cancellation
     /// ([`super::prefetch`]): a handling's cancellations are then read together rather than
     /// one cache miss after the other.
@@ -551,6 +550,7 @@ impl EventQueue {
         self.slots.prefetch(h.slot);
     }
 
+    /// Cancels an event; returns whether it was still pending.
     pub fn cancel(&mut self, h: Handle) -> bool {
         let (id, slot) = (h.id, h.slot);
         if !self.slots.holds(slot, id) {
