@@ -425,11 +425,14 @@ impl Core {
                 .queue
                 .future_of(of)
                 .into_iter()
-                .map(|e| FutureEvent {
-                    time: e.time,
-                    class: e.class,
-                    kind: e.payload.kind(),
-                    robots: e.robots(),
+                .flat_map(|e| {
+                    let listed = FutureEvent {
+                        time: e.time,
+                        class: e.class,
+                        kind: e.payload.kind(),
+                        robots: e.robots(),
+                    };
+                    std::iter::repeat_n(listed, e.payload.stands_for())
                 })
                 .collect();
             out.notify(robot, Notice::FutureEvents { ticket, events });

@@ -256,3 +256,81 @@ fn an_algorithm_can_list_another_robots_future_events_and_log_what_it_saw() {
         "robot 0 arrives at Some(50.0); 0 events of mine"
     );
 }
+
+/// Starts a MOVETO and lists its own future events at once, logging its motion's steps.
+#[derive(Debug)]
+struct ListsItsSteps;
+
+impl Algorithm for ListsItsSteps {
+    fn name(&self) -> &str {
+        "ListsItsSteps"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        Box::pin(async move {
+            robot.start_motion(Motion::MoveTo {
+                dest: Point::new(0.0, 10.0),
+                move_speed: 1.0,
+                turn_speed: 45.0,
+            });
+            let listed: Vec<String> = robot
+                .future_events()
+                .await
+                .iter()
+                .filter(|e| e.kind == "motion_step")
+                .map(|e| format!("{}@{}", e.kind, e.time))
+                .collect();
+            robot.log(listed.join(" "));
+        })
+    }
+}
+
+#[test]
+fn a_listing_and_the_trace_show_each_step_of_a_motion_also_those_at_one_instant() {
+    // A quarter turn at 45 deg/s (2 s), then 10 units at 1 unit/s: the finish-turn and the
+    // start-forward happen at t = 2, and the queue keeps them as one event.
+    let out = run(
+        infinite(),
+        100.0,
+        vec![(spec(0.0, 0.0, 0.0, 1.0), Box::new(ListsItsSteps))],
+    );
+    let log: Vec<&str> = out
+        .records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::Log { text, .. } => Some(text.as_str()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        log,
+        vec!["motion_step@0 motion_step@2 motion_step@2 motion_step@12"]
+    );
+    let steps: Vec<(f64, u64, &str)> = out
+        .records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::MotionStep { step, .. } => Some((r.t, r.seq, step.name())),
+            _ => None,
+        })
+        .collect();
+    let kinds: Vec<(f64, &str)> = steps.iter().map(|s| (s.0, s.2)).collect();
+    assert_eq!(
+        kinds,
+        vec![
+            (0.0, "start_turn"),
+            (2.0, "finish_turn"),
+            (2.0, "start_forward"),
+            (12.0, "finish_forward")
+        ]
+    );
+    // Nothing comes between the two steps at t = 2.
+    assert_eq!(steps[2].1, steps[1].1 + 1);
+    assert!(out.records.iter().any(|r| r.t == 12.0
+        && matches!(
+            r.obs,
+            Observation::MotionFinish {
+                outcome: MotionOutcome::Arrived,
+                ..
+            }
+        )));
+}

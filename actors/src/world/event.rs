@@ -105,8 +105,14 @@ pub enum Payload {
         ticket: u64,
         motion: Box<Motion>,
     },
-    /// The `step`-th event of the robot's current motion.
-    MotionStep { robot: RobotId, step: usize },
+    /// The `step`-th to `through`-th events of the robot's current motion, all at this
+    /// instant: steps of a motion that happen at the same instant are one event (a MOVETO's
+    /// finish-turn and start-forward: issue 17), and a listing shows each of them.
+    MotionStep {
+        robot: RobotId,
+        step: usize,
+        through: usize,
+    },
     /// Robot `a` touches robot `b`.
     Collision { a: RobotId, b: RobotId },
     /// `robot` touches the world's boundary or an obstacle (`with`) at the point `at` on it.
@@ -205,6 +211,15 @@ pub struct SensorCompute {
 }
 
 impl Payload {
+    /// How many of the seed's events this one stands for: one, or each step of a motion
+    /// step event (the steps of a motion at one instant are one event).
+    pub fn stands_for(&self) -> usize {
+        match self {
+            Payload::MotionStep { step, through, .. } => through - step + 1,
+            _ => 1,
+        }
+    }
+
     /// Short name of the kind of event.
     pub fn kind(&self) -> &'static str {
         match self {
@@ -792,7 +807,7 @@ impl<T: Stored> Slots<T> {
 }
 
 /// A motion step as the queue keeps it (32 bytes, where an [`Event`] takes 80): the motion
-/// manager's `MotionStep` of one robot, its only content the robot and the step's number. A
+/// manager's `MotionStep` of one robot, its only content the robot and the steps' numbers. A
 /// motion schedules all its steps at once, so a million moving robots keep four million of
 /// them pending (issue 17).
 #[derive(Clone, Copy, Debug)]
@@ -801,6 +816,8 @@ struct CompactStep {
     id: EventId,
     robot: RobotId,
     step: u32,
+    /// Steps after `step` that the event stands for too.
+    more: u8,
     class: EventClass,
 }
 
@@ -815,14 +832,17 @@ impl CompactStep {
     /// exactly.
     fn of(ev: &Event) -> Option<Self> {
         match ev.payload {
-            Payload::MotionStep { robot, step }
-                if ev.target == Target::MotionManager && ev.concerns == [robot, NO_ROBOT] =>
-            {
+            Payload::MotionStep {
+                robot,
+                step,
+                through,
+            } if ev.target == Target::MotionManager && ev.concerns == [robot, NO_ROBOT] => {
                 Some(Self {
                     time: ev.time,
                     id: ev.id,
                     robot,
                     step: u32::try_from(step).ok()?,
+                    more: u8::try_from(through.checked_sub(step)?).ok()?,
                     class: ev.class,
                 })
             }
@@ -841,6 +861,7 @@ impl CompactStep {
             payload: Payload::MotionStep {
                 robot: self.robot,
                 step: self.step as usize,
+                through: self.step as usize + usize::from(self.more),
             },
         }
     }
@@ -990,6 +1011,7 @@ mod tests {
             payload: Payload::MotionStep {
                 robot,
                 step: index as usize,
+                through: index as usize,
             },
         }
     }
@@ -1002,11 +1024,23 @@ mod tests {
         // Not compact (another target): kept whole, and comes back as well.
         b.target = Target::SensorManager;
         let c = ev(1.0, 8, 0, 9);
-        for e in [&a, &b, &c] {
+        // Steps 5 to 7 at one instant, compact; steps 8 to 308, too many to be compact.
+        let mut d = step(2.5, 7, 5, 9);
+        let mut e = step(3.0, 7, 8, 9);
+        for (x, through) in [(&mut d, 7), (&mut e, 308)] {
+            if let Payload::MotionStep { through: t, .. } = &mut x.payload {
+                *t = through;
+            }
+        }
+        assert!(CompactStep::of(&d).is_some() && CompactStep::of(&e).is_none());
+        for e in [&a, &b, &c, &d, &e] {
             q.register(e.clone());
         }
         let listed: Vec<String> = q.future_of(9).iter().map(|e| format!("{e:?}")).collect();
-        let want: Vec<String> = [&c, &a, &b].iter().map(|e| format!("{e:?}")).collect();
+        let want: Vec<String> = [&c, &a, &b, &d, &e]
+            .iter()
+            .map(|e| format!("{e:?}"))
+            .collect();
         assert_eq!(listed, want);
         let popped: Vec<String> = std::iter::from_fn(|| q.pop())
             .map(|e| format!("{e:?}"))

@@ -792,25 +792,22 @@ impl VirtualWorld {
             self.invalidate(id, out);
             // Motion steps were cancelled with the other own events: schedule them again.
             let r = &self.robots[id as usize];
-            let pending: Vec<(usize, f64)> = match &r.motion {
-                Some(m) => m
-                    .pattern()
-                    .events()
-                    .iter()
-                    .enumerate()
-                    .skip(r.next_step as usize)
-                    .map(|(k, s)| (k, s.t))
-                    .collect(),
-                None => Vec::new(),
+            let pending = match &r.motion {
+                Some(m) => motion_logic::step_events(&m.pattern().events(), r.next_step as usize),
+                None => SmallVec::new(),
             };
-            for (k, t) in pending {
+            for (k, through, t) in pending {
                 let e = out.schedule_in(
                     &mut self.claims,
                     t,
                     Target::MotionManager,
                     EventClass::Conditional,
                     [Some(id), None],
-                    Payload::MotionStep { robot: id, step: k },
+                    Payload::MotionStep {
+                        robot: id,
+                        step: k,
+                        through,
+                    },
                 );
                 self.robots[id as usize].own.push(e);
             }
