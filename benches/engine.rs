@@ -14,7 +14,7 @@
 //!   30 to 40 of a 40 s run (30 to 330 at 1k), where the robots have turned and move on
 //!   (`scale_late`). Timed by
 //!   hand (a 1M run takes 5-40 s here), least of a few runs; run it alone with
-//!   `cargo bench --bench engine -- scale`.
+//!   `cargo bench --bench engine -- scale`. `NEKOSIM_SCALE_SIZES=100000` runs one size.
 //!
 //! The allocator is the `nekosim` binary's (mimalloc, keeping freed memory:
 //! `nekosim::allocator`), so the figures are the command's.
@@ -313,6 +313,14 @@ fn spans(host: Host, n: usize, short: f64, long: f64, repeats: usize) -> (Timed,
     (a.expect("a run"), b.expect("a run"))
 }
 
+/// Whether the scale series runs `n` robots: every size unless `NEKOSIM_SCALE_SIZES` lists
+/// some (`NEKOSIM_SCALE_SIZES=100000,1000000`). The ratios to 1k's are then to the first size
+/// run.
+fn size_wanted(n: usize) -> bool {
+    std::env::var("NEKOSIM_SCALE_SIZES")
+        .map_or(true, |v| v.split(',').any(|s| s.trim().parse() == Ok(n)))
+}
+
 /// The hosts that the filter asks for, by the names `{series}_kernel` and `{series}_actors`,
 /// the kernel first.
 fn hosts_wanted(series: &str, wanted: &dyn Fn(&str) -> bool) -> Vec<Host> {
@@ -341,7 +349,10 @@ fn scale(_: &mut Criterion) {
         (1_000usize, 20.0, 100.0, 5),
         (100_000, 1.0, 20.0, 2),
         (1_000_000, 1.0, 11.0, 2),
-    ] {
+    ]
+    .into_iter()
+    .filter(|s| size_wanted(s.0))
+    {
         let mut steady = [None, None];
         for &host in &hosts {
             let (a, b) = spans(host, n, short, long, repeats);
@@ -407,7 +418,10 @@ fn late(wanted: &dyn Fn(&str) -> bool) {
         (1_000usize, 30.0, 330.0, 3),
         (100_000, 30.0, 40.0, 2),
         (1_000_000, 30.0, 40.0, 1),
-    ] {
+    ]
+    .into_iter()
+    .filter(|s| size_wanted(s.0))
+    {
         let mut seen = [None, None];
         for &host in &hosts {
             // The run with the least wall time within the window.
