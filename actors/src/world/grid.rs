@@ -189,11 +189,6 @@ struct Dense {
     lists: Vec<Robots>,
     /// Indices of empty lists in `lists`.
     free: Vec<u32>,
-    /// Each robot's cell as an index into `heads` ([`EMPTY`]: none), by robot id below the
-    /// number of robots the table was made for, so that the cells around a robot can be asked
-    /// for ahead of use ([`Grid::prefetch_around`]) without reading the robot's own state
-    /// (four bytes a robot).
-    at: Vec<u32>,
 }
 
 /// Cells on a side of a tile of [`Dense`].
@@ -228,15 +223,6 @@ impl Dense {
         })
     }
 
-    /// The cell at index `i` of `heads` (the inverse of [`Dense::index`]).
-    fn cell(&self, i: usize) -> Cell {
-        let i = i as i64;
-        let (tile, within) = (i >> (2 * TILE_BITS), i & (TILE * TILE - 1));
-        let x = (tile % self.tiles) * TILE + (within & (TILE - 1));
-        let y = (tile / self.tiles) * TILE + (within >> TILE_BITS);
-        [x + self.lo[0], y + self.lo[1]]
-    }
-
     /// The robots of cell `i`, in order.
     fn get(&self, i: usize) -> &[RobotId] {
         match self.heads[i] {
@@ -248,9 +234,6 @@ impl Dense {
 
     /// Appends `id` to cell `i`'s robots.
     fn insert(&mut self, id: RobotId, i: usize) {
-        if let Some(a) = self.at.get_mut(id as usize) {
-            *a = i as u32;
-        }
         let h = self.heads[i];
         if h == EMPTY && id & LIST == 0 {
             self.heads[i] = id;
@@ -274,11 +257,6 @@ impl Dense {
 
     /// Removes `id` from cell `i`'s robots (the last takes its place, as `swap_remove`).
     fn remove(&mut self, id: RobotId, i: usize) {
-        if let Some(a) = self.at.get_mut(id as usize) {
-            if *a == i as u32 {
-                *a = EMPTY;
-            }
-        }
         let h = self.heads[i];
         if h == EMPTY {
             return;
@@ -344,7 +322,6 @@ impl Grid {
                 height,
                 tiles,
                 heads: vec![EMPTY; ((tiles * rows) as usize) << (2 * TILE_BITS)],
-                at: vec![EMPTY; robots],
                 lists: Vec::new(),
                 free: Vec::new(),
             });
@@ -407,34 +384,31 @@ impl Grid {
         self.cells.get(&c).map_or(&[], |v| v.as_slice())
     }
 
-    /// Asks for the dense table's cells of the 3×3 block around robot `id`'s cell to be
-    /// brought into cache ([`super::prefetch`]), ahead of an event of the robot that will
-    /// look at them. A no-op for robots outside the dense table.
-    pub fn prefetch_around(&self, id: RobotId) {
+    /// Asks for the dense table's cells of the 3×3 block around cell `c` to be brought into
+    /// cache ([`super::prefetch`]), ahead of an event that will look at them. A no-op outside
+    /// the dense table. (The caller reads `c` from the robot's state, which its handling
+    /// reads anyway: a table of each robot's cell kept here for this was one more cache miss
+    /// at every registration and every look-ahead, issue 17.)
+    pub fn prefetch_around(&self, c: Cell) {
         let Some(d) = &self.dense else {
             return;
         };
-        let Some(&i) = d.at.get(id as usize) else {
+        let Some(i) = d.index(c) else {
             return;
         };
-        if i == EMPTY {
-            return;
-        }
         // Away from its tile's edges, the block is three runs of three cells a row apart in
-        // the same tile: found without turning the index back into a cell (a division).
+        // the same tile.
         let (x, y) = (
-            i64::from(i) & (TILE - 1),
-            (i64::from(i) >> TILE_BITS) & (TILE - 1),
+            i & (TILE as usize - 1),
+            (i >> TILE_BITS) & (TILE as usize - 1),
         );
-        if (1..TILE - 1).contains(&x) && (1..TILE - 1).contains(&y) {
-            let i = i as usize;
+        if (1..TILE as usize - 1).contains(&x) && (1..TILE as usize - 1).contains(&y) {
             for row in [i - TILE as usize, i, i + TILE as usize] {
                 super::prefetch::prefetch(&d.heads[row - 1]);
                 super::prefetch::prefetch(&d.heads[row + 1]);
             }
             return;
         }
-        let c = d.cell(i as usize);
         for dy in -1..=1 {
             for dx in [-1, 1] {
                 if let Some(k) = d.index([c[0] + dx, c[1] + dy]) {
@@ -442,14 +416,6 @@ impl Grid {
                 }
             }
         }
-    }
-
-    /// The cell of robot `id` if it is in the dense table, as the table itself knows it.
-    #[cfg(test)]
-    fn dense_cell_of(&self, id: RobotId) -> Option<Cell> {
-        let d = self.dense.as_ref()?;
-        let i = *d.at.get(id as usize)?;
-        (i != EMPTY).then(|| d.cell(i as usize))
     }
 
     /// The robots registered in cell `c`.
@@ -548,15 +514,6 @@ mod tests {
                     }
                     _ => {}
                 }
-            }
-            // The table's own record of each robot's cell, which prefetching reads.
-            for (k, c) in at.iter().enumerate() {
-                let id = if k % 5 == 0 { LIST | k as u32 } else { k as u32 };
-                // Ids beyond the 40 robots the table was made for are not recorded.
-                let inside = c
-                    .filter(|c| dense.dense.as_ref().unwrap().index(*c).is_some())
-                    .filter(|_| (id as usize) < 40);
-                prop_assert_eq!(dense.dense_cell_of(id), inside);
             }
             for (x, y, q) in probes {
                 let (x, y) = (x + shift(q)[0], y + shift(q)[1]);

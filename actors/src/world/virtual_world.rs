@@ -391,7 +391,9 @@ impl VirtualWorld {
         for r in robots {
             if let Some(state) = self.robots.get(r as usize) {
                 super::prefetch::prefetch(state);
-                self.grid.prefetch_around(r);
+                // The last of its cells: where it crosses next.
+                let last = state.span.cells(state.cell).last();
+                self.grid.prefetch_around(last.unwrap_or(state.cell));
             }
         }
     }
