@@ -293,16 +293,8 @@ fn a_listing_and_the_trace_show_each_step_of_a_motion_also_those_at_one_instant(
         100.0,
         vec![(spec(0.0, 0.0, 0.0, 1.0), Box::new(ListsItsSteps))],
     );
-    let log: Vec<&str> = out
-        .records
-        .iter()
-        .filter_map(|r| match &r.obs {
-            Observation::Log { text, .. } => Some(text.as_str()),
-            _ => None,
-        })
-        .collect();
     assert_eq!(
-        log,
+        log_texts(&out),
         vec!["motion_step@0 motion_step@2 motion_step@2 motion_step@12"]
     );
     let steps: Vec<(f64, u64, &str)> = out

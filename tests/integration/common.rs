@@ -142,3 +142,14 @@ pub fn silent_arrivals(trace: &[serde_json::Value]) -> usize {
     }
     silent
 }
+
+/// The texts the algorithms logged, in order.
+pub fn log_texts(out: &RunOutput) -> Vec<&str> {
+    out.records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::Log { text, .. } => Some(text.as_str()),
+            _ => None,
+        })
+        .collect()
+}

@@ -351,16 +351,8 @@ fn sensors_and_radio_do_not_see_through_obstacles() {
         "{} visible: a weak setting",
         visible.len()
     );
-    let logs: Vec<String> = out
-        .records
-        .iter()
-        .filter_map(|r| match &r.obs {
-            Observation::Log { text, .. } => Some(text.clone()),
-            _ => None,
-        })
-        .collect();
     assert_eq!(
-        logs,
+        crate::common::log_texts(&out),
         [
             format!("view {visible:?}"),
             format!("proximity {visible:?}")
