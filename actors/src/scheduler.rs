@@ -28,7 +28,7 @@ use std::collections::HashMap;
 use actix::prelude::*;
 
 use crate::world::event::{
-    Effect, Event, EventQueue, FutureEvent, Notice, Outbox, Payload, Target,
+    Ahead, Effect, Event, EventQueue, FutureEvent, Notice, Outbox, Payload, Route, Target,
 };
 use crate::world::observation::{Observation, Record};
 use crate::world::sensor::SensorKind;
@@ -95,12 +95,16 @@ pub struct Routes {
     pub layers: Vec<Vec<Recipient<Deliver>>>,
     /// Starts a robot's sensor actor on the robot's arbiter when it is first needed.
     pub spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Recipient<Deliver>>,
-    /// Called, while an event is delivered, with the robots that the next pending event
-    /// concerns when that one is for a manager or the network: asks for their state in the
-    /// world ([`crate::world::prefetch`]), so that it arrives while this event is handled.
-    /// Only a hint: it changes nothing.
-    pub prefetch: Box<dyn Fn([RobotId; 2])>,
+    /// Called, while an event is delivered, with the robots that the next two pending events
+    /// concern when they are for a manager or the network ([`Core::in_world`]): asks for
+    /// what their handlings read in the world ([`crate::world::VirtualWorld::prefetch`]), so
+    /// that it arrives while this event is handled. Only a hint: it changes nothing.
+    pub prefetch: Prefetch,
 }
+
+/// The look-ahead into the world ([`Routes::prefetch`]): called with the robots of the next
+/// event and of the one after it.
+pub type Prefetch = Box<dyn Fn(Option<[RobotId; 2]>, Option<[RobotId; 2]>)>;
 
 impl std::fmt::Debug for Routes {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -167,9 +171,9 @@ pub(crate) struct Core {
     instant_limit: u64,
     /// The effects buffer that the next delivery carries (see [`Deliver::effects`]).
     spare: Vec<Effect>,
-    /// The target and robots of the next pending event, seen when the last was taken
+    /// The routes of the next two pending events, seen when the last was taken
     /// ([`EventQueue::look_ahead`]).
-    ahead: Option<(Target, [RobotId; 2])>,
+    ahead: Ahead,
     /// Events for the end of the current instant ([`Outbox::at_instant_end`]), in the order
     /// they were scheduled.
     closing: std::collections::VecDeque<Event>,
@@ -266,7 +270,7 @@ impl Core {
             at_instant: 0,
             instant_limit: u64::MAX,
             spare: Vec::new(),
-            ahead: None,
+            ahead: Ahead::default(),
             closing: std::collections::VecDeque::new(),
         };
         core.apply(setup.into_effects());
@@ -459,15 +463,15 @@ impl Core {
         output
     }
 
-    /// The target and robots of the next pending event, as seen when the last was taken.
-    pub(crate) fn ahead(&self) -> Option<(Target, [RobotId; 2])> {
+    /// The routes of the next two pending events, as seen when the last was taken.
+    pub(crate) fn ahead(&self) -> Ahead {
         self.ahead
     }
 
-    /// The robots of the next pending event when it is for a manager or the network, whose
+    /// The robots of an event with this route when it is for a manager or the network, whose
     /// handling reads their state in the world: what the look-ahead prefetches there.
-    pub(crate) fn ahead_in_world(&self) -> Option<[RobotId; 2]> {
-        match self.ahead {
+    pub(crate) fn in_world(route: Option<Route>) -> Option<[RobotId; 2]> {
+        match route {
             Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) => {
                 Some(robots)
             }
@@ -522,12 +526,17 @@ impl Scheduler {
             Next::Finish => return self.finish(ctx),
             Next::Deliver(target, deliver) => (target, deliver),
         };
-        if let Some(robots) = self.core.ahead_in_world() {
-            (self.routes.prefetch)(robots);
-        } else if let Some((Target::Robot(r), _)) = self.core.ahead() {
-            // The robot's address, read first when the next event is sent to it.
-            if let Some(addr) = self.routes.robots.get(r as usize) {
-                crate::world::prefetch::prefetch(addr);
+        let ahead = self.core.ahead();
+        let (next, after) = (Core::in_world(ahead.next), Core::in_world(ahead.after));
+        if next.is_some() || after.is_some() {
+            (self.routes.prefetch)(next, after);
+        }
+        for route in [ahead.after, ahead.next] {
+            if let Some((Target::Robot(r), _)) = route {
+                // The robot's address, read first when an event is sent to it.
+                if let Some(addr) = self.routes.robots.get(r as usize) {
+                    crate::world::prefetch::prefetch(addr);
+                }
             }
         }
         let me = self

@@ -259,12 +259,14 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             .recipient();
         let prefetch = {
             let world = world.clone();
-            Box::new(move |robots: [RobotId; 2]| {
-                // One event is in flight at a time, so the world is never held here.
-                if let Ok(w) = world.try_lock() {
-                    w.prefetch(robots);
-                }
-            })
+            Box::new(
+                move |next: Option<[RobotId; 2]>, after: Option<[RobotId; 2]>| {
+                    // One event is in flight at a time, so the world is never held here.
+                    if let Ok(w) = world.try_lock() {
+                        w.prefetch(next, after);
+                    }
+                },
+            )
         };
         let sensor_manager = SensorManager::new(world, p.sensing).start().recipient();
         let arbiter_of = {

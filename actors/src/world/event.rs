@@ -644,19 +644,27 @@ impl EventQueue {
         None
     }
 
-    /// Looks two events ahead, once an event is taken: asks for the slot of the event after
-    /// next to be brought into cache ([`super::prefetch`]), and returns the target and robots
-    /// of the next one, whose slot was asked for one event ago (or `None`), so that the
-    /// caller can ask for what its handling will read. At a million robots every slot and
-    /// every robot's state is a cache miss of its own (issue 17). It takes nothing; the
-    /// queue's order may move on to the next instant early, which changes nothing of what it
+    /// Looks three events ahead, once an event is taken, in stages, so that no look reads
+    /// memory it has not asked for an event before: asks for the slot of the third event to
+    /// be brought into cache ([`super::prefetch`]), and returns the routes of the next two,
+    /// whose slots were asked for one and two events ago, so that the caller can ask for what
+    /// their handlings will read ([`Ahead`]). At a million robots every slot, every robot's
+    /// state and every cell is a cache miss of its own (issue 17). It takes nothing; the
+    /// queue's order may move on to later instants early, which changes nothing of what it
     /// gives.
-    pub fn look_ahead(&mut self) -> Option<(Target, [RobotId; 2])> {
-        if let Some(e) = self.order.peek_second() {
+    pub fn look_ahead(&mut self) -> Ahead {
+        if let Some(e) = self.order.peek_nth(2) {
             self.slots.prefetch(e.slot);
         }
-        let e = *self.order.peek()?;
-        self.slots.route(e.slot)
+        let mut route = |n: usize| {
+            let e = *self.order.peek_nth(n)?;
+            self.slots.route(e.slot)
+        };
+        let after = route(1);
+        Ahead {
+            next: route(0),
+            after,
+        }
     }
 
     /// Number of pending events.
@@ -691,6 +699,18 @@ impl EventQueue {
         evs.sort_by(|a, b| a.time.total_cmp(&b.time).then(a.id.cmp(&b.id)));
         evs
     }
+}
+
+/// Who handles a pending event and the robots it concerns: what its handling will read.
+pub type Route = (Target, [RobotId; 2]);
+
+/// What [`EventQueue::look_ahead`] sees of the next two pending events.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Ahead {
+    /// The next event's route.
+    pub next: Option<Route>,
+    /// The route of the event after it.
+    pub after: Option<Route>,
 }
 
 /// Slots per chunk of [`Slots`] (1.3 MB of events).
@@ -919,7 +939,7 @@ impl Store {
     }
 
     /// The target and robots of the event in `slot`, if any.
-    fn route(&self, slot: u32) -> Option<(Target, [RobotId; 2])> {
+    fn route(&self, slot: u32) -> Option<Route> {
         let n = slot & NUMBER;
         let step = |s: &CompactStep| (Target::MotionManager, [s.robot, NO_ROBOT]);
         let event = |e: &Event| (e.target, e.concerns);

@@ -166,18 +166,16 @@ impl RadixQueue {
         self.now.front()
     }
 
-    /// The entry after the next one, without taking either. When the current instant has no
-    /// second entry this moves on to the next instant early: its entries join the run behind
-    /// the current one, which stays first (an entry pushed later between the two instants
-    /// is put in its place in the run), so the order taken is the same.
-    pub fn peek_second(&mut self) -> Option<&Entry> {
-        if self.now.is_empty() {
+    /// The entry `n` places after the next one (0: the next), without taking any. When the
+    /// current instant has too few entries this moves on to the following instants early:
+    /// their entries join the run behind the current one, which stays first (an entry pushed
+    /// later between two instants is put in its place in the run), so the order taken is the
+    /// same.
+    pub fn peek_nth(&mut self, n: usize) -> Option<&Entry> {
+        while self.now.len() <= n && self.first_full().is_some() {
             self.refill();
         }
-        if self.now.len() == 1 {
-            self.refill();
-        }
-        self.now.get(1)
+        self.now.get(n)
     }
 
     /// Takes the next entry.
@@ -275,7 +273,8 @@ mod tests {
         Push(u8, u32),
         Pop,
         Peek,
-        PeekSecond,
+        /// The entry this many places after the next.
+        PeekNth(u8),
     }
 
     fn ops() -> impl Strategy<Value = Vec<Op>> {
@@ -284,15 +283,15 @@ mod tests {
                 3 => (0u8..6, 0u32..1000).prop_map(|(k, d)| Op::Push(k, d)),
                 2 => Just(Op::Pop),
                 1 => Just(Op::Peek),
-                2 => Just(Op::PeekSecond),
+                2 => (0u8..4).prop_map(Op::PeekNth),
             ],
             0..400,
         )
     }
 
     proptest! {
-        /// Against a sorted set: every pop is the set's least element, and a look at the second
-        /// entry its second, for monotone pushes at the current instant (in causal order),
+        /// Against a sorted set: every pop is the set's least element, and a look at the entry
+        /// `n` places after the next the set's element there, for monotone pushes at the current instant (in causal order),
         /// just after it and far ahead.
         #[test]
         fn pops_in_key_order(ops in ops()) {
@@ -323,9 +322,9 @@ mod tests {
                         let got = q.peek().copied();
                         prop_assert_eq!(got.as_ref(), oracle.first());
                     }
-                    Op::PeekSecond => {
-                        let got = q.peek_second().copied();
-                        prop_assert_eq!(got.as_ref(), oracle.iter().nth(1));
+                    Op::PeekNth(n) => {
+                        let got = q.peek_nth(usize::from(n)).copied();
+                        prop_assert_eq!(got.as_ref(), oracle.iter().nth(usize::from(n)));
                     }
                     Op::Pop => {
                         let got = q.pop();
@@ -369,9 +368,10 @@ mod tests {
             q.push(e);
             oracle.insert(e);
             if rand() % 5 == 0 {
-                // Looking two ahead moves on to the next instant early.
-                let second = q.peek_second().copied();
-                assert_eq!(second.as_ref(), oracle.iter().nth(1));
+                // Looking ahead moves on to the next instants early.
+                let n = (rand() % 4) as usize;
+                let got = q.peek_nth(n).copied();
+                assert_eq!(got.as_ref(), oracle.iter().nth(n));
             }
             if rand() % 3 == 0 {
                 let got = q.pop();

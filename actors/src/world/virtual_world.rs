@@ -384,12 +384,20 @@ impl VirtualWorld {
         self.robots[id as usize].radius
     }
 
-    /// Asks for the state of `robots`, and the grid's cells around them, to be brought into
-    /// cache ([`super::prefetch`]), ahead of the handling of an event that concerns them (ids
-    /// out of range are ignored).
-    pub fn prefetch(&self, robots: [RobotId; 2]) {
-        for r in robots {
+    /// Asks for what the handlings of the next two events read in the world to be brought
+    /// into cache ([`super::prefetch`]), in two stages ([`crate::world::event::EventQueue::look_ahead`]):
+    /// the state of the robots that the event `after` the next concerns, and the grid's cells
+    /// around those of the `next` event, which needs their state, asked for one event ago
+    /// (ids out of range are ignored).
+    pub fn prefetch(&self, next: Option<[RobotId; 2]>, after: Option<[RobotId; 2]>) {
+        for r in after.into_iter().flatten() {
             if let Some(state) = self.robots.get(r as usize) {
+                super::prefetch::prefetch(state);
+            }
+        }
+        for r in next.into_iter().flatten() {
+            if let Some(state) = self.robots.get(r as usize) {
+                // Asked for already unless the event came in between.
                 super::prefetch::prefetch(state);
                 // The last of its cells: where it crosses next.
                 let last = state.span.cells(state.cell).last();
