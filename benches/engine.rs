@@ -15,12 +15,16 @@
 //!   (`scale_late`). Timed by
 //!   hand (a 1M run takes 5-40 s here), least of a few runs; run it alone with
 //!   `cargo bench --bench engine -- scale`. `NEKOSIM_SCALE_SIZES=100000` runs one size.
+//!   Each of the series' runs is a process of its own, as a `nekosim run` is: the bench
+//!   starts itself again for it ([`CHILD`]), so that no run inherits the heap an earlier
+//!   one left (issue 17: 1M actors after the kernel alone in one process took 12.2 s for
+//!   seconds 30-40, 7.7-9.8 s in a process of their own) and each peak RSS is the run's own.
 //!
 //! The allocator is the `nekosim` binary's (mimalloc, keeping freed memory:
 //! `nekosim::allocator`), so the figures are the command's.
 
 use actix::prelude::*;
-use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use criterion::{criterion_group, BatchSize, Criterion, Throughput};
 use nekosim::algorithm::RandomMovement;
 use nekosim::world::born::random_born_points;
 use nekosim::world::motion::Pose;
@@ -209,6 +213,10 @@ fn random_movement(c: &mut Criterion) {
     g.finish();
 }
 
+/// The environment variable that makes the bench a child that does one timed run of the scale
+/// series and prints its figures ([`timed_from`]): `HOST ROBOTS UNTIL FROM`.
+const CHILD: &str = "NEKOSIM_SCALE_CHILD";
+
 /// Peak resident memory of this process so far [bytes] (`VmHWM`).
 fn peak_rss() -> u64 {
     std::fs::read_to_string("/proc/self/status")
@@ -245,6 +253,42 @@ struct Timed {
     /// call), and from the last progress call to the run's return (the teardown).
     spawned: f64,
     teardown: f64,
+    /// Peak resident memory of the run's process [bytes].
+    peak_rss: u64,
+}
+
+impl Timed {
+    /// The figures as one line of words, which [`Timed::parse`] reads back exactly.
+    fn line(&self) -> String {
+        format!(
+            "{} {} {} {} {} {} {} {} {}",
+            self.wall,
+            self.placement,
+            self.events,
+            self.inrun.0,
+            self.inrun.1,
+            self.inrun.2,
+            self.spawned,
+            self.teardown,
+            self.peak_rss
+        )
+    }
+
+    fn parse(line: &str) -> Option<Self> {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        let f = |i: usize| w.get(i)?.parse::<f64>().ok();
+        let u = |i: usize| w.get(i)?.parse::<u64>().ok();
+        (w.len() == 9).then_some(())?;
+        Some(Self {
+            wall: f(0)?,
+            placement: f(1)?,
+            events: u(2)?,
+            inrun: (f(3)?, u(4)?, f(5)?),
+            spawned: f(6)?,
+            teardown: f(7)?,
+            peak_rss: u(8)?,
+        })
+    }
 }
 
 fn timed(host: Host, n: usize, until: f64) -> Timed {
@@ -252,8 +296,45 @@ fn timed(host: Host, n: usize, until: f64) -> Timed {
 }
 
 /// [`timed`], its in-run figures taken from the first progress call at simulated second
-/// `from` or later.
+/// `from` or later, in a process of its own: this bench started again as a [`CHILD`].
 fn timed_from(host: Host, n: usize, until: f64, from: f64) -> Timed {
+    let exe = std::env::current_exe().expect("the bench's own executable");
+    let out = std::process::Command::new(exe)
+        .env(CHILD, format!("{host:?} {n} {until} {from}"))
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .expect("the bench started again");
+    assert!(
+        out.status.success(),
+        "the run's process failed: {}",
+        out.status
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    text.lines()
+        .find_map(Timed::parse)
+        .unwrap_or_else(|| panic!("no figures from the run's process: {text}"))
+}
+
+/// The [`CHILD`]'s part: the run that `job` names, its figures printed on one line.
+fn child(job: &str) {
+    let w: Vec<&str> = job.split_whitespace().collect();
+    let host = match w.first().copied() {
+        Some("Actors") => Host::Actors,
+        Some("Kernel") => Host::Kernel,
+        other => panic!("{CHILD}: unknown host {other:?}"),
+    };
+    let num = |i: usize| -> f64 {
+        w.get(i)
+            .and_then(|x| x.parse().ok())
+            .unwrap_or_else(|| panic!("{CHILD}: `{job}` is not HOST ROBOTS UNTIL FROM"))
+    };
+    nekosim::allocator::keep_freed_memory();
+    let t = timed_here(host, num(1) as usize, num(2), num(3));
+    println!("{}", t.line());
+}
+
+/// One timed run in this process ([`timed_from`]).
+fn timed_here(host: Host, n: usize, until: f64, from: f64) -> Timed {
     let placed = std::time::Instant::now();
     let mut cfg = random_config(n, until);
     let placement = placed.elapsed().as_secs_f64();
@@ -295,6 +376,7 @@ fn timed_from(host: Host, n: usize, until: f64, from: f64) -> Timed {
         inrun,
         spawned: spawned.get().unwrap_or(f64::NAN),
         teardown,
+        peak_rss: peak_rss(),
     }
 }
 
@@ -331,10 +413,9 @@ fn hosts_wanted(series: &str, wanted: &dyn Fn(&str) -> bool) -> Vec<Host> {
         .collect()
 }
 
-/// Issue 17's scale series, smallest first so that the process's peak RSS after each size is
-/// that size's; at each size the kernel-alone reference runs first, so the peak printed after
-/// it is its own. `scale_actors` or `scale_kernel` as the filter runs one host only. Skipped
-/// when the bench is filtered to something else.
+/// Issue 17's scale series, each run in a process of its own ([`timed_from`]), so the peak
+/// RSS printed is the larger of the two spans' own. `scale_actors` or `scale_kernel` as the
+/// filter runs one host only. Skipped when the bench is filtered to something else.
 fn scale(_: &mut Criterion) {
     nekosim::allocator::keep_freed_memory();
     let filter: Vec<String> = std::env::args()
@@ -387,7 +468,7 @@ fn scale(_: &mut Criterion) {
                 a.placement,
                 a.spawned,
                 b.teardown,
-                peak_rss() as f64 / 1e9,
+                a.peak_rss.max(b.peak_rss) as f64 / 1e9,
             );
         }
         if let [Some((ac, aw)), Some((kc, kw))] =
@@ -460,4 +541,13 @@ fn late(wanted: &dyn Fn(&str) -> bool) {
 }
 
 criterion_group!(benches, throughput, random_movement, scale);
-criterion_main!(benches);
+
+/// `criterion_main!`'s `main`, unless the bench was started again for one run of the scale
+/// series ([`CHILD`]).
+fn main() {
+    if let Ok(job) = std::env::var(CHILD) {
+        return child(&job);
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
