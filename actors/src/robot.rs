@@ -641,6 +641,86 @@ pub struct RobotActor {
     handle: Robot,
     algorithm: Box<dyn Algorithm>,
     task: Option<AlgorithmFuture>,
+    /// Where the robot tells the scheduler its memory is ([`Whereabouts`]).
+    whereabouts: Option<std::sync::Arc<Whereabouts>>,
+}
+
+/// Where each robot actor's memory is, by robot id, for the scheduler's look-ahead (issue 17):
+/// at a million robots, a robot's mailbox, its actor, its shared state and its algorithm's
+/// future are cold memory on every event it handles. The robot writes the addresses when it
+/// starts and when its algorithm starts; the scheduler only ever prefetches them
+/// ([`crate::world::prefetch::prefetch_at`]), so a stale or missing one changes nothing.
+#[derive(Debug)]
+pub struct Whereabouts(Box<[[std::sync::atomic::AtomicUsize; 4]]>);
+
+/// What a [`Whereabouts`] entry holds, in order.
+const MAILBOX: usize = 0;
+const ACTOR: usize = 1;
+const SHARED: usize = 2;
+const FUTURE: usize = 3;
+
+impl Whereabouts {
+    /// Room for `n` robots, none known yet.
+    pub fn new(n: usize) -> Self {
+        Self((0..n).map(|_| Default::default()).collect())
+    }
+
+    fn set(&self, id: RobotId, what: usize, addr: usize) {
+        if let Some(e) = self.0.get(id as usize) {
+            e[what].store(addr, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+
+    /// Notes where `addr`'s mailbox is. An address hashes as its mailbox's location, which
+    /// is the only way actix shows it.
+    pub fn set_mailbox(&self, id: RobotId, addr: &Addr<RobotActor>) {
+        #[derive(Default)]
+        struct Location(usize);
+        impl std::hash::Hasher for Location {
+            fn finish(&self) -> u64 {
+                self.0 as u64
+            }
+            fn write(&mut self, _: &[u8]) {}
+            fn write_usize(&mut self, n: usize) {
+                self.0 = n;
+            }
+        }
+        let mut at = Location::default();
+        std::hash::Hash::hash(addr, &mut at);
+        self.set(id, MAILBOX, at.0);
+    }
+
+    /// Stage one of the look-ahead: asks for the robot's entry.
+    pub fn prefetch_entry(&self, id: RobotId) {
+        if let Some(e) = self.0.get(id as usize) {
+            crate::world::prefetch::prefetch(e);
+        }
+    }
+
+    /// Stage two: asks for the memory the entry names (read, it was asked for an event ago).
+    pub fn prefetch_memory(&self, id: RobotId) {
+        use crate::world::prefetch::prefetch_at;
+        use std::sync::atomic::Ordering::Relaxed;
+        let Some(e) = self.0.get(id as usize) else {
+            return;
+        };
+        let at = |w: usize| e[w].load(Relaxed);
+        // The mailbox: its shared counters and the queue's ends (112 bytes, after the
+        // reference counts).
+        if at(MAILBOX) != 0 {
+            prefetch_at(at(MAILBOX).wrapping_sub(16), 128);
+        }
+        // The actor, in its task among actix's context, as much before it as after.
+        if at(ACTOR) != 0 {
+            prefetch_at(at(ACTOR).wrapping_sub(256), 512);
+        }
+        if at(SHARED) != 0 {
+            prefetch_at(at(SHARED), 192);
+        }
+        if at(FUTURE) != 0 {
+            prefetch_at(at(FUTURE), 256);
+        }
+    }
 }
 
 impl fmt::Debug for RobotActor {
@@ -677,12 +757,31 @@ impl RobotActor {
             },
             algorithm,
             task: None,
+            whereabouts: None,
+        }
+    }
+
+    /// The robot, telling `w` where its memory is once it runs.
+    pub fn telling(mut self, w: std::sync::Arc<Whereabouts>) -> Self {
+        self.whereabouts = Some(w);
+        self
+    }
+
+    fn tell(&self, what: usize, addr: usize) {
+        if let Some(w) = &self.whereabouts {
+            w.set(self.handle.shared.info.id, what, addr);
         }
     }
 }
 
 impl Actor for RobotActor {
     type Context = Context<Self>;
+
+    fn started(&mut self, _: &mut Self::Context) {
+        // Started: the actor does not move any more.
+        self.tell(ACTOR, self as *const Self as usize);
+        self.tell(SHARED, Rc::as_ptr(&self.handle.shared) as usize);
+    }
 }
 
 impl HandleEvent for RobotActor {
@@ -692,7 +791,12 @@ impl HandleEvent for RobotActor {
         self.handle.shared.io.borrow_mut().now = msg.now;
         match msg.event.payload {
             Payload::Notice(n) if matches!(*n, Notice::Start) => {
-                self.task = Some(self.algorithm.run(self.handle.clone()));
+                let task = self.algorithm.run(self.handle.clone());
+                self.tell(
+                    FUTURE,
+                    &*task as *const dyn Future<Output = ()> as *const () as usize,
+                );
+                self.task = Some(task);
             }
             Payload::Notice(n) => {
                 let n = *n;
@@ -928,6 +1032,73 @@ mod tests {
         let due = Payload::Timer { robot: 0, ticket };
         assert_eq!(timers(&handle(&mut other, 1.0, 2, due)).len(), 1);
         assert_eq!(inbox(&other), (0, 0));
+    }
+
+    /// A started robot tells where its actor, shared state, algorithm future and mailbox are:
+    /// the addresses of the very objects, one mailbox for an address and its clones, another
+    /// for another robot.
+    #[test]
+    fn a_robot_tells_where_its_memory_is() {
+        use std::sync::atomic::Ordering::Relaxed;
+        let w = std::sync::Arc::new(Whereabouts::new(2));
+        let info = |id| RobotInfo {
+            id,
+            count: 2,
+            radius: 5.0,
+            world: WorldSize::Infinite,
+        };
+        let at = |id: usize, what: usize| w.0[id][what].load(Relaxed);
+        let sys = System::new();
+        let (seen_tx, seen_rx) = std::sync::mpsc::channel();
+        sys.block_on(async {
+            let a = RobotActor::new(info(0), Box::new(Sleeper), 7, Default::default())
+                .telling(w.clone())
+                .start();
+            let b = RobotActor::new(info(1), Box::new(Sleeper), 7, Default::default())
+                .telling(w.clone())
+                .start();
+            w.set_mailbox(0, &a);
+            let first = at(0, MAILBOX);
+            w.set_mailbox(0, &a.clone());
+            assert_eq!(at(0, MAILBOX), first);
+            w.set_mailbox(1, &b);
+            assert_ne!(at(1, MAILBOX), first);
+            assert_ne!(first, 0);
+            // Started and handed its start notice, the robot reports its own addresses.
+            let tx = seen_tx.clone();
+            let _ = a
+                .send(Probe(Box::new(move |actor: &mut RobotActor| {
+                    let start = Payload::Notice(Box::new(Notice::Start));
+                    handle(actor, 0.0, 1, start);
+                    let task = actor.task.as_ref().expect("running");
+                    tx.send((
+                        actor as *const RobotActor as usize,
+                        Rc::as_ptr(&actor.handle.shared) as usize,
+                        &**task as *const dyn Future<Output = ()> as *const () as usize,
+                    ))
+                    .expect("sent");
+                })))
+                .await;
+        });
+        let (actor, shared, future) = seen_rx.recv().expect("the probe ran");
+        assert_eq!(at(0, ACTOR), actor);
+        assert_eq!(at(0, SHARED), shared);
+        assert_eq!(at(0, FUTURE), future);
+        assert_eq!(at(1, FUTURE), 0, "robot 1 never started its algorithm");
+    }
+
+    /// Runs a closure on a started robot actor, in its handler.
+    struct Probe(Box<dyn FnOnce(&mut RobotActor) + Send>);
+
+    impl Message for Probe {
+        type Result = ();
+    }
+
+    impl Handler<Probe> for RobotActor {
+        type Result = ();
+        fn handle(&mut self, p: Probe, _: &mut Context<Self>) {
+            (p.0)(self)
+        }
     }
 
     /// A stream folded back between draws gives the very numbers of one generator drawn

@@ -100,6 +100,8 @@ pub struct Routes {
     /// what their handlings read in the world ([`crate::world::VirtualWorld::prefetch`]), so
     /// that it arrives while this event is handled. Only a hint: it changes nothing.
     pub prefetch: Prefetch,
+    /// Where the robot actors' memory is, for the look-ahead.
+    pub whereabouts: std::sync::Arc<crate::robot::Whereabouts>,
 }
 
 /// The look-ahead into the world ([`Routes::prefetch`]): called with the robots of the next
@@ -531,13 +533,16 @@ impl Scheduler {
         if next.is_some() || after.is_some() {
             (self.routes.prefetch)(next, after);
         }
-        for route in [ahead.after, ahead.next] {
-            if let Some((Target::Robot(r), _)) = route {
-                // The robot's address, read first when an event is sent to it.
-                if let Some(addr) = self.routes.robots.get(r as usize) {
-                    crate::world::prefetch::prefetch(addr);
-                }
+        if let Some((Target::Robot(r), _)) = ahead.after {
+            // The robot's address, read first when an event is sent to it, and where its
+            // memory is.
+            if let Some(addr) = self.routes.robots.get(r as usize) {
+                crate::world::prefetch::prefetch(addr);
             }
+            self.routes.whereabouts.prefetch_entry(r);
+        }
+        if let Some((Target::Robot(r), _)) = ahead.next {
+            self.routes.whereabouts.prefetch_memory(r);
         }
         let me = self
             .me

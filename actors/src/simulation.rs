@@ -9,7 +9,7 @@ use actix::prelude::*;
 use crate::layer::LayerActor;
 use crate::motion_manager::MotionManager;
 use crate::network::NetworkActor;
-use crate::robot::{Algorithm, RobotActor, RobotInfo};
+use crate::robot::{Algorithm, RobotActor, RobotInfo, Whereabouts};
 use crate::scheduler::{Deliver, Observers, Routes, RunOutput, Scheduler};
 use crate::sensor::Sensor;
 use crate::sensor_manager::SensorManager;
@@ -274,6 +274,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             move |id: RobotId| handles[id as usize % handles.len()].clone()
         };
         let layer_ids = p.layer_ids;
+        let whereabouts = Arc::new(Whereabouts::new(count));
         let mut robots: Vec<Addr<RobotActor>> = p
             .robots
             .into_iter()
@@ -286,14 +287,17 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
                     }
                 }
                 let ids = layer_ids.clone();
+                let w = whereabouts.clone();
                 if info.id as usize % p.arbiters == 0 {
                     // This thread's arbiter: started in place, without a closure sent over the
                     // arbiter's queue and a task to run it (at 1M robots, both held until the
                     // system ran).
-                    RobotActor::new(info, algorithm, seed, ids).start()
+                    RobotActor::new(info, algorithm, seed, ids)
+                        .telling(w)
+                        .start()
                 } else {
                     RobotActor::start_in_arbiter(&arbiter_of(info.id), move |_| {
-                        RobotActor::new(info, algorithm, seed, ids)
+                        RobotActor::new(info, algorithm, seed, ids).telling(w)
                     })
                 }
             })
@@ -301,6 +305,9 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
         // Collected in place from the robots' settings (48 bytes each): 32 MB at a million
         // robots that the routes do not need.
         robots.shrink_to_fit();
+        for (id, addr) in robots.iter().enumerate() {
+            whereabouts.set_mailbox(id as crate::world::RobotId, addr);
+        }
         if let Some(f) = startup.as_mut() {
             f(count, count);
         }
@@ -331,6 +338,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             .collect();
         let sensors = p.sensors;
         let routes = Routes {
+            whereabouts,
             motion_manager,
             sensor_manager,
             robots,

@@ -28,3 +28,29 @@ pub fn prefetch<T>(r: &T) {
     #[cfg(not(target_arch = "x86_64"))]
     let _ = r;
 }
+
+/// Asks for the cache lines of the `bytes` bytes from address `addr` on, which need not be
+/// memory of this program's any more: a prefetch never faults, and a stale address only
+/// costs the lines asked for (a no-op on processors other than x86-64).
+#[inline(always)]
+#[allow(unsafe_code)]
+pub fn prefetch_at(addr: usize, bytes: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        const LINE: usize = 64;
+        let end = addr.wrapping_add(bytes);
+        let mut line = addr - addr % LINE;
+        while line < end {
+            // SAFETY: as in `prefetch`: `_mm_prefetch` only hints the cache, reads no value
+            // and never faults, whatever the address.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    line as *const i8,
+                );
+            }
+            line = line.wrapping_add(LINE);
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (addr, bytes);
+}
