@@ -17,8 +17,7 @@
 //!   `cargo bench --bench engine -- scale`. `NEKOSIM_SCALE_SIZES=100000` runs one size.
 //!   Each of the series' runs is a process of its own, as a `nekosim run` is: the bench
 //!   starts itself again for it ([`CHILD`]), so that no run inherits the heap an earlier
-//!   one left (issue 17: 1M actors after the kernel alone in one process took 12.2 s for
-//!   seconds 30-40, 7.7-9.8 s in a process of their own) and each peak RSS is the run's own.
+//!   one left and each peak RSS is the run's own.
 //!
 //! The allocator is the `nekosim` binary's (mimalloc, keeping freed memory:
 //! `nekosim::allocator`), so the figures are the command's.
