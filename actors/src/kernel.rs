@@ -69,9 +69,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     core.set_instant_limit(p.instant_limit);
     while let Next::Deliver(target, msg) = core.next() {
         // The same look ahead as the scheduler actor's ([`crate::scheduler::Routes::prefetch`]).
-        let ahead = core.ahead();
-        let (next, after) = (Core::in_world(ahead.next), Core::in_world(ahead.after));
-        if next.is_some() || after.is_some() {
+        if let Some((next, after)) = core.ahead_in_world() {
             if let Ok(w) = p.world.try_lock() {
                 w.prefetch(next, after);
             }

@@ -96,7 +96,7 @@ pub struct Routes {
     /// Starts a robot's sensor actor on the robot's arbiter when it is first needed.
     pub spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Recipient<Deliver>>,
     /// Called, while an event is delivered, with the robots that the next two pending events
-    /// concern when they are for a manager or the network ([`Core::in_world`]): asks for
+    /// concern when they are for a manager or the network ([`Core::ahead_in_world`]): asks for
     /// what their handlings read in the world ([`crate::world::VirtualWorld::prefetch`]), so
     /// that it arrives while this event is handled. Only a hint: it changes nothing.
     pub prefetch: Prefetch,
@@ -107,6 +107,10 @@ pub struct Routes {
 /// The look-ahead into the world ([`Routes::prefetch`]): called with the robots of the next
 /// event and of the one after it.
 pub type Prefetch = Box<dyn Fn(Option<[RobotId; 2]>, Option<[RobotId; 2]>)>;
+
+/// The robots of the next pending event and of the one after it, each when its handling reads
+/// the world ([`Core::ahead_in_world`]).
+pub type WorldAhead = (Option<[RobotId; 2]>, Option<[RobotId; 2]>);
 
 impl std::fmt::Debug for Routes {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -470,15 +474,18 @@ impl Core {
         self.ahead
     }
 
-    /// The robots of an event with this route when it is for a manager or the network, whose
-    /// handling reads their state in the world: what the look-ahead prefetches there.
-    pub(crate) fn in_world(route: Option<Route>) -> Option<[RobotId; 2]> {
-        match route {
+    /// The robots of the next two pending events, each when it is for a manager or the
+    /// network, whose handling reads their state in the world: what the look-ahead prefetches
+    /// there (`None` when neither is).
+    pub(crate) fn ahead_in_world(&self) -> Option<WorldAhead> {
+        let in_world = |route: Option<Route>| match route {
             Some((Target::MotionManager | Target::SensorManager | Target::Network, robots)) => {
                 Some(robots)
             }
             _ => None,
-        }
+        };
+        let (next, after) = (in_world(self.ahead.next), in_world(self.ahead.after));
+        (next.is_some() || after.is_some()).then_some((next, after))
     }
 
     /// Fails the run when more than `limit` events happen at one instant of virtual time.
@@ -528,11 +535,10 @@ impl Scheduler {
             Next::Finish => return self.finish(ctx),
             Next::Deliver(target, deliver) => (target, deliver),
         };
-        let ahead = self.core.ahead();
-        let (next, after) = (Core::in_world(ahead.next), Core::in_world(ahead.after));
-        if next.is_some() || after.is_some() {
+        if let Some((next, after)) = self.core.ahead_in_world() {
             (self.routes.prefetch)(next, after);
         }
+        let ahead = self.core.ahead();
         if let Some((Target::Robot(r), _)) = ahead.after {
             // The robot's address, read first when an event is sent to it, and where its
             // memory is.

@@ -7,26 +7,8 @@
 
 /// Asks for the cache lines of `r` (a no-op on processors other than x86-64).
 #[inline(always)]
-#[allow(unsafe_code)]
 pub fn prefetch<T>(r: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        const LINE: usize = 64;
-        let start = (r as *const T).cast::<i8>();
-        let end = start.wrapping_add(std::mem::size_of::<T>().max(1));
-        let mut line = start.wrapping_sub(start as usize % LINE);
-        while line < end {
-            // SAFETY: `_mm_prefetch` only hints the cache: it reads no value and never faults
-            // (and every line asked for holds part of `*r`). SSE, which it needs, is part of
-            // every x86-64 processor.
-            unsafe {
-                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(line);
-            }
-            line = line.wrapping_add(LINE);
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = r;
+    prefetch_at(r as *const T as usize, std::mem::size_of::<T>().max(1));
 }
 
 /// Asks for the cache lines of the `bytes` bytes from address `addr` on, which need not be
@@ -41,8 +23,8 @@ pub fn prefetch_at(addr: usize, bytes: usize) {
         let end = addr.wrapping_add(bytes);
         let mut line = addr - addr % LINE;
         while line < end {
-            // SAFETY: as in `prefetch`: `_mm_prefetch` only hints the cache, reads no value
-            // and never faults, whatever the address.
+            // SAFETY: `_mm_prefetch` only hints the cache: it reads no value and never faults,
+            // whatever the address. SSE, which it needs, is part of every x86-64 processor.
             unsafe {
                 std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
                     line as *const i8,
