@@ -1,6 +1,7 @@
 //! Engine benchmarks (`cargo bench --bench engine`):
 //! - `throughput/*`: events per second through the scheduler actor next to a raw actix
 //!   `do_send` ring carrying the same number of messages;
+//! - `placement/*`: placing a million robots at the seed's density (random born points);
 //! - `random_movement/*`: the seed's random movement with collisions at 1k and 10k robots
 //!   (events/s; wall time per simulated second = time per iteration / horizon);
 //! - `scale`: issue 17's series at 1k, 100k and 1M robots (the seed's density, two simulated
@@ -188,6 +189,24 @@ fn random_config(n: usize, until: f64) -> SimConfig {
         observers: Default::default(),
         comms: Default::default(),
     }
+}
+
+/// Placing a million robots at the seed's density (`random_born_points`, the rejection
+/// sampling behind every random born point): part of a large run's start-up (issue 17).
+fn placement(c: &mut Criterion) {
+    nekosim::allocator::keep_freed_memory();
+    let mut g = c.benchmark_group("placement");
+    g.sample_size(10);
+    let n = 1_000_000usize;
+    let side = 800.0 * (n as f64 / 100.0).sqrt();
+    g.throughput(Throughput::Elements(n as u64));
+    g.bench_function(format!("{n}_robots"), |b| {
+        b.iter(|| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(n as u64);
+            random_born_points(n, 5.0, side, side, &[], &mut rng).unwrap()
+        })
+    });
+    g.finish();
 }
 
 fn random_movement(c: &mut Criterion) {
@@ -539,7 +558,7 @@ fn late(wanted: &dyn Fn(&str) -> bool) {
     }
 }
 
-criterion_group!(benches, throughput, random_movement, scale);
+criterion_group!(benches, throughput, placement, random_movement, scale);
 
 /// `criterion_main!`'s `main`, unless the bench was started again for one run of the scale
 /// series ([`CHILD`]).

@@ -285,11 +285,6 @@ impl Core {
 
     /// Applies the effects of one handling, in order.
     pub(crate) fn apply(&mut self, mut effects: Vec<Effect>) {
-        for e in &effects {
-            if let Effect::Cancel(h) = e {
-                self.queue.prefetch_handle(*h);
-            }
-        }
         for e in effects.drain(..) {
             match e {
                 Effect::Schedule(ev) => {

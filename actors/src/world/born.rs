@@ -29,7 +29,7 @@ pub fn random_born_points(
     width: f64,
     height: f64,
     occupied: &[(Point, f64)],
-    rng: &mut impl Rng,
+    rng: &mut (impl Rng + Clone),
 ) -> Result<Vec<Point>, BornError> {
     random_born_points_clear(count, radius, width, height, occupied, &|_| true, rng)
 }
@@ -43,7 +43,7 @@ pub fn random_born_points_clear(
     height: f64,
     occupied: &[(Point, f64)],
     clear: &dyn Fn(Point) -> bool,
-    rng: &mut impl Rng,
+    rng: &mut (impl Rng + Clone),
 ) -> Result<Vec<Point>, BornError> {
     let fail = |placed| BornError::DoesNotFit {
         count,
@@ -68,15 +68,31 @@ pub fn random_born_points_clear(
     let mut out = Vec::with_capacity(count);
     let budget = 1000 + 200 * count;
     let mut tries = 0;
+    let draw = |rng: &mut _| {
+        Point::new(
+            Rng::gen_range(rng, radius..=width - radius),
+            Rng::gen_range(rng, radius..=height - radius),
+        )
+    };
+    // The candidates to come, drawn from a copy of the stream: the caller's stream moves on
+    // by exactly the candidates drawn, as it always did.
+    let mut ahead = rng.clone();
+    let mut coming: std::collections::VecDeque<Point> =
+        (0..AHEAD).map(|_| draw(&mut ahead)).collect();
+    coming.iter().for_each(|&q| grid.prefetch_block(q));
     while out.len() < count {
         tries += 1;
         if tries > budget {
             return Err(fail(out.len()));
         }
-        let p = Point::new(
-            rng.gen_range(radius..=width - radius),
-            rng.gen_range(radius..=height - radius),
-        );
+        let p = draw(rng);
+        coming.pop_front();
+        let q = draw(&mut ahead);
+        grid.prefetch_block(q);
+        coming.push_back(q);
+        if let Some(&q) = coming.get(AHEAD / 2) {
+            grid.prefetch_discs(q, &discs);
+        }
         if grid.clear(p, |i| {
             let (q, r) = discs[i as usize];
             (q - p).norm() >= r + radius
@@ -89,6 +105,13 @@ pub fn random_born_points_clear(
     }
     Ok(out)
 }
+
+/// How many candidates ahead of the one checked the placement asks for memory (issue 17: a
+/// million robots' cells and discs are tens of megabytes, and each check was a chain of cache
+/// misses): the cells around a candidate this many ahead, and the first discs of those cells
+/// for the candidate half as many ahead, whose cells were asked for earlier. Only hints: the
+/// same candidates are checked in the same order.
+const AHEAD: usize = 16;
 
 /// A dense grid over the area for the rejection sampling: cells at least `min_cell` wide
 /// (the largest diameter, so overlapping discs are in neighbouring cells) and about as many
@@ -132,12 +155,39 @@ impl Cells {
         self.head[k] = (self.next.len() - 1) as u32;
     }
 
+    /// The rows of the 3 × 3 cells around `p`, each as a range of indices into `head`.
+    fn block(&self, p: Point) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+        let (c, r) = self.cell(p);
+        let (c0, c1) = (c.saturating_sub(1), (c + 1).min(self.cols - 1));
+        (r.saturating_sub(1)..=(r + 1).min(self.rows - 1))
+            .map(move |row| row * self.cols + c0..row * self.cols + c1 + 1)
+    }
+
+    /// Asks for the heads of the 3 × 3 cells around `p` ([`super::prefetch`]).
+    fn prefetch_block(&self, p: Point) {
+        for row in self.block(p) {
+            super::prefetch::prefetch(&self.head[row.start]);
+            super::prefetch::prefetch(&self.head[row.end - 1]);
+        }
+    }
+
+    /// Asks for the first disc of each of the 3 × 3 cells around `p`, and its link.
+    fn prefetch_discs(&self, p: Point, discs: &[(Point, f64)]) {
+        for row in self.block(p) {
+            for &h in &self.head[row] {
+                if let (Some(d), Some(n)) = (discs.get(h as usize), self.next.get(h as usize)) {
+                    super::prefetch::prefetch(d);
+                    super::prefetch::prefetch(n);
+                }
+            }
+        }
+    }
+
     /// Whether `ok` holds for every disc in the 3 × 3 cells around `p`.
     fn clear(&self, p: Point, mut ok: impl FnMut(u32) -> bool) -> bool {
-        let (c, r) = self.cell(p);
-        for row in r.saturating_sub(1)..=(r + 1).min(self.rows - 1) {
-            for col in c.saturating_sub(1)..=(c + 1).min(self.cols - 1) {
-                let mut i = self.head[row * self.cols + col];
+        for row in self.block(p) {
+            for k in row {
+                let mut i = self.head[k];
                 while i != NONE {
                     if !ok(i) {
                         return false;

@@ -558,13 +558,6 @@ impl EventQueue {
         }
     }
 
-    /// Asks for the slot of `h` to be brought into cache ahead of its cancellation
-    /// ([`super::prefetch`]): a handling's cancellations are then read together rather than
-    /// one cache miss after the other.
-    pub fn prefetch_handle(&self, h: Handle) {
-        self.slots.prefetch(h.slot);
-    }
-
     /// Cancels an event; returns whether it was still pending.
     pub fn cancel(&mut self, h: Handle) -> bool {
         let (id, slot) = (h.id, h.slot);
