@@ -673,6 +673,8 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                     progress,
                     startup,
                     stop: Some(stop),
+                    // `nekosim run` exits once the run is written.
+                    exit_after: true,
                 },
             );
             if let Some(b) = bar {

@@ -24,4 +24,4 @@ pub mod simulation;
 pub mod world;
 
 pub use robot::{Algorithm, AlgorithmFuture, MotionEnd, Received, Robot};
-pub use simulation::{run, Comms, Fault, SimConfig, SimError};
+pub use simulation::{run, run_then_exit, Comms, Fault, SimConfig, SimError};

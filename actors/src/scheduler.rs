@@ -455,6 +455,9 @@ impl Core {
 
     /// The run's output, once it is over.
     pub(crate) fn finish(&mut self) -> RunOutput {
+        // Whatever the observers hold (the outputs being written) is theirs again at once,
+        // whether or not the actors are dropped after the run (`simulation::run_then_exit`).
+        self.observers = Observers::default();
         let mut output = std::mem::take(&mut self.output);
         output.stats.end_time = if self.queue.is_empty() || output.stats.interrupted {
             self.now
@@ -527,7 +530,7 @@ impl Scheduler {
     /// Takes the next event and sends it to its actor, whose reply ([`Replied`]) steps on.
     fn step(&mut self, ctx: &mut Context<Self>) {
         let (target, mut deliver) = match self.core.next() {
-            Next::Finish => return self.finish(ctx),
+            Next::Finish => return self.finish(),
             Next::Deliver(target, deliver) => (target, deliver),
         };
         if let Some((next, after)) = self.core.ahead_in_world() {
@@ -557,12 +560,14 @@ impl Scheduler {
         }
     }
 
-    fn finish(&mut self, ctx: &mut Context<Self>) {
+    /// Hands the output over. The actor is not stopped: the run's host drops or leaves the
+    /// whole system once it has the output (`simulation::run_then_exit`), so the million
+    /// robots' addresses and the queue are not dropped here one by one.
+    fn finish(&mut self) {
         let output = self.core.finish();
         if let Some(f) = self.on_finish.take() {
             f(output);
         }
-        ctx.stop();
     }
 
     /// Fails the run when more than `limit` events happen at one instant of virtual time (an
@@ -601,7 +606,7 @@ impl Handler<Replied> for Scheduler {
             }
             Err(e) => {
                 self.core.no_answer(target, e);
-                self.finish(ctx);
+                self.finish();
             }
         }
     }
