@@ -60,10 +60,8 @@ pub fn random_born_points_clear(
     }
     let max_r = occupied.iter().map(|o| o.1).fold(radius, f64::max);
     let mut grid = Cells::new(width, height, 2.0 * max_r, occupied.len() + count);
-    let mut discs: Vec<(Point, f64)> = Vec::with_capacity(occupied.len() + count);
     for &(p, r) in occupied {
-        grid.insert(p);
-        discs.push((p, r));
+        grid.insert(p, r);
     }
     let mut out = Vec::with_capacity(count);
     let budget = 1000 + 200 * count;
@@ -90,55 +88,76 @@ pub fn random_born_points_clear(
         let q = draw(&mut ahead);
         grid.prefetch_block(q);
         coming.push_back(q);
-        if let Some(&q) = coming.get(AHEAD / 2) {
-            grid.prefetch_discs(q, &discs);
-        }
-        if grid.clear(p, |i| {
-            let (q, r) = discs[i as usize];
-            (q - p).norm() >= r + radius
-        }) && clear(p)
-        {
-            grid.insert(p);
-            discs.push((p, radius));
+        if grid.clear(p, |q, r| (q - p).norm() >= r + radius) && clear(p) {
+            grid.insert(p, radius);
             out.push(p);
         }
     }
     Ok(out)
 }
 
-/// How many candidates ahead of the one checked the placement asks for memory (issue 17: a
-/// million robots' cells and discs are tens of megabytes, and each check was a chain of cache
-/// misses): the cells around a candidate this many ahead, and the first discs of those cells
-/// for the candidate half as many ahead, whose cells were asked for earlier. Only hints: the
-/// same candidates are checked in the same order.
+/// How many candidates ahead of the one checked the placement asks for the cells around it
+/// (issue 17: a million robots' cells are tens of megabytes, and each check was a chain of
+/// cache misses). Only a hint: the same candidates are checked in the same order.
 const AHEAD: usize = 16;
+
+/// Discs a cell keeps in itself; more go to a shared list. The cells are about as many as
+/// the discs, so most hold none, one or two.
+const INLINE: usize = 2;
+
+/// Cells on a side of a tile of [`Cells`] (64 cells of 64 bytes: a 4 KB page).
+const TILE_BITS: usize = 3;
+const TILE: usize = 1 << TILE_BITS;
 
 /// A dense grid over the area for the rejection sampling: cells at least `min_cell` wide
 /// (the largest diameter, so overlapping discs are in neighbouring cells) and about as many
-/// as discs, each a linked list of the discs in it (`head`, `next`): two flat arrays, no
-/// allocation per cell. Discs outside the area (an explicit robot may sit anywhere in the
-/// world) go to the nearest border cell, which keeps overlapping discs in neighbouring cells.
+/// as discs. Each cell is one cache line holding its first discs itself, and the cells are
+/// laid out in square tiles of a page, so a check of the 3 × 3 cells around a candidate
+/// mostly reads three runs of three lines on one page (issue 17: a list of disc numbers per
+/// cell sent each check to a disc and a link elsewhere in tens of megabytes). Discs outside
+/// the area (an explicit robot may sit anywhere in the world) go to the nearest border cell,
+/// which keeps overlapping discs in neighbouring cells.
 struct Cells {
     size: f64,
     cols: usize,
     rows: usize,
-    head: Vec<u32>,
-    next: Vec<u32>,
+    /// Tiles in a row of tiles.
+    tiles: usize,
+    cells: Vec<Cell>,
+    /// The discs beyond a cell's [`INLINE`] first, each with the number (plus one) of the
+    /// next of its cell's (0: none).
+    more: Vec<((Point, f64), u32)>,
 }
 
-const NONE: u32 = u32::MAX;
+/// A cell of [`Cells`]: its first discs `(centre, radius)`, their number, and the number
+/// (plus one) in [`Cells::more`] of its latest further disc (0: none).
+#[derive(Clone, Copy)]
+#[repr(C, align(64))]
+struct Cell {
+    discs: [(Point, f64); INLINE],
+    count: u32,
+    more: u32,
+}
+
+const EMPTY: Cell = Cell {
+    discs: [(Point::new(0.0, 0.0), 0.0); INLINE],
+    count: 0,
+    more: 0,
+};
 
 impl Cells {
     fn new(width: f64, height: f64, min_cell: f64, discs: usize) -> Self {
         let size = min_cell.max((width * height / discs.max(1) as f64).sqrt());
         let count = |extent: f64| ((extent / size).ceil() as usize).max(1);
         let (cols, rows) = (count(width), count(height));
+        let tiles = cols.div_ceil(TILE);
         Self {
             size,
             cols,
             rows,
-            head: vec![NONE; cols * rows],
-            next: Vec::with_capacity(discs),
+            tiles,
+            cells: vec![EMPTY; tiles * rows.div_ceil(TILE) * TILE * TILE],
+            more: Vec::new(),
         }
     }
 
@@ -147,56 +166,71 @@ impl Cells {
         (index(p.x, self.cols), index(p.y, self.rows))
     }
 
-    /// Adds the next disc (numbered in insertion order) at `p`.
-    fn insert(&mut self, p: Point) {
-        let (c, r) = self.cell(p);
-        let k = r * self.cols + c;
-        self.next.push(self.head[k]);
-        self.head[k] = (self.next.len() - 1) as u32;
+    /// The index in `cells` of the cell in column `c` and row `r`.
+    fn at(&self, c: usize, r: usize) -> usize {
+        let tile = (r >> TILE_BITS) * self.tiles + (c >> TILE_BITS);
+        (tile << (2 * TILE_BITS)) | ((r & (TILE - 1)) << TILE_BITS) | (c & (TILE - 1))
     }
 
-    /// The rows of the 3 × 3 cells around `p`, each as a range of indices into `head`.
-    fn block(&self, p: Point) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
-        let (c, r) = self.cell(p);
-        let (c0, c1) = (c.saturating_sub(1), (c + 1).min(self.cols - 1));
-        (r.saturating_sub(1)..=(r + 1).min(self.rows - 1))
-            .map(move |row| row * self.cols + c0..row * self.cols + c1 + 1)
+    /// Adds a disc of radius `r` at `p`.
+    fn insert(&mut self, p: Point, r: f64) {
+        let (c, row) = self.cell(p);
+        let k = self.at(c, row);
+        let cell = &mut self.cells[k];
+        match cell.discs.get_mut(cell.count as usize) {
+            Some(d) => *d = (p, r),
+            None => {
+                self.more.push(((p, r), cell.more));
+                cell.more = u32::try_from(self.more.len()).expect("fewer than 2^32 discs");
+            }
+        }
+        cell.count += 1;
     }
 
-    /// Asks for the heads of the 3 × 3 cells around `p` ([`super::prefetch`]).
+    /// The cells around `p`: columns and rows, each clipped to the grid.
+    fn block(
+        &self,
+        p: Point,
+    ) -> (
+        std::ops::RangeInclusive<usize>,
+        std::ops::RangeInclusive<usize>,
+    ) {
+        let (c, r) = self.cell(p);
+        (
+            c.saturating_sub(1)..=(c + 1).min(self.cols - 1),
+            r.saturating_sub(1)..=(r + 1).min(self.rows - 1),
+        )
+    }
+
+    /// Asks for the 3 × 3 cells around `p` ([`super::prefetch`]).
     fn prefetch_block(&self, p: Point) {
-        for row in self.block(p) {
-            super::prefetch::prefetch(&self.head[row.start]);
-            super::prefetch::prefetch(&self.head[row.end - 1]);
-        }
-    }
-
-    /// Asks for the first disc of each of the 3 × 3 cells around `p`, and its link.
-    fn prefetch_discs(&self, p: Point, discs: &[(Point, f64)]) {
-        for row in self.block(p) {
-            for &h in &self.head[row] {
-                if let (Some(d), Some(n)) = (discs.get(h as usize), self.next.get(h as usize)) {
-                    super::prefetch::prefetch(d);
-                    super::prefetch::prefetch(n);
-                }
+        let (cols, rows) = self.block(p);
+        for r in rows {
+            for c in cols.clone() {
+                super::prefetch::prefetch(&self.cells[self.at(c, r)]);
             }
         }
     }
 
-    /// Whether `ok` holds for every disc in the 3 × 3 cells around `p`.
-    fn clear(&self, p: Point, mut ok: impl FnMut(u32) -> bool) -> bool {
-        for row in self.block(p) {
-            for k in row {
-                let mut i = self.head[k];
-                while i != NONE {
-                    if !ok(i) {
-                        return false;
+    /// Whether `ok(centre, radius)` holds for every disc in the 3 × 3 cells around `p`.
+    fn clear(&self, p: Point, ok: impl Fn(Point, f64) -> bool) -> bool {
+        let (cols, rows) = self.block(p);
+        rows.into_iter().all(|r| {
+            cols.clone().all(|c| {
+                let cell = &self.cells[self.at(c, r)];
+                let inline = (cell.count as usize).min(INLINE);
+                cell.discs[..inline].iter().all(|&(q, s)| ok(q, s)) && {
+                    let mut i = cell.more;
+                    let mut clear = true;
+                    while clear && i != 0 {
+                        let ((q, s), next) = self.more[i as usize - 1];
+                        clear = ok(q, s);
+                        i = next;
                     }
-                    i = self.next[i as usize];
+                    clear
                 }
-            }
-        }
-        true
+            })
+        })
     }
 }
 
