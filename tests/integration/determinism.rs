@@ -17,6 +17,16 @@ fn run_with(seed: u64, arbiters: usize) -> RunOutput {
 }
 
 fn run_observed(seed: u64, arbiters: usize, observers: Observers) -> RunOutput {
+    run_hosted(nekosim::run, seed, arbiters, observers)
+}
+
+/// The run hosted by `host` ([`nekosim::run`] or [`nekosim::run_then_exit`]).
+fn run_hosted(
+    host: fn(SimConfig) -> Result<RunOutput, nekosim::SimError>,
+    seed: u64,
+    arbiters: usize,
+    observers: Observers,
+) -> RunOutput {
     let mut robots: Vec<(RobotSpec, Box<dyn Algorithm>)> = Vec::new();
     for i in 0..24 {
         let (x, y) = (20.0 + 25.0 * (i % 6) as f64, 20.0 + 30.0 * (i / 6) as f64);
@@ -30,7 +40,7 @@ fn run_observed(seed: u64, arbiters: usize, observers: Observers) -> RunOutput {
         };
         robots.push((spec(x, y, 15.0 * i as f64, 4.0), alg));
     }
-    nekosim::run(SimConfig {
+    host(SimConfig {
         sensors: Default::default(),
         seed,
         until: 80.0,
@@ -57,6 +67,33 @@ fn same_seed_same_events() {
     assert!(a.records.len() > 500);
     assert_eq!(text(&a.records), text(&b.records));
     assert_eq!(a.stats, b.stats);
+}
+
+/// `nekosim run` leaves its run to the process's exit instead of dropping a million actors
+/// one by one ([`nekosim::run_then_exit`]): the same output as a run that is dropped, on one
+/// arbiter and on three, and the observers, on which the command's outputs hang, are let go
+/// when the run ends.
+#[test]
+fn a_run_left_to_the_exit_gives_the_same_output_and_lets_its_observers_go() {
+    for arbiters in [1, 3] {
+        let dropped = run_with(7, arbiters);
+        let seen = std::rc::Rc::new(std::cell::Cell::new(0usize));
+        let count = seen.clone();
+        let observers = Observers {
+            sink: Some(Box::new(move |_: &Record| count.set(count.get() + 1))),
+            ..Default::default()
+        };
+        let left = run_hosted(nekosim::run_then_exit, 7, arbiters, observers);
+        assert!(left.records.len() > 500);
+        assert_eq!(text(&dropped.records), text(&left.records));
+        assert_eq!(dropped.stats, left.stats);
+        assert_eq!(seen.get(), left.records.len());
+        assert_eq!(
+            std::rc::Rc::strong_count(&seen),
+            1,
+            "the sink is dropped when the run ends"
+        );
+    }
 }
 
 #[test]
