@@ -72,22 +72,19 @@ pub fn random_born_points_clear(
             Rng::gen_range(rng, radius..=height - radius),
         )
     };
-    // The candidates to come, drawn from a copy of the stream: the caller's stream moves on
-    // by exactly the candidates drawn, as it always did.
+    // The candidates to come, drawn from a copy of the stream, [`AHEAD`] before their turn:
+    // the caller's stream moves on by exactly the candidates drawn, as it always did.
     let mut ahead = rng.clone();
-    let mut coming: std::collections::VecDeque<Point> =
-        (0..AHEAD).map(|_| draw(&mut ahead)).collect();
-    coming.iter().for_each(|&q| grid.prefetch_block(q));
+    for _ in 0..AHEAD {
+        grid.prefetch_block(draw(&mut ahead));
+    }
     while out.len() < count {
         tries += 1;
         if tries > budget {
             return Err(fail(out.len()));
         }
         let p = draw(rng);
-        coming.pop_front();
-        let q = draw(&mut ahead);
-        grid.prefetch_block(q);
-        coming.push_back(q);
+        grid.prefetch_block(draw(&mut ahead));
         if grid.clear(p, |q, r| (q - p).norm() >= r + radius) && clear(p) {
             grid.insert(p, radius);
             out.push(p);
