@@ -184,11 +184,12 @@ impl NekoLog {
                 robot,
                 ticket,
                 motion,
-                params,
             } => {
-                self.motions.insert(*robot, motion.clone());
+                let params = motion.params();
+                let motion = motion.name();
+                self.motions.insert(*robot, motion.to_string());
                 let get = |k: &str| params.iter().find(|(n, _)| n == k).map_or(0.0, |(_, v)| *v);
-                let what = match motion.as_str() {
+                let what = match motion {
                     "move_to" => format!(
                         "MoveTo: ( {} , {} ) with turnSpeed = {} moveSpeed = {}",
                         num(get("x")),

@@ -23,7 +23,9 @@ pub fn to_line(r: &Record) -> String {
 mod tests {
     use super::*;
     use nekosim_actors::world::geometry::{Point, Vector};
-    use nekosim_actors::world::motion::{Kinematics, Progress, StepKind};
+    use nekosim_actors::world::motion::{
+        Kinematics, Motion, MotionError, MotionPattern, MotionSpec, Pose, Progress, StepKind,
+    };
     use nekosim_actors::world::observation::Observation;
     use nekosim_actors::world::sensor::SensorQuery;
     use nekosim_actors::world::{MotionOutcome, Obstacle};
@@ -41,6 +43,22 @@ mod tests {
         }
     }
 
+    /// A custom pattern whose parameters include a reserved name, which the trace leaves out.
+    #[derive(Debug)]
+    struct ArcSpec;
+
+    impl MotionSpec for ArcSpec {
+        fn name(&self) -> &str {
+            "arc"
+        }
+        fn params(&self) -> Vec<(String, f64)> {
+            vec![("radius".into(), 4.0), ("robot".into(), 9.0)]
+        }
+        fn begin(&self, _: f64, _: Pose) -> Result<Box<dyn MotionPattern>, MotionError> {
+            unreachable!("only traced")
+        }
+    }
+
     /// Records the example scenarios rarely produce, against the forms docs/trace.md
     /// documents, written out by hand.
     #[test]
@@ -50,8 +68,7 @@ mod tests {
                 Observation::MotionRequest {
                     robot: 2,
                     ticket: 7,
-                    motion: "arc".into(),
-                    params: vec![("radius".into(), 4.0), ("robot".into(), 9.0)],
+                    motion: Motion::Custom(std::sync::Arc::new(ArcSpec)),
                 },
                 r#"{"t":0.5,"seq":3,"kind":"motion_request","robot":2,"ticket":7,"motion":"arc","radius":4.0}"#,
             ),

@@ -25,3 +25,50 @@ pub mod world;
 
 pub use robot::{Algorithm, AlgorithmFuture, MotionEnd, Received, Robot};
 pub use simulation::{run, run_then_exit, Comms, Fault, SimConfig, SimError};
+
+/// The unit tests' allocator: the system's, counting each thread's allocations, for the tests
+/// that a hot path allocates nothing (issue 17).
+#[cfg(test)]
+#[allow(unsafe_code)]
+pub(crate) mod allocations {
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::cell::Cell;
+
+    thread_local! {
+        static COUNT: Cell<u64> = const { Cell::new(0) };
+    }
+
+    fn count() {
+        let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+    }
+
+    /// Allocations made on this thread so far.
+    pub(crate) fn on_this_thread() -> u64 {
+        COUNT.with(Cell::get)
+    }
+
+    struct Counting;
+
+    // SAFETY: every call goes to the system allocator unchanged; counting touches a
+    // thread-local cell only, which allocates nothing and has no destructor.
+    unsafe impl GlobalAlloc for Counting {
+        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+            count();
+            unsafe { System.alloc(layout) }
+        }
+        unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+            count();
+            unsafe { System.alloc_zeroed(layout) }
+        }
+        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+            count();
+            unsafe { System.realloc(ptr, layout, new_size) }
+        }
+        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            unsafe { System.dealloc(ptr, layout) }
+        }
+    }
+
+    #[global_allocator]
+    static COUNTING: Counting = Counting;
+}

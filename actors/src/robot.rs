@@ -1086,6 +1086,100 @@ mod tests {
         assert_eq!(inbox(&other), (0, 0));
     }
 
+    /// Draws a number into `drawn` (room kept for eight), then sleeps a second, forever.
+    #[derive(Debug)]
+    struct Drawer {
+        drawn: std::sync::Arc<std::sync::Mutex<Vec<f64>>>,
+    }
+
+    impl Algorithm for Drawer {
+        fn name(&self) -> &str {
+            "Drawer"
+        }
+        fn run(&self, robot: Robot) -> AlgorithmFuture {
+            let drawn = self.drawn.clone();
+            Box::pin(async move {
+                loop {
+                    let x: f64 = robot.rng().gen();
+                    drawn.lock().expect("not poisoned").push(x);
+                    robot.sleep(1.0).await;
+                }
+            })
+        }
+    }
+
+    /// Issue 17: once its thread has spare buffers, a robot's handling of a notice allocates
+    /// nothing of its own: the inbox, the outbox and the live generator are the thread's,
+    /// lent and given back. Two robots take turns, so each handling uses the buffers the other
+    /// robot's handling gave back; the numbers drawn are those of each robot's own stream.
+    #[test]
+    fn a_robots_handling_borrows_its_buffers_and_gives_them_back() {
+        let info = |id| RobotInfo {
+            id,
+            count: 2,
+            radius: 5.0,
+            world: WorldSize::Infinite,
+        };
+        let drawn =
+            [0, 1].map(|_| std::sync::Arc::new(std::sync::Mutex::new(Vec::with_capacity(8))));
+        let mut robots = [0, 1].map(|id| {
+            let drawer = Drawer {
+                drawn: drawn[id as usize].clone(),
+            };
+            RobotActor::new(info(id), Box::new(drawer), 7, Default::default())
+        });
+        let mut tickets = [0, 0];
+        let mut seq = 0;
+        for round in 0..4 {
+            for (id, actor) in robots.iter_mut().enumerate() {
+                seq += 1;
+                let payload = if round == 0 {
+                    Payload::Notice(Box::new(Notice::Start))
+                } else {
+                    Payload::Timer {
+                        robot: id as RobotId,
+                        ticket: tickets[id],
+                    }
+                };
+                let event = Event {
+                    time: f64::from(round),
+                    id: EventId {
+                        cause: seq - 1,
+                        index: 0,
+                    },
+                    target: Target::Robot(id as RobotId),
+                    class: EventClass::Eventual,
+                    concerns: [id as RobotId, NO_ROBOT],
+                    payload,
+                };
+                let deliver = Deliver {
+                    now: f64::from(round),
+                    seq,
+                    event,
+                    effects: Vec::with_capacity(8),
+                    reply: None,
+                };
+                let before = crate::allocations::on_this_thread();
+                let effects = actor.handle_event(deliver);
+                let made = crate::allocations::on_this_thread() - before;
+                // The first handlings start the algorithm (its future) and fill the spares.
+                if round >= 2 {
+                    assert_eq!(made, 0, "robot {id}, round {round}: {made} allocations");
+                }
+                let [timer] = timers(&effects)[..] else {
+                    panic!("one timer asked for");
+                };
+                tickets[id] = timer;
+            }
+        }
+        for (id, drawn) in drawn.iter().enumerate() {
+            let mut rng = ChaCha8Rng::seed_from_u64(7);
+            rng.set_stream(id as u64);
+            let expected: Vec<f64> = (0..4).map(|_| rng.gen()).collect();
+            assert_eq!(*drawn.lock().unwrap(), expected, "robot {id}'s stream");
+        }
+    }
+
     /// A started robot tells where its actor, shared state, algorithm future and mailbox are:
     /// the addresses of the very objects, one mailbox for an address and its clones, another
     /// for another robot.

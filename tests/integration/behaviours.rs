@@ -109,8 +109,8 @@ fn requests(records: &[&Record]) -> Vec<Asked> {
     records
         .iter()
         .filter_map(|r| match &r.obs {
-            Observation::MotionRequest { motion, params, .. } => {
-                Some((r.t, motion.clone(), params.clone()))
+            Observation::MotionRequest { motion, .. } => {
+                Some((r.t, motion.name().to_string(), motion.params()))
             }
             _ => None,
         })

@@ -226,6 +226,47 @@ pub enum Motion {
     Custom(Arc<dyn MotionSpec>),
 }
 
+/// Two requests are equal when they ask for the same pattern with the same parameters (a
+/// custom pattern is known by its name and parameters).
+impl PartialEq for Motion {
+    fn eq(&self, other: &Self) -> bool {
+        use Motion::*;
+        match (self, other) {
+            (
+                Turn { angle, turn_speed },
+                Turn {
+                    angle: a,
+                    turn_speed: s,
+                },
+            ) => angle == a && turn_speed == s,
+            (
+                Forward {
+                    distance,
+                    move_speed,
+                },
+                Forward {
+                    distance: d,
+                    move_speed: s,
+                },
+            ) => distance == d && move_speed == s,
+            (
+                MoveTo {
+                    dest,
+                    move_speed,
+                    turn_speed,
+                },
+                MoveTo {
+                    dest: d,
+                    move_speed: m,
+                    turn_speed: t,
+                },
+            ) => dest == d && move_speed == m && turn_speed == t,
+            (Custom(a), Custom(b)) => a.name() == b.name() && a.params() == b.params(),
+            _ => false,
+        }
+    }
+}
+
 impl Motion {
     /// The pattern's name: `turn`, `forward`, `move_to` or the custom name.
     pub fn name(&self) -> &str {
@@ -599,6 +640,51 @@ impl MotionPattern for TurnForward {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// A custom pattern known by its name and one parameter.
+    #[derive(Debug)]
+    struct Named(&'static str, f64);
+
+    impl MotionSpec for Named {
+        fn name(&self) -> &str {
+            self.0
+        }
+        fn params(&self) -> Vec<(String, f64)> {
+            vec![("p".into(), self.1)]
+        }
+        fn begin(&self, _: f64, _: Pose) -> Result<Box<dyn MotionPattern>, MotionError> {
+            unreachable!("only compared")
+        }
+    }
+
+    /// Requests (kept whole in the trace's observations) are equal when they ask for the same
+    /// pattern with the same parameters, and only then.
+    #[test]
+    fn requests_are_equal_when_pattern_and_parameters_are() {
+        let move_to = |x| Motion::MoveTo {
+            dest: Point::new(x, 2.0),
+            move_speed: 3.0,
+            turn_speed: 4.0,
+        };
+        let custom = |name, p| Motion::Custom(std::sync::Arc::new(Named(name, p)));
+        let turn = Motion::Turn {
+            angle: 1.0,
+            turn_speed: 2.0,
+        };
+        let forward = Motion::Forward {
+            distance: 1.0,
+            move_speed: 2.0,
+        };
+        assert_eq!(move_to(1.0), move_to(1.0));
+        assert_ne!(move_to(1.0), move_to(1.5));
+        assert_eq!(turn, turn.clone());
+        assert_ne!(turn, forward);
+        assert_eq!(forward, forward.clone());
+        assert_eq!(custom("arc", 1.0), custom("arc", 1.0));
+        assert_ne!(custom("arc", 1.0), custom("arc", 2.0));
+        assert_ne!(custom("arc", 1.0), custom("spiral", 1.0));
+        assert_ne!(custom("turn", 1.0), turn);
+    }
 
     fn pose(x: f64, y: f64, angle: f64) -> Pose {
         Pose {

@@ -4,7 +4,7 @@
 use serde::Serialize;
 
 use super::geometry::Point;
-use super::motion::{Kinematics, Progress, StepKind};
+use super::motion::{Kinematics, Motion, Progress, StepKind};
 use super::sensor::{Plan, SensorKind, SensorQuery, SensorValue};
 use super::{MotionOutcome, Obstacle, RobotId};
 use nekosim_protocols::{MsgId, Payload};
@@ -37,10 +37,12 @@ pub enum Observation {
         robot: RobotId,
         /// The request's number among the robot's requests (the seed log's "Task ID").
         ticket: u64,
-        motion: String,
-        /// The pattern's parameters, each its own trace field.
-        #[serde(flatten, serialize_with = "ser::params")]
-        params: Vec<(String, f64)>,
+        /// The request itself: the trace shows its pattern's name as `motion` and each of its
+        /// parameters as a field of its own ([`Motion::name`], [`Motion::params`]). Issue 17:
+        /// kept as the request rather than as its name and parameters written out, which took
+        /// six allocations a request, traced or not.
+        #[serde(flatten, serialize_with = "ser::motion")]
+        motion: Motion,
     },
     /// A motion ended.
     MotionFinish {
@@ -196,11 +198,13 @@ mod ser {
     /// Names of the fields every trace object has; custom motion parameters never take them.
     const RESERVED: [&str; 6] = ["t", "seq", "kind", "robot", "ticket", "motion"];
 
-    pub fn params<S: Serializer>(params: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
+    /// A motion request: `motion`, its pattern's name, then its parameters.
+    pub fn motion<S: Serializer>(motion: &Motion, s: S) -> Result<S::Ok, S::Error> {
         let mut m = s.serialize_map(None)?;
-        for (k, v) in params {
+        m.serialize_entry("motion", motion.name())?;
+        for (k, v) in motion.params() {
             if !RESERVED.contains(&k.as_str()) {
-                m.serialize_entry(k, v)?;
+                m.serialize_entry(&k, &v)?;
             }
         }
         m.end()

@@ -5,6 +5,8 @@
 use super::*;
 use smallvec::smallvec;
 
+use crate::world::motion::MotionPattern;
+
 impl VirtualWorld {
     /// Ends `id`'s motion in progress, if any, with `outcome`; the robot rests where it is.
     /// Returns whether there was a motion to end.
@@ -97,8 +99,7 @@ impl VirtualWorld {
         out.record(Observation::MotionRequest {
             robot,
             ticket,
-            motion: motion.name().to_string(),
-            params: motion.params(),
+            motion: motion.clone(),
         });
         match motion.path(now, from, self.cfg.turn) {
             Err(e) => {
@@ -118,7 +119,7 @@ impl VirtualWorld {
                 );
             }
             Ok(pattern) => {
-                let steps = pattern.pattern().events();
+                let steps = steps_of(&pattern);
                 let r = &mut self.robots[robot as usize];
                 r.motion = Some(pattern);
                 r.ticket = ticket;
@@ -367,6 +368,24 @@ impl VirtualWorld {
 /// event fewer (a MOVETO's finish-turn and start-forward: 12 % of a million robots' events
 /// after the turning phase, issue 17). A motion's first step stays alone: it is eventual,
 /// the others conditional.
+/// A motion's steps ([`MotionPattern::events`]); the built-in pattern's are asked one by one
+/// ([`MotionPattern::step`]), which allocates nothing (issue 17: a vector a request).
+fn steps_of(path: &Path) -> SmallVec<[crate::world::motion::MotionStep; 4]> {
+    match path {
+        Path::Builtin(m) => {
+            let mut steps = SmallVec::new();
+            while let Some((step, last)) = m.step(steps.len()) {
+                steps.push(step);
+                if last {
+                    break;
+                }
+            }
+            steps
+        }
+        Path::Custom(m) => m.events().into(),
+    }
+}
+
 pub(crate) fn step_events(
     steps: &[crate::world::motion::MotionStep],
     from: usize,
