@@ -19,6 +19,8 @@
 //!   Each of the series' runs is a process of its own, as a `nekosim run` is: the bench
 //!   starts itself again for it ([`CHILD`]), so that no run inherits the heap an earlier
 //!   one left and each peak RSS is the run's own.
+//! - `memory`: what random reads into a million robots' worth of memory cost an event on this
+//!   machine, apart from the engine ([`memory`]).
 //!
 //! The allocator is the `nekosim` binary's (mimalloc, keeping freed memory:
 //! `nekosim::allocator`), so the figures are the command's.
@@ -558,7 +560,74 @@ fn late(wanted: &dyn Fn(&str) -> bool) {
     }
 }
 
-criterion_group!(benches, throughput, placement, random_movement, scale);
+/// `memory`: what this machine's memory costs an event, apart from the engine (issue 17). Each
+/// of 400,000 "events" reads `reads` bytes at random 64-byte lines of one heap, then runs a
+/// chain of 1,000 dependent multiply-rotate steps (about a handling's length here), the reads
+/// either asked for two events ahead ([`prefetch_at`](nekosim::world::prefetch::prefetch_at),
+/// as the engine's look-ahead does) or not. A 2.4 GB heap is a million robots' memory; a 4 MB
+/// one stays in cache. Run it alone with `cargo bench --bench engine -- memory`.
+fn memory(_: &mut Criterion) {
+    let filter: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
+    if !filter.is_empty() && !filter.iter().any(|f| "memory".contains(f.as_str())) {
+        return;
+    }
+    const EVENTS: usize = 400_000;
+    const LINE: usize = 64;
+    let work = |mut h: u64| {
+        for _ in 0..1_000 {
+            h = h.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(7) ^ (h >> 3);
+        }
+        h
+    };
+    for mb in [2_400usize, 4] {
+        let heap = vec![1u8; mb << 20];
+        let lines = heap.len() / LINE;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        for (reads, ahead) in [(0, 0), (5, 0), (5, 2), (10, 2), (20, 0), (20, 2), (30, 2)] {
+            if mb < 100 && reads == 0 {
+                continue;
+            }
+            let at: Vec<usize> = (0..EVENTS * reads)
+                .map(|_| rand::Rng::gen_range(&mut rng, 0..lines) * LINE)
+                .collect();
+            let start = std::time::Instant::now();
+            let mut acc = 0u64;
+            for e in 0..EVENTS {
+                if ahead > 0 && e + ahead < EVENTS {
+                    for &a in &at[(e + ahead) * reads..(e + ahead + 1) * reads] {
+                        nekosim::world::prefetch::prefetch_at(heap.as_ptr() as usize + a, 1);
+                    }
+                }
+                for &a in &at[e * reads..(e + 1) * reads] {
+                    acc = acc.wrapping_add(u64::from(heap[a]));
+                }
+                acc = acc.wrapping_add(work(acc | 1) & 1);
+            }
+            std::hint::black_box(acc);
+            let ns = start.elapsed().as_secs_f64() * 1e9 / EVENTS as f64;
+            println!(
+                "memory/{mb}MB: {reads} random reads an event, {}: {ns:.0} ns per event",
+                if ahead > 0 {
+                    format!("asked for {ahead} events ahead")
+                } else {
+                    "not asked for".to_string()
+                }
+            );
+        }
+    }
+}
+
+criterion_group!(
+    benches,
+    throughput,
+    placement,
+    random_movement,
+    scale,
+    memory
+);
 
 /// `criterion_main!`'s `main`, unless the bench was started again for one run of the scale
 /// series ([`CHILD`]).
