@@ -168,12 +168,17 @@ impl Spare {
         });
     }
 
-    /// Takes back an inbox left empty and an outbox emptied.
+    /// Takes back an inbox left empty (or frees it, when the thread has one spare already: a
+    /// robot keeps no buffer it does not need) and an outbox emptied.
     fn take_back(inbox: &mut VecDeque<Notice>, outbox: Vec<Request>) {
         debug_assert!(outbox.is_empty());
         SPARE.with_borrow_mut(|s| {
-            if inbox.is_empty() && s.inbox.capacity() == 0 {
-                std::mem::swap(inbox, &mut s.inbox);
+            if inbox.is_empty() {
+                if s.inbox.capacity() == 0 {
+                    std::mem::swap(inbox, &mut s.inbox);
+                } else {
+                    *inbox = VecDeque::new();
+                }
             }
             if s.outbox.capacity() == 0 {
                 s.outbox = outbox;
@@ -1084,6 +1089,22 @@ mod tests {
         let due = Payload::Timer { robot: 0, ticket };
         assert_eq!(timers(&handle(&mut other, 1.0, 2, due)).len(), 1);
         assert_eq!(inbox(&other), (0, 0));
+    }
+
+    /// An inbox emptied while its thread has a spare already is freed, not kept by its robot.
+    #[test]
+    fn an_inbox_emptied_keeps_no_buffer_beside_the_spare() {
+        let mut spare = VecDeque::with_capacity(4);
+        spare.push_back(Notice::Start);
+        spare.clear();
+        Spare::take_back(&mut spare, Vec::new());
+        assert_eq!(spare.capacity(), 0, "given to the thread");
+        let mut own = VecDeque::with_capacity(4);
+        own.push_back(Notice::Start);
+        own.clear();
+        Spare::take_back(&mut own, Vec::new());
+        assert_eq!(own.capacity(), 0, "freed: the thread has a spare");
+        assert!(SPARE.with_borrow(|s| s.inbox.capacity()) >= 4);
     }
 
     /// Draws a number into `drawn` (room kept for eight), then sleeps a second, forever.
