@@ -1031,6 +1031,7 @@ mod tests {
             event,
             effects: Vec::new(),
             reply: None,
+            then: Default::default(),
         })
     }
 
@@ -1179,6 +1180,7 @@ mod tests {
                     event,
                     effects: Vec::with_capacity(8),
                     reply: None,
+                    then: Default::default(),
                 };
                 let before = crate::allocations::on_this_thread();
                 let effects = actor.handle_event(deliver);

@@ -9,10 +9,14 @@
 //!    `(cause, index)`: `cause` is the processing number of the event whose handling created
 //!    them, `index` their position among that handling's outputs. Processing numbers are given
 //!    out in processing order, so the whole order is a function of the scenario and seed alone.
-//! 3. One event is in flight at a time. The scheduler sends it to its actor (a manager, a
-//!    robot, a sensor) and waits for the reply, which is the list of effects the handling
-//!    produced (events to schedule, events to cancel, observations to record). Only then does
-//!    it take the next event. Actors never message each other directly: every hop is an event.
+//! 3. One delivery is in flight at a time. The scheduler sends the next event to its actor (a
+//!    manager, a robot, a sensor) and waits for the reply, which is the list of effects the
+//!    handling produced (events to schedule, events to cancel, observations to record). Only
+//!    then does it take the next event. A delivery may carry a run: the events that come
+//!    next for the same actor ([`Deliver::then`]). The actor handles each in turn only while
+//!    the handlings before it leave it the next event ([`handle_run`]) and hands the rest
+//!    back, so the events taken and their order are those of one delivery per event. Actors
+//!    never message each other directly: every hop is an event.
 //! 4. Quiescence is therefore structural: an actor's work at instant `t` is exactly the handling
 //!    of events at `t`, and everything it causes is an event at `t` or later. Virtual time
 //!    cannot advance while work at the current instant remains, because that work is an event
@@ -23,14 +27,15 @@
 //!    or on mailbox timing; a run spread over several arbiters gives the same events in the
 //!    same order as a run on one.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 
 use actix::prelude::*;
 
 use crate::world::event::{
-    Ahead, Effect, Event, EventQueue, FutureEvent, Notice, Outbox, Payload, Route, Target,
+    Ahead, Effect, Event, EventId, EventQueue, FutureEvent, Notice, Outbox, Payload, Route, Target,
 };
 use crate::world::observation::{Observation, Record};
+use crate::world::radix::time_key;
 use crate::world::sensor::SensorKind;
 use crate::world::RobotId;
 
@@ -49,6 +54,27 @@ pub struct Deliver {
     pub effects: Vec<Effect>,
     /// Where the reply goes (none when the kernel-alone reference calls the handling itself).
     pub reply: Option<ReplyTo>,
+    /// The events that come next for the same actor, taken from the queue with this one (a
+    /// run, at most [`RUN`] events in all). The actor handles each in turn, as numbers
+    /// `seq + 1`, `seq + 2`, ..., for as long as the handlings before it leave it the next
+    /// event ([`handle_run`]), and hands the others back in its [`Reply`]. Issue 17: three
+    /// events in four of a random-movement run are the motion manager's, each following
+    /// another of its own, and a hop for each was a fifth of a 1k-robot run's instructions.
+    pub then: VecDeque<Event>,
+}
+
+/// The most events a delivery carries ([`Deliver::then`] and its own).
+pub const RUN: usize = 8;
+
+/// An actor's reply to a delivery: the effects of the events it handled, in order; where each
+/// handling's effects end (`ends[0]` the delivered event's, `ends[1]` the first of
+/// [`Deliver::then`]'s, and so on); and the events of `then` it did not handle, which go back
+/// to the queue as they were.
+#[derive(Debug, Default)]
+pub struct Reply {
+    pub effects: Vec<Effect>,
+    pub ends: smallvec::SmallVec<[u32; RUN]>,
+    pub then: VecDeque<Event>,
 }
 
 /// The way back to the scheduler for one delivery's reply. Issue 17: a request with a
@@ -61,9 +87,9 @@ pub struct ReplyTo(Option<std::sync::Arc<Addr<Scheduler>>>);
 
 impl ReplyTo {
     /// Sends the handling's effects back.
-    pub fn send(mut self, effects: Vec<Effect>) {
+    pub fn send(mut self, reply: Reply) {
         if let Some(addr) = self.0.take() {
-            addr.do_send(Replied(Ok(effects)));
+            addr.do_send(Replied(Ok(reply)));
         }
     }
 }
@@ -81,7 +107,7 @@ impl Drop for ReplyTo {
 /// The reply to a delivery: the handling's effects, or why there are none.
 #[derive(Debug, Message)]
 #[rtype(result = "()")]
-pub struct Replied(Result<Vec<Effect>, String>);
+pub struct Replied(Result<Reply, String>);
 
 /// Who handles which events.
 pub struct Routes {
@@ -182,7 +208,14 @@ pub(crate) struct Core {
     ahead: Ahead,
     /// Events for the end of the current instant ([`Outbox::at_instant_end`]), in the order
     /// they were scheduled.
-    closing: std::collections::VecDeque<Event>,
+    closing: VecDeque<Event>,
+    /// Whether deliveries carry runs ([`Deliver::then`]): the scheduler actor's do, the
+    /// kernel-alone reference's not (it has no hop to save).
+    runs: bool,
+    /// The time and slot of each event of the run in flight after its first.
+    run: smallvec::SmallVec<[(f64, u32); RUN]>,
+    /// The buffer for the next delivery's run (see `spare`).
+    spare_then: VecDeque<Event>,
 }
 
 /// The fewest pending events at which the core looks ahead ([`EventQueue::look_ahead`]) and
@@ -286,7 +319,10 @@ impl Core {
             instant_limit: u64::MAX,
             spare: Vec::new(),
             ahead: Ahead::default(),
-            closing: std::collections::VecDeque::new(),
+            closing: VecDeque::new(),
+            runs: false,
+            run: smallvec::SmallVec::new(),
+            spare_then: VecDeque::new(),
         };
         core.apply(setup.into_effects());
         core
@@ -295,6 +331,110 @@ impl Core {
     /// Applies the effects of one handling, in order.
     pub(crate) fn apply(&mut self, mut effects: Vec<Effect>) {
         for e in effects.drain(..) {
+            self.apply_one(e);
+        }
+        self.keep_spare(effects);
+    }
+
+    /// Applies a delivery's reply ([`Reply`]): first the events of its run that were not
+    /// handled go back to the queue, as they were before the delivery took them; then each
+    /// handled event is taken in turn (as [`Core::next`] would have taken it: its time, its
+    /// number, the count) and its effects applied. Since each handled event was still the
+    /// next one after the effects before it, this is the order of delivering them one by one.
+    pub(crate) fn apply_reply(&mut self, reply: Reply) {
+        let Reply {
+            mut effects,
+            ends,
+            mut then,
+        } = reply;
+        let handled = ends.len() - 1;
+        assert_eq!(
+            handled + then.len(),
+            self.run.len(),
+            "a run's events handled or handed back"
+        );
+        for (ev, &(_, slot)) in then.drain(..).rev().zip(self.run.iter().rev()) {
+            self.queue.put_back(ev, slot);
+        }
+        let mut j = 0;
+        for (k, e) in effects.drain(..).enumerate() {
+            while k as u32 >= ends[j] {
+                j += 1;
+                self.enter(self.run[j - 1].0);
+            }
+            self.apply_one(e);
+        }
+        while j < handled {
+            j += 1;
+            self.enter(self.run[j - 1].0);
+        }
+        self.run.clear();
+        self.keep_spare(effects);
+        if then.capacity() <= RUN {
+            self.spare_then = then;
+        }
+    }
+
+    fn keep_spare(&mut self, effects: Vec<Effect>) {
+        if effects.capacity() <= SPARE_EFFECTS && effects.capacity() > self.spare.capacity() {
+            self.spare = effects;
+        }
+    }
+
+    /// Takes an event at `time` for processing: the clock, the processing number, the count
+    /// and its progress calls. (The livelock check is the caller's.)
+    fn enter(&mut self, time: f64) {
+        if time == self.now {
+            self.at_instant += 1;
+        } else {
+            self.at_instant = 1;
+        }
+        self.now = time;
+        self.seq += 1;
+        self.output.stats.events += 1;
+        if self.output.stats.events % PROGRESS_EVERY == 0 {
+            if let Some(p) = self.observers.progress.as_mut() {
+                p(self.now, self.output.stats.events);
+            }
+        }
+    }
+
+    /// Whether the run was stopped from outside.
+    fn stopped(&self) -> bool {
+        let stop = self.observers.stop.as_ref();
+        stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed))
+    }
+
+    /// Takes the events after the one just taken for `target` that come next for the same
+    /// actor, up to a run of [`RUN`] ([`Deliver::then`]), each one that [`Core::next`] would
+    /// take and deliver there next: at `until` or before, for the same actor, not past the
+    /// livelock limit, no instant's end event pending (it could come between them).
+    fn take_run(&mut self, target: Target) -> VecDeque<Event> {
+        let mut then = std::mem::take(&mut self.spare_then);
+        debug_assert!(then.is_empty() && self.run.is_empty());
+        if !self.runs || !self.closing.is_empty() || self.stopped() {
+            return then;
+        }
+        let (mut t, mut at) = (self.now, self.at_instant);
+        while then.len() < RUN - 1 {
+            let Some((ev, slot)) = self.queue.pop_for(target, self.until) else {
+                break;
+            };
+            let n = if ev.time == t { at + 1 } else { 1 };
+            if n > self.instant_limit {
+                self.queue.put_back(ev, slot);
+                break;
+            }
+            (t, at) = (ev.time, n);
+            self.run.push((ev.time, slot));
+            then.push_back(ev);
+        }
+        then
+    }
+
+    /// Applies one effect.
+    fn apply_one(&mut self, e: Effect) {
+        {
             match e {
                 Effect::Schedule(ev) => {
                     assert!(ev.time >= self.now, "an event was scheduled in the past");
@@ -340,17 +480,13 @@ impl Core {
                 }
             }
         }
-        if effects.capacity() <= SPARE_EFFECTS && effects.capacity() > self.spare.capacity() {
-            self.spare = effects;
-        }
     }
 
     /// Takes the next event: events of crashed robots are dropped and the event manager's
     /// own events handled here; the first event for another actor is returned for delivery.
     pub(crate) fn next(&mut self) -> Next {
         loop {
-            let stop = self.observers.stop.as_ref();
-            if stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed)) {
+            if self.stopped() {
                 self.output.stats.interrupted = true;
                 return Next::Finish;
             }
@@ -375,31 +511,14 @@ impl Core {
                 continue;
             }
             debug_assert!(event.time >= self.now, "time went backwards");
-            if event.time == self.now {
-                self.at_instant += 1;
-                if self.at_instant > self.instant_limit {
-                    self.output.failure = Some(RunFailure::Livelock {
-                        t: self.now,
-                        limit: self.instant_limit,
-                    });
-                    return Next::Finish;
-                }
-            } else {
-                self.at_instant = 1;
+            if event.time == self.now && self.at_instant >= self.instant_limit {
+                self.output.failure = Some(RunFailure::Livelock {
+                    t: self.now,
+                    limit: self.instant_limit,
+                });
+                return Next::Finish;
             }
-            self.ahead = if self.queue.len() >= LOOK_AHEAD_FROM {
-                self.queue.look_ahead()
-            } else {
-                Ahead::default()
-            };
-            self.now = event.time;
-            self.seq += 1;
-            self.output.stats.events += 1;
-            if self.output.stats.events % PROGRESS_EVERY == 0 {
-                if let Some(p) = self.observers.progress.as_mut() {
-                    p(self.now, self.output.stats.events);
-                }
-            }
+            self.enter(event.time);
             let target = event.target;
             let dead = match target {
                 Target::Robot(r) | Target::Sensor(r, _) | Target::Layer(r, _) => {
@@ -414,12 +533,19 @@ impl Core {
                 self.handle_inline(event);
                 continue;
             }
+            let then = self.take_run(target);
+            self.ahead = if self.queue.len() >= LOOK_AHEAD_FROM {
+                self.queue.look_ahead()
+            } else {
+                Ahead::default()
+            };
             let deliver = Deliver {
                 now: self.now,
                 seq: self.seq,
                 event,
                 effects: std::mem::take(&mut self.spare),
                 reply: None,
+                then,
             };
             return Next::Deliver(target, deliver);
         }
@@ -515,8 +641,10 @@ impl Scheduler {
         observers: Observers,
         on_finish: Box<dyn FnOnce(RunOutput)>,
     ) -> Self {
+        let mut core = Core::new(until, setup, observers);
+        core.runs = true;
         Self {
-            core: Core::new(until, setup, observers),
+            core,
             routes,
             me: None,
             in_flight: None,
@@ -613,8 +741,8 @@ impl Handler<Replied> for Scheduler {
             .take()
             .expect("a reply to the delivery in flight");
         match reply.0 {
-            Ok(effects) => {
-                self.core.apply(effects);
+            Ok(reply) => {
+                self.core.apply_reply(reply);
                 self.step(ctx);
             }
             Err(e) => {
@@ -634,6 +762,64 @@ pub trait HandleEvent {
     fn handle_event(&mut self, msg: Deliver) -> Vec<Effect>;
 }
 
+/// Handles a delivery as its actor does: its event, then each event of its run
+/// ([`Deliver::then`]) in turn for as long as the handlings so far leave that event the next
+/// one to take (the ordering contract): nothing they scheduled comes before it (their events
+/// all come after every pending one at equal times, their cause being newer), they did not
+/// cancel it, and they asked for no instant's end event (which could come between). The
+/// first event that fails this, and those after it, go back unhandled in the [`Reply`].
+pub fn handle_run<A: HandleEvent + ?Sized>(actor: &mut A, mut msg: Deliver) -> Reply {
+    let mut then = std::mem::take(&mut msg.then);
+    let mut seq = msg.seq;
+    let mut effects = actor.handle_event(msg);
+    let mut ends = smallvec::SmallVec::new();
+    let mut scanned = 0;
+    // The first event scheduled so far, and how many events of `then` may still be handled.
+    let mut first: Option<(u64, EventId)> = None;
+    let mut free = then.len();
+    loop {
+        for e in &effects[scanned..] {
+            match e {
+                Effect::Schedule(ev) | Effect::ScheduleIn(ev, _) => {
+                    let key = (time_key(ev.time), ev.id);
+                    first = Some(first.map_or(key, |f| f.min(key)));
+                }
+                Effect::Cancel(h) => {
+                    if let Some(k) = then.iter().position(|ev| ev.id == h.id) {
+                        free = free.min(k);
+                    }
+                }
+                Effect::AtInstantEnd(_) | Effect::WithdrawAtInstantEnd(_) => free = 0,
+                Effect::Record(_) => {}
+            }
+        }
+        scanned = effects.len();
+        ends.push(u32::try_from(effects.len()).expect("fewer than 2^32 effects"));
+        let Some(next) = then.front() else {
+            break;
+        };
+        if free == 0 || first.is_some_and(|f| f < (time_key(next.time), next.id)) {
+            break;
+        }
+        let event = then.pop_front().expect("a next event");
+        free -= 1;
+        seq += 1;
+        effects = actor.handle_event(Deliver {
+            now: event.time,
+            seq,
+            event,
+            effects,
+            reply: None,
+            then: VecDeque::new(),
+        });
+    }
+    Reply {
+        effects,
+        ends,
+        then,
+    }
+}
+
 /// `Handler<Deliver>` for an actor that implements [`HandleEvent`].
 macro_rules! hosted {
     ($actor:ty) => {
@@ -647,9 +833,9 @@ macro_rules! hosted {
             ) {
                 // Held across the handling: should it panic, dropping it tells the scheduler.
                 let reply = msg.reply.take();
-                let effects = $crate::scheduler::HandleEvent::handle_event(self, msg);
+                let handled = $crate::scheduler::handle_run(self, msg);
                 if let Some(reply) = reply {
-                    reply.send(effects);
+                    reply.send(handled);
                 }
             }
         }
@@ -818,5 +1004,221 @@ mod tests {
             order,
             [(1.0, 1), (1.0, 2), (2.0, 3), (2.0, 4), (2.0, 99), (2.0, 5)]
         );
+    }
+
+    /// A handler for every actor of a test run, whose handlings make pseudo-random effects
+    /// from the run's seed and the event's number: timers for a few robots, now or later,
+    /// some cancellable and some of those cancelled later, an instant's end event now and
+    /// then, withdrawn now and then. One state for all targets, as the managers share the
+    /// world, so that a handling's effects depend on every handling before it.
+    struct Scrambler {
+        seed: u64,
+        robots: RobotId,
+        claims: crate::world::event::Claims,
+        handles: Vec<crate::world::event::Handle>,
+        closing: Option<EventId>,
+        /// `(time, number, robot)` of each handling, in order.
+        log: Vec<(f64, u64, RobotId)>,
+    }
+
+    impl Scrambler {
+        fn new(seed: u64, robots: RobotId) -> Self {
+            Self {
+                seed,
+                robots,
+                claims: Default::default(),
+                handles: Vec::new(),
+                closing: None,
+                log: Vec::new(),
+            }
+        }
+    }
+
+    impl HandleEvent for Scrambler {
+        fn handle_event(&mut self, msg: Deliver) -> Vec<Effect> {
+            let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
+            let robot = match msg.event.payload {
+                Payload::Timer { robot, .. } => robot,
+                _ => 99,
+            };
+            self.log.push((msg.now, msg.seq, robot));
+            // SplitMix64 of the seed, the number and what was handled so far.
+            let mut x =
+                self.seed ^ msg.seq.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ self.log.len() as u64;
+            let mut draw = move |n: u64| {
+                x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+                let mut z = x;
+                z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+                (z ^ (z >> 31)) % n
+            };
+            let now = out.now();
+            for _ in 0..draw(3) {
+                let r = draw(u64::from(self.robots)) as RobotId;
+                let at = now + [0.0, 0.0, 0.25, 0.5, 1.0][draw(5) as usize];
+                let robots = [Some(r), None];
+                let payload = Payload::Timer {
+                    robot: r,
+                    ticket: 0,
+                };
+                let target = Target::Robot(r);
+                if draw(2) == 0 {
+                    out.schedule(at, target, EventClass::Eventual, robots, payload);
+                } else {
+                    let h = out.schedule_in(
+                        &mut self.claims,
+                        at,
+                        target,
+                        EventClass::Eventual,
+                        robots,
+                        payload,
+                    );
+                    self.handles.push(h);
+                }
+            }
+            if !self.handles.is_empty() && draw(3) == 0 {
+                let h = self
+                    .handles
+                    .swap_remove(draw(self.handles.len() as u64) as usize);
+                out.cancel(h);
+                self.claims.release(h);
+            }
+            match draw(12) {
+                0 if self.closing.is_none() => {
+                    let id = out.at_instant_end(Target::Robot(99), [None, None], Payload::Settle);
+                    self.closing = Some(id);
+                }
+                1 => {
+                    if let Some(id) = self.closing.take() {
+                        out.withdraw_at_instant_end(id);
+                    }
+                }
+                _ => {}
+            }
+            if robot == 99 {
+                self.closing = None;
+            }
+            out.into_effects()
+        }
+    }
+
+    /// Runs a core over a [`Scrambler`], deliveries carrying runs or not; returns the
+    /// handlings, the events taken, those cancelled, and how many deliveries there were.
+    fn scrambled(
+        seed: u64,
+        robots: RobotId,
+        runs: bool,
+    ) -> (Vec<(f64, u64, RobotId)>, u64, u64, u64) {
+        let mut setup = Outbox::new(0.0, 0);
+        for r in 0..robots {
+            setup.schedule(
+                0.1 * f64::from(r),
+                Target::Robot(r),
+                EventClass::Eventual,
+                [Some(r), None],
+                timer(r),
+            );
+        }
+        let mut core = Core::new(6.0, setup, Observers::default());
+        core.set_instant_limit(10_000);
+        core.runs = runs;
+        let mut actor = Scrambler::new(seed, robots);
+        let mut deliveries = 0;
+        while let Next::Deliver(_, d) = core.next() {
+            deliveries += 1;
+            let reply = handle_run(&mut actor, d);
+            core.apply_reply(reply);
+        }
+        let out = core.finish();
+        (actor.log, out.stats.events, out.stats.cancelled, deliveries)
+    }
+
+    proptest::proptest! {
+        /// Deliveries that carry runs take the same events in the same order, with the same
+        /// numbers, as deliveries of one event each, whatever the handlings schedule, cancel
+        /// or leave to the end of an instant; and they need fewer deliveries.
+        #[test]
+        fn runs_take_the_events_of_one_by_one_delivery(seed in proptest::prelude::any::<u64>(), robots in 1u32..4) {
+            let (one, events, cancelled, singles) = scrambled(seed, robots, false);
+            let (run, run_events, run_cancelled, deliveries) = scrambled(seed, robots, true);
+            proptest::prop_assert_eq!(&run, &one);
+            proptest::prop_assert_eq!((run_events, run_cancelled), (events, cancelled));
+            proptest::prop_assert_eq!(singles, events);
+            proptest::prop_assert!(deliveries <= singles);
+        }
+    }
+
+    /// A run stops at the first of its events that the handlings before it cancelled, or that
+    /// something they scheduled comes before; the rest go back to the queue and are taken
+    /// after.
+    #[test]
+    fn a_run_stops_where_its_next_event_is_no_longer_next() {
+        // Robot 1's timers at 1, 2, 3, 4 and 5 s; robot 2's at 6 s. The handling at 1 s
+        // cancels the one at 4 s; the one at 2 s sets robot 2's timer for 2.5 s.
+        let mut setup = Outbox::new(0.0, 0);
+        let mut claims = crate::world::event::Claims::default();
+        let mut handles = Vec::new();
+        for t in [1.0, 2.0, 3.0, 4.0, 5.0] {
+            handles.push(setup.schedule_in(
+                &mut claims,
+                t,
+                Target::Robot(1),
+                EventClass::Eventual,
+                [Some(1), None],
+                timer(1),
+            ));
+        }
+        setup.schedule(
+            6.0,
+            Target::Robot(2),
+            EventClass::Eventual,
+            [Some(2), None],
+            timer(2),
+        );
+        struct Actor(Vec<(f64, u64)>, crate::world::event::Handle);
+        impl HandleEvent for Actor {
+            fn handle_event(&mut self, msg: Deliver) -> Vec<Effect> {
+                let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
+                self.0.push((msg.now, msg.seq));
+                if msg.now == 1.0 {
+                    out.cancel(self.1);
+                }
+                if msg.now == 2.0 {
+                    out.schedule(
+                        2.5,
+                        Target::Robot(2),
+                        EventClass::Eventual,
+                        [Some(2), None],
+                        timer(2),
+                    );
+                }
+                out.into_effects()
+            }
+        }
+        let mut core = Core::new(10.0, setup, Observers::default());
+        core.runs = true;
+        let mut actor = Actor(Vec::new(), handles[3]);
+        let mut handled = Vec::new();
+        while let Next::Deliver(_, d) = core.next() {
+            let then: Vec<f64> = d.then.iter().map(|e| e.time).collect();
+            let want: &[f64] = match d.now {
+                1.0 => &[2.0, 3.0, 4.0, 5.0],
+                3.0 => &[5.0],
+                _ => &[],
+            };
+            assert_eq!(then, want, "the run from {}", d.now);
+            let reply = handle_run(&mut actor, d);
+            handled.push(reply.ends.len());
+            core.apply_reply(reply);
+        }
+        // The run from 1 s handles 1 and 2 s and stops at 3 s, which robot 2's timer at 2.5
+        // s now comes before; 3, 4 and 5 s go back. The run from 3 s no longer holds 4 s,
+        // which was cancelled.
+        assert_eq!(handled, [2, 1, 2, 1]);
+        assert_eq!(
+            actor.0,
+            [(1.0, 1), (2.0, 2), (2.5, 3), (3.0, 4), (5.0, 5), (6.0, 6)]
+        );
+        assert_eq!(core.finish().stats.cancelled, 1);
     }
 }

@@ -356,10 +356,11 @@ impl Outbox {
         }
     }
 
-    /// An outbox as [`Outbox::new`] that collects into `effects`, emptied first (a buffer
-    /// reused from an earlier handling: no allocation per event).
-    pub fn reusing(now: f64, cause: u64, mut effects: Vec<Effect>) -> Self {
-        effects.clear();
+    /// An outbox as [`Outbox::new`] that collects into `effects` after what it holds: a
+    /// buffer reused from an earlier handling (no allocation per event), or the effects of
+    /// the events handled before this one in the same delivery
+    /// ([`crate::scheduler::handle_run`]).
+    pub fn reusing(now: f64, cause: u64, effects: Vec<Effect>) -> Self {
         Self {
             now,
             cause,
@@ -635,6 +636,51 @@ impl EventQueue {
             return None;
         }
         None
+    }
+
+    /// Takes the next pending event if it is for `target` and at `until` or before, with the
+    /// slot it was in ([`EventQueue::put_back`]); leaves it otherwise. The scheduler takes the
+    /// events after a delivered one this way to deliver them with it (a run, see
+    /// [`crate::scheduler::Deliver::then`]).
+    pub fn pop_for(&mut self, target: Target, until: f64) -> Option<(Event, u32)> {
+        loop {
+            let e = *self.order.peek()?;
+            if !self.pending(&e) {
+                self.order.pop();
+                continue;
+            }
+            if key_time(e.key) > until || self.slots.route(e.slot)?.0 != target {
+                return None;
+            }
+            self.order.pop();
+            return Some((self.take(&e), e.slot));
+        }
+    }
+
+    /// Puts back an event that [`EventQueue::pop_for`] took from `slot`, before any other
+    /// event was registered, cancelled or taken: events put back in the reverse order of their
+    /// taking leave the queue's order as it was (an unclaimed event may sit in another slot,
+    /// which decides nothing).
+    pub fn put_back(&mut self, ev: Event, slot: u32) {
+        let key = time_key(ev.time);
+        let id = ev.id;
+        let slot = if slot & CLAIMED != 0 {
+            self.slots.put_at(slot, ev);
+            slot
+        } else {
+            self.slots.put(ev)
+        };
+        if let Some(index) = self.by_robot.as_mut() {
+            let ev = self.slots.get(slot).expect("just put");
+            Self::index(index, &ev, slot);
+        }
+        self.order.push_front(Entry {
+            key,
+            cause: id.cause,
+            index: id.index,
+            slot,
+        });
+        self.live += 1;
     }
 
     /// Looks three events ahead, once an event is taken, in stages, so that no look reads
