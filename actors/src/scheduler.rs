@@ -60,7 +60,7 @@ pub struct Deliver {
     /// event ([`handle_run`]), and hands the others back in its [`Reply`]. Issue 17: three
     /// events in four of a random-movement run are the motion manager's, each following
     /// another of its own, and a hop for each was a fifth of a 1k-robot run's instructions.
-    pub then: VecDeque<Event>,
+    pub then: Vec<Event>,
 }
 
 /// The most events a delivery carries ([`Deliver::then`] and its own).
@@ -74,7 +74,7 @@ pub const RUN: usize = 8;
 pub struct Reply {
     pub effects: Vec<Effect>,
     pub ends: smallvec::SmallVec<[u32; RUN]>,
-    pub then: VecDeque<Event>,
+    pub then: Vec<Event>,
 }
 
 /// The way back to the scheduler for one delivery's reply. Issue 17: a request with a
@@ -215,7 +215,7 @@ pub(crate) struct Core {
     /// The time and slot of each event of the run in flight after its first.
     run: smallvec::SmallVec<[(f64, u32); RUN]>,
     /// The buffer for the next delivery's run (see `spare`).
-    spare_then: VecDeque<Event>,
+    spare_then: Vec<Event>,
 }
 
 /// The fewest pending events at which the core looks ahead ([`EventQueue::look_ahead`]) and
@@ -322,7 +322,7 @@ impl Core {
             closing: VecDeque::new(),
             runs: false,
             run: smallvec::SmallVec::new(),
-            spare_then: VecDeque::new(),
+            spare_then: Vec::new(),
         };
         core.apply(setup.into_effects());
         core
@@ -375,6 +375,7 @@ impl Core {
         }
     }
 
+    #[inline]
     fn keep_spare(&mut self, effects: Vec<Effect>) {
         if effects.capacity() <= SPARE_EFFECTS && effects.capacity() > self.spare.capacity() {
             self.spare = effects;
@@ -383,6 +384,7 @@ impl Core {
 
     /// Takes an event at `time` for processing: the clock, the processing number, the count
     /// and its progress calls. (The livelock check is the caller's.)
+    #[inline]
     fn enter(&mut self, time: f64) {
         if time == self.now {
             self.at_instant += 1;
@@ -409,7 +411,7 @@ impl Core {
     /// actor, up to a run of [`RUN`] ([`Deliver::then`]), each one that [`Core::next`] would
     /// take and deliver there next: at `until` or before, for the same actor, not past the
     /// livelock limit, no instant's end event pending (it could come between them).
-    fn take_run(&mut self, target: Target) -> VecDeque<Event> {
+    fn take_run(&mut self, target: Target) -> Vec<Event> {
         let mut then = std::mem::take(&mut self.spare_then);
         debug_assert!(then.is_empty() && self.run.is_empty());
         if !self.runs || !self.closing.is_empty() || self.stopped() {
@@ -427,12 +429,13 @@ impl Core {
             }
             (t, at) = (ev.time, n);
             self.run.push((ev.time, slot));
-            then.push_back(ev);
+            then.push(ev);
         }
         then
     }
 
     /// Applies one effect.
+    #[inline(always)]
     fn apply_one(&mut self, e: Effect) {
         {
             match e {
@@ -769,7 +772,9 @@ pub trait HandleEvent {
 /// cancel it, and they asked for no instant's end event (which could come between). The
 /// first event that fails this, and those after it, go back unhandled in the [`Reply`].
 pub fn handle_run<A: HandleEvent + ?Sized>(actor: &mut A, mut msg: Deliver) -> Reply {
+    // The run's events in reverse: the next one last.
     let mut then = std::mem::take(&mut msg.then);
+    then.reverse();
     let mut seq = msg.seq;
     let mut effects = actor.handle_event(msg);
     let mut ends = smallvec::SmallVec::new();
@@ -786,7 +791,7 @@ pub fn handle_run<A: HandleEvent + ?Sized>(actor: &mut A, mut msg: Deliver) -> R
                 }
                 Effect::Cancel(h) => {
                     if let Some(k) = then.iter().position(|ev| ev.id == h.id) {
-                        free = free.min(k);
+                        free = free.min(then.len() - 1 - k);
                     }
                 }
                 Effect::AtInstantEnd(_) | Effect::WithdrawAtInstantEnd(_) => free = 0,
@@ -795,13 +800,13 @@ pub fn handle_run<A: HandleEvent + ?Sized>(actor: &mut A, mut msg: Deliver) -> R
         }
         scanned = effects.len();
         ends.push(u32::try_from(effects.len()).expect("fewer than 2^32 effects"));
-        let Some(next) = then.front() else {
+        let Some(next) = then.last() else {
             break;
         };
         if free == 0 || first.is_some_and(|f| f < (time_key(next.time), next.id)) {
             break;
         }
-        let event = then.pop_front().expect("a next event");
+        let event = then.pop().expect("a next event");
         free -= 1;
         seq += 1;
         effects = actor.handle_event(Deliver {
@@ -810,9 +815,10 @@ pub fn handle_run<A: HandleEvent + ?Sized>(actor: &mut A, mut msg: Deliver) -> R
             event,
             effects,
             reply: None,
-            then: VecDeque::new(),
+            then: Vec::new(),
         });
     }
+    then.reverse();
     Reply {
         effects,
         ends,
