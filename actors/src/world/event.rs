@@ -536,17 +536,24 @@ impl EventQueue {
     }
 
     fn enter(&mut self, key: u64, id: EventId, slot: u32) {
+        let entry = self.counted(key, id, slot);
+        self.order.push(entry);
+    }
+
+    /// Indexes the event just put in `slot` for listings (once they are asked for), counts it
+    /// pending, and returns its entry in the order.
+    fn counted(&mut self, key: u64, id: EventId, slot: u32) -> Entry {
         if let Some(index) = self.by_robot.as_mut() {
             let ev = self.slots.get(slot).expect("just put");
             Self::index(index, &ev, slot);
         }
-        self.order.push(Entry {
+        self.live += 1;
+        Entry {
             key,
             cause: id.cause,
             index: id.index,
             slot,
-        });
-        self.live += 1;
+        }
     }
 
     fn index(index: &mut Vec<Vec<(EventId, u32)>>, ev: &Event, slot: u32) {
@@ -670,17 +677,8 @@ impl EventQueue {
         } else {
             self.slots.put(ev)
         };
-        if let Some(index) = self.by_robot.as_mut() {
-            let ev = self.slots.get(slot).expect("just put");
-            Self::index(index, &ev, slot);
-        }
-        self.order.push_front(Entry {
-            key,
-            cause: id.cause,
-            index: id.index,
-            slot,
-        });
-        self.live += 1;
+        let entry = self.counted(key, id, slot);
+        self.order.push_front(entry);
     }
 
     /// Looks three events ahead, once an event is taken, in stages, so that no look reads
