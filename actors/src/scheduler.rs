@@ -59,7 +59,7 @@ pub struct Deliver {
     /// `seq + 1`, `seq + 2`, ..., for as long as the handlings before it leave it the next
     /// event ([`handle_run`]), and hands the others back in its [`Reply`]. Issue 17: three
     /// events in four of a random-movement run are the motion manager's, each following
-    /// another of its own, and a hop for each was a fifth of a 1k-robot run's instructions.
+    /// another of its own, and each paid a round trip between the scheduler and the manager.
     pub then: Vec<Event>,
 }
 
@@ -437,49 +437,47 @@ impl Core {
     /// Applies one effect.
     #[inline(always)]
     fn apply_one(&mut self, e: Effect) {
-        {
-            match e {
-                Effect::Schedule(ev) => {
-                    assert!(ev.time >= self.now, "an event was scheduled in the past");
-                    self.queue.register(ev);
+        match e {
+            Effect::Schedule(ev) => {
+                assert!(ev.time >= self.now, "an event was scheduled in the past");
+                self.queue.register(ev);
+            }
+            Effect::ScheduleIn(ev, slot) => {
+                assert!(ev.time >= self.now, "an event was scheduled in the past");
+                self.queue.register_in(ev, slot);
+            }
+            Effect::AtInstantEnd(ev) => {
+                debug_assert!(
+                    ev.time == self.now,
+                    "an instant's end event at another time"
+                );
+                self.closing.push_back(ev);
+            }
+            Effect::WithdrawAtInstantEnd(id) => {
+                if let Some(k) = self.closing.iter().position(|e| e.id == id) {
+                    self.closing.remove(k);
                 }
-                Effect::ScheduleIn(ev, slot) => {
-                    assert!(ev.time >= self.now, "an event was scheduled in the past");
-                    self.queue.register_in(ev, slot);
+            }
+            Effect::Cancel(h) => {
+                if self.queue.cancel(h) {
+                    self.output.stats.cancelled += 1;
                 }
-                Effect::AtInstantEnd(ev) => {
-                    debug_assert!(
-                        ev.time == self.now,
-                        "an instant's end event at another time"
-                    );
-                    self.closing.push_back(ev);
+            }
+            Effect::Record(obs) => {
+                if matches!(obs, Observation::Collision { .. }) {
+                    self.output.stats.collisions += 1;
                 }
-                Effect::WithdrawAtInstantEnd(id) => {
-                    if let Some(k) = self.closing.iter().position(|e| e.id == id) {
-                        self.closing.remove(k);
-                    }
+                let record = Record {
+                    t: self.now,
+                    seq: self.recorded,
+                    obs,
+                };
+                self.recorded += 1;
+                if let Some(sink) = self.observers.sink.as_mut() {
+                    sink(&record);
                 }
-                Effect::Cancel(h) => {
-                    if self.queue.cancel(h) {
-                        self.output.stats.cancelled += 1;
-                    }
-                }
-                Effect::Record(obs) => {
-                    if matches!(obs, Observation::Collision { .. }) {
-                        self.output.stats.collisions += 1;
-                    }
-                    let record = Record {
-                        t: self.now,
-                        seq: self.recorded,
-                        obs,
-                    };
-                    self.recorded += 1;
-                    if let Some(sink) = self.observers.sink.as_mut() {
-                        sink(&record);
-                    }
-                    if self.observers.keep {
-                        self.output.records.push(record);
-                    }
+                if self.observers.keep {
+                    self.output.records.push(record);
                 }
             }
         }
