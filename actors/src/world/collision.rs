@@ -149,17 +149,15 @@ pub(crate) fn advance(
     }
 }
 
-/// Walks the common time windows of two tracks from `now` on, in time order, and returns the
-/// first instant `on_window` finds. `on_window(s, e, x, y)` sees the window `[s, e]` and the
-/// pieces of `a` and `b` that cover it.
+/// Walks the common time windows of two tracks' pieces from one instant on (`pa` and `pb`, each
+/// [`Track::pieces_from`] that instant), in time order, and returns the first instant
+/// `on_window` finds. `on_window(s, e, x, y)` sees the window `[s, e]` and the pieces of `a`
+/// and `b` that cover it.
 fn first_in_windows(
-    a: &Track,
-    b: &Track,
-    now: f64,
+    pa: &[Piece],
+    pb: &[Piece],
     mut on_window: impl FnMut(f64, f64, &Piece, &Piece) -> Option<f64>,
 ) -> Option<f64> {
-    let pa = a.pieces_from(now);
-    let pb = b.pieces_from(now);
     let (mut i, mut j) = (0, 0);
     while i < pa.len() && j < pb.len() {
         let (x, y) = (&pa[i], &pb[j]);
@@ -181,18 +179,32 @@ fn first_in_windows(
 /// First instant `>= now` at which the centres of `a` and `b` come within `reach` of each other
 /// while approaching; `None` if they never do.
 pub fn predict_contact(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64> {
-    first_in_windows(a, b, now, |s, e, x, y| match (x.shape, y.shape) {
-        (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
-            let d0 = linear_at(p, u, x.t0, s) - linear_at(q, w, y.t0, s);
-            first_contact_linear(d0, u - w, reach, e - s).map(|tau| s + tau)
+    predict_contact_from(a, &a.pieces_from(now), b, reach, now)
+}
+
+/// [`predict_contact`] given `a`'s pieces from `now` (`pa`, [`Track::pieces_from`]), for a
+/// robot predicted against each of its neighbours in turn: its pieces are built once.
+pub fn predict_contact_from(
+    a: &Track,
+    pa: &[Piece],
+    b: &Track,
+    reach: f64,
+    now: f64,
+) -> Option<f64> {
+    first_in_windows(pa, &b.pieces_from(now), |s, e, x, y| {
+        match (x.shape, y.shape) {
+            (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
+                let d0 = linear_at(p, u, x.t0, s) - linear_at(q, w, y.t0, s);
+                first_contact_linear(d0, u - w, reach, e - s).map(|tau| s + tau)
+            }
+            _ => advance(
+                s,
+                e,
+                speed_bound(&x.shape) + speed_bound(&y.shape),
+                |t| (a.pos_at(t) - b.pos_at(t)).norm() - reach,
+                |t| (a.pos_at(t) - b.pos_at(t)).dot(&(a.vel_at(t) - b.vel_at(t))) < 0.0,
+            ),
         }
-        _ => advance(
-            s,
-            e,
-            speed_bound(&x.shape) + speed_bound(&y.shape),
-            |t| (a.pos_at(t) - b.pos_at(t)).norm() - reach,
-            |t| (a.pos_at(t) - b.pos_at(t)).dot(&(a.vel_at(t) - b.vel_at(t))) < 0.0,
-        ),
     })
 }
 
@@ -200,7 +212,8 @@ pub fn predict_contact(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64
 /// `now` (or on that circle and approaching: entering it), get farther apart than `reach`;
 /// `None` if they never do.
 fn predict_exit(a: &Track, b: &Track, reach: f64, now: f64) -> Option<f64> {
-    first_in_windows(a, b, now, |s, e, x, y| match (x.shape, y.shape) {
+    let (pa, pb) = (a.pieces_from(now), b.pieces_from(now));
+    first_in_windows(&pa, &pb, |s, e, x, y| match (x.shape, y.shape) {
         (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
             let d0 = linear_at(p, u, x.t0, s) - linear_at(q, w, y.t0, s);
             let dv = u - w;

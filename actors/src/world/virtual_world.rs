@@ -19,13 +19,13 @@
 //! registered in (its own and the next ones on its path, [`super::grid::Span`]).
 
 use super::collision::{
-    cell_walk, predict_contact, predict_entry, predict_reentry, predict_wall, Track,
+    cell_walk, predict_contact_from, predict_entry, predict_reentry, predict_wall, Track,
     CONTACT_TOLERANCE,
 };
 use super::event::{Claims, EventClass, EventId, Handle, Notice, Outbox, Payload, Target};
 use super::geometry::Point;
 use super::grid::{blocks, blocks_beyond, next_to, Cell, Grid, Span, SPAN};
-use super::motion::{Kinematics, Motion, Path, Pose};
+use super::motion::{Kinematics, Motion, Path, Piece, Pose};
 use super::observation::Observation;
 use super::obstacle::{predict_obstacle, ObstacleIndex, Shape, ShapeError};
 use super::sensor::{Datum, SensorKind, SensorQuery, SensorValue, Sensors, Trigger, WorldView};
@@ -516,6 +516,12 @@ impl VirtualWorld {
     }
 
     fn predict_pair(&mut self, a: RobotId, b: RobotId, out: &mut Outbox) {
+        let pa = self.track(a).pieces_from(out.now());
+        self.predict_pair_from(a, &pa, b, out);
+    }
+
+    /// [`Self::predict_pair`] given `a`'s pieces from now (`pa`).
+    fn predict_pair_from(&mut self, a: RobotId, pa: &[Piece], b: RobotId, out: &mut Outbox) {
         let now = out.now();
         // The tracks borrow the world: the claims are taken out meanwhile.
         let mut claims = std::mem::take(&mut self.claims);
@@ -523,7 +529,7 @@ impl VirtualWorld {
         let (ra, rb) = (self.radius(a), self.radius(b));
         let mut ids = PairEvents::new();
         if !self.cfg.ghost_mode {
-            if let Some(t) = predict_contact(&ta, &tb, ra + rb, now) {
+            if let Some(t) = predict_contact_from(&ta, pa, &tb, ra + rb, now) {
                 ids.push(out.schedule_in(
                     &mut claims,
                     t,
@@ -623,8 +629,12 @@ impl VirtualWorld {
         for &o in &fresh {
             super::prefetch::prefetch(&self.robots[o as usize]);
         }
+        if fresh.is_empty() {
+            return;
+        }
+        let pieces = self.track(id).pieces_from(out.now());
         for o in fresh {
-            self.predict_pair(id, o, out);
+            self.predict_pair_from(id, &pieces, o, out);
         }
     }
 
