@@ -187,8 +187,8 @@ impl RobotState {
 
 /// A robot's partners (the robots it has pair events predicted with, under the current paths
 /// of both: a pair predicted without any is not kept) and those events, sorted by partner, so
-/// they are visited in partner order as a `BTreeMap` would: a robot has a handful of partners, and a
-/// B-tree's first node alone took about 280 bytes (issue 17). The first two are inline, in
+/// they are visited in partner order as a `BTreeMap` would: a robot has a handful of
+/// partners, and a B-tree's first node alone took about 280 bytes (issue 17). The first two are inline, in
 /// the robot's state, which the look-ahead brings into cache before the robot's events: most
 /// robots have two partners at most (100k robots at 40 s: 62 %), and a table of their own
 /// was a cache miss of its own at a million robots (a fifth of `predict_around`'s samples)
@@ -523,42 +523,13 @@ impl VirtualWorld {
 
     /// [`Self::predict_pair`] given `a`'s pieces from now (`pa`).
     fn predict_pair_from(&mut self, a: RobotId, pa: &[Piece], b: RobotId, out: &mut Outbox) {
-        let now = out.now();
+        let mut ids = PairEvents::new();
         // The tracks borrow the world: the claims are taken out meanwhile.
         let mut claims = std::mem::take(&mut self.claims);
-        let (ta, tb) = (self.track(a), self.track(b));
-        let (ra, rb) = (self.radius(a), self.radius(b));
-        let mut ids = PairEvents::new();
-        if !self.cfg.ghost_mode {
-            if let Some(t) = predict_contact_from(&ta, pa, &tb, ra + rb, now) {
-                ids.push(out.schedule_in(
-                    &mut claims,
-                    t,
-                    Target::MotionManager,
-                    EventClass::Conditional,
-                    [Some(a), Some(b)],
-                    Payload::Collision { a, b },
-                ));
-            }
-        }
-        for (s, o, ts, to) in [(a, b, &ta, &tb), (b, a, &tb, &ta)] {
-            for &(sensor, range) in self.robots[s as usize].entry() {
-                if let Some(t) = predict_entry(ts, to, range + ra + rb, now) {
-                    ids.push(out.schedule_in(
-                        &mut claims,
-                        t,
-                        Target::SensorManager,
-                        EventClass::Conditional,
-                        [Some(s), Some(o)],
-                        Payload::ProximityEntry {
-                            robot: s,
-                            other: o,
-                            sensor,
-                        },
-                    ));
-                }
-            }
-        }
+        self.pair_events(a, pa, b, out.now(), |t, target, concerns, payload| {
+            let class = EventClass::Conditional;
+            ids.push(out.schedule_in(&mut claims, t, target, class, concerns, payload));
+        });
         self.claims = claims;
         // A pair for which nothing is predicted is not kept: most pairs predicted are (1k
         // robots x 330 s: 74,301 of 104,003), and a kept one is a write into the partner's
@@ -571,22 +542,42 @@ impl VirtualWorld {
         }
     }
 
-    /// Whether predicting `a` against `b` from now would predict nothing (no collision, no
-    /// entry into a push sensor's range): a pair that [`Self::predict_pair`] does not keep.
-    fn predicts_nothing(&self, a: RobotId, b: RobotId, now: f64) -> bool {
+    /// Calls `found(time, target, robots, payload)` with each event that predicting `a` (its
+    /// pieces from `now`: `pa`) against `b` finds, in the order they are to be scheduled: their
+    /// collision (but in ghost mode), then each entry of one into the range of the other's
+    /// entry-triggered push sensors, `a`'s sensors first.
+    fn pair_events(
+        &self,
+        a: RobotId,
+        pa: &[Piece],
+        b: RobotId,
+        now: f64,
+        mut found: impl FnMut(f64, Target, [Option<RobotId>; 2], Payload),
+    ) {
         let (ta, tb) = (self.track(a), self.track(b));
         let (ra, rb) = (self.radius(a), self.radius(b));
-        let contact = !self.cfg.ghost_mode
-            && predict_contact_from(&ta, &ta.pieces_from(now), &tb, ra + rb, now).is_some();
-        let entry = [(a, &ta, &tb), (b, &tb, &ta)]
-            .into_iter()
-            .any(|(s, ts, to)| {
-                self.robots[s as usize]
-                    .entry()
-                    .iter()
-                    .any(|&(_, range)| predict_entry(ts, to, range + ra + rb, now).is_some())
-            });
-        !contact && !entry
+        if !self.cfg.ghost_mode {
+            if let Some(t) = predict_contact_from(&ta, pa, &tb, ra + rb, now) {
+                found(
+                    t,
+                    Target::MotionManager,
+                    [Some(a), Some(b)],
+                    Payload::Collision { a, b },
+                );
+            }
+        }
+        for (s, o, ts, to) in [(a, b, &ta, &tb), (b, a, &tb, &ta)] {
+            for &(sensor, range) in self.robots[s as usize].entry() {
+                if let Some(t) = predict_entry(ts, to, range + ra + rb, now) {
+                    let payload = Payload::ProximityEntry {
+                        robot: s,
+                        other: o,
+                        sensor,
+                    };
+                    found(t, Target::SensorManager, [Some(s), Some(o)], payload);
+                }
+            }
+        }
     }
 
     /// The cells `id` is registered in, in order along its path.
@@ -686,7 +677,13 @@ impl VirtualWorld {
                 .all(|o| o == id
                     || self.is_unsettled(o)
                     || self.robots[id as usize].pairs.contains_key(&o)
-                    || self.predicts_nothing(id, o, out.now())),
+                    || {
+                        // A pair not kept: predicting it from now finds nothing.
+                        let (now, mut none) = (out.now(), true);
+                        let pieces = self.track(id).pieces_from(now);
+                        self.pair_events(id, &pieces, o, now, |_, _, _, _| none = false);
+                        none
+                    }),
             "a robot next to a moving robot without the prediction due with it"
         );
         self.predict_around(id, &cells, old, out);
