@@ -19,6 +19,13 @@
 //! event (their cause is the processing number being handled now), so an event for the
 //! current instant joins the end of its run; the entries a bucket hands to a new instant are
 //! sorted once.
+//!
+//! A bucket of a few entries is not sorted out digit by digit: its entries are sorted at once
+//! into the run of entries taken next, which then spans several instants, up to the bucket's
+//! largest key (`limit`), and an entry pushed at or before that key is put in its place in
+//! the run. Issue 17: at a thousand robots nearly every event taken emptied the run and the
+//! first bucket held a handful of entries, each moved down a bucket at a time: sorting out
+//! buckets was 7 % of a run's instructions.
 
 use std::collections::VecDeque;
 
@@ -67,6 +74,9 @@ const DIGITS: usize = 1 << DIGIT_BITS;
 /// Buckets: one per digit place and value (16 x 16). Their order is the keys' order.
 const BUCKETS: usize = 64 / DIGIT_BITS as usize * DIGITS;
 
+/// A bucket of at most this many entries is sorted into the run at once ([`RadixQueue::refill`]).
+const SMALL: usize = 32;
+
 /// The bucket of `key` (after `last`): the place of the highest digit in which the two
 /// differ, then `key`'s value there.
 fn bucket_of(key: u64, last: u64) -> usize {
@@ -88,9 +98,14 @@ type Bucket = Vec<Vec<Entry>>;
 /// come up and are skipped there.
 #[derive(Debug)]
 pub struct RadixQueue {
-    /// Key of the instant being taken; every entry in `buckets` is after it.
+    /// The key from which the buckets' digits are counted ([`bucket_of`]); every entry in
+    /// `buckets` is after it.
     last: u64,
-    /// Entries at `last` (and any before it), in order: the front is next.
+    /// The largest key that goes to `now` rather than to a bucket (at least `last`; larger
+    /// when a small bucket was sorted into `now` at once): every entry in `buckets` is after
+    /// it.
+    limit: u64,
+    /// Entries at `limit` or before, in order: the front is next.
     now: VecDeque<Entry>,
     /// `buckets[i]`: entries whose key is in bucket `i` ([`bucket_of`]).
     buckets: Vec<Bucket>,
@@ -105,6 +120,7 @@ impl Default for RadixQueue {
     fn default() -> Self {
         Self {
             last: time_key(0.0),
+            limit: time_key(0.0),
             now: VecDeque::new(),
             buckets: (0..BUCKETS).map(|_| Vec::new()).collect(),
             full: [0; BUCKETS / 64],
@@ -140,13 +156,16 @@ impl RadixQueue {
     /// Adds an entry.
     pub fn push(&mut self, e: Entry) {
         self.len += 1;
-        if e.key > self.last {
+        if e.key > self.limit {
+            // After every entry of `now`, and in a bucket no lower than the first full one
+            // when `now` was filled (the buckets' order is the keys' order).
             self.append(bucket_of(e.key, self.last), e);
         } else if self.now.back().is_none_or(|b| *b < e) {
             self.now.push_back(e);
         } else {
-            // Not after the run's end: only an event scheduled before the current instant
-            // (which the scheduler forbids) or out of causal order gets here.
+            // Not after the run's end: an event between two instants of a run filled from a
+            // small bucket, or one scheduled before the current instant (which the scheduler
+            // forbids) or out of causal order.
             let at = self.now.partition_point(|x| x < &e);
             self.now.insert(at, e);
         }
@@ -190,7 +209,8 @@ impl RadixQueue {
 
     /// Moves on to the next instant: the first non-empty bucket's smallest key becomes
     /// `last`, and its entries move to `now` (those at `last`, sorted, behind any entries
-    /// still there, which are before them) or to lower buckets.
+    /// still there, which are before them) or to lower buckets. A bucket of at most [`SMALL`]
+    /// entries moves to `now` whole, sorted, and its largest key becomes `limit`.
     fn refill(&mut self) {
         if self.now.is_empty() && self.now.capacity() > KEEP {
             self.now = VecDeque::new();
@@ -201,12 +221,27 @@ impl RadixQueue {
         self.full[i / 64] &= !(1 << (i % 64));
         let kept = self.now.len();
         let mut bucket = std::mem::take(&mut self.buckets[i]);
+        if let [block] = bucket.as_mut_slice() {
+            if block.len() <= SMALL {
+                // Every later bucket holds keys above all of these, and stays right for any
+                // `last` in this bucket's range: the smallest, as below.
+                self.now.extend(block.drain(..));
+                let (_, run) = self.now.make_contiguous().split_at_mut(kept);
+                run.sort_unstable();
+                self.last = run[0].key;
+                self.limit = run[run.len() - 1].key;
+                self.pool.extend(bucket.drain(..));
+                self.buckets[i] = bucket;
+                return;
+            }
+        }
         self.last = bucket
             .iter()
             .flatten()
             .map(|e| e.key)
             .min()
             .expect("non-empty bucket");
+        self.limit = self.last;
         for mut block in bucket.drain(..) {
             for e in block.drain(..) {
                 if e.key == self.last {
