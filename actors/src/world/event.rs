@@ -609,11 +609,23 @@ impl EventQueue {
 
     /// Whether the entry's event is still pending (not cancelled).
     fn pending(&self, e: &Entry) -> bool {
-        let id = EventId {
+        self.slots.holds(e.slot, Self::id_of(e))
+    }
+
+    /// The id of the event of an entry.
+    fn id_of(e: &Entry) -> EventId {
+        EventId {
             cause: e.cause,
             index: e.index,
-        };
-        self.slots.holds(e.slot, id)
+        }
+    }
+
+    /// Takes the event of an entry just popped if it is still pending.
+    fn take_pending(&mut self, e: &Entry) -> Option<Event> {
+        let ev = self.slots.take_if(e.slot, Self::id_of(e))?;
+        self.live -= 1;
+        self.unindex(&ev);
+        Some(ev)
     }
 
     /// Takes the pending event of an entry just popped.
@@ -638,8 +650,8 @@ impl EventQueue {
     /// Removes and returns the next pending event.
     pub fn pop(&mut self) -> Option<Event> {
         while let Some(e) = self.order.pop() {
-            if self.pending(&e) {
-                return Some(self.take(&e));
+            if let Some(ev) = self.take_pending(&e) {
+                return Some(ev);
             }
         }
         None
@@ -648,15 +660,17 @@ impl EventQueue {
     /// Removes and returns the next pending event if it is at `until` or before.
     pub fn pop_until(&mut self, until: f64) -> Option<Event> {
         while let Some(e) = self.order.pop() {
-            if !self.pending(&e) {
-                continue;
-            }
             if key_time(e.key) <= until {
-                return Some(self.take(&e));
+                match self.take_pending(&e) {
+                    Some(ev) => return Some(ev),
+                    None => continue,
+                }
             }
-            // Too late: it stays the next event.
-            self.order.push_front(e);
-            return None;
+            if self.pending(&e) {
+                // Too late: it stays the next event.
+                self.order.push_front(e);
+                return None;
+            }
         }
         None
     }
@@ -668,11 +682,12 @@ impl EventQueue {
     pub fn pop_for(&mut self, target: Target, until: f64) -> Option<(Event, u32)> {
         loop {
             let e = *self.order.peek()?;
-            if !self.pending(&e) {
+            let Some((to, _)) = self.slots.route_if(e.slot, Self::id_of(&e)) else {
+                // Cancelled.
                 self.order.pop();
                 continue;
-            }
-            if key_time(e.key) > until || self.slots.route(e.slot)?.0 != target {
+            };
+            if key_time(e.key) > until || to != target {
                 return None;
             }
             self.order.pop();
@@ -858,6 +873,23 @@ impl<T: Stored> Slots<T> {
         }
     }
 
+    /// Takes the value out of `slot` if it is the event `id` ([`Slots::take`]): one look-up
+    /// for the check and the taking.
+    fn take_if(&mut self, slot: u32, id: EventId, claimed: bool) -> Option<T> {
+        let cell = self
+            .chunks
+            .get_mut((slot >> CHUNK_BITS) as usize)?
+            .get_mut((slot & ((1 << CHUNK_BITS) - 1)) as usize)?;
+        if !cell.as_ref().is_some_and(|v| v.id() == id) {
+            return None;
+        }
+        let v = cell.take();
+        if !claimed {
+            self.free.push(slot);
+        }
+        v
+    }
+
     /// Takes the value out of `slot`, which becomes free (for [`Slots::put`] unless the
     /// slots are claimed ones, whose claimer frees them).
     fn take(&mut self, slot: u32, claimed: bool) -> T {
@@ -991,6 +1023,21 @@ impl Store {
         }
     }
 
+    /// The target and robots of the event in `slot` if it is the event `id`: [`Store::holds`]
+    /// and [`Store::route`] in one look-up.
+    fn route_if(&self, slot: u32, id: EventId) -> Option<Route> {
+        let n = slot & NUMBER;
+        let step =
+            |s: &CompactStep| (s.id == id).then_some((Target::MotionManager, [s.robot, NO_ROBOT]));
+        let event = |e: &Event| (e.id == id).then_some((e.target, e.concerns));
+        match (slot & STEP != 0, slot & CLAIMED != 0) {
+            (true, false) => self.steps.get(n).and_then(step),
+            (false, false) => self.events.get(n).and_then(event),
+            (true, true) => self.claimed_steps.get(n).and_then(step),
+            (false, true) => self.claimed_events.get(n).and_then(event),
+        }
+    }
+
     /// The target and robots of the event in `slot`, if any.
     fn route(&self, slot: u32) -> Option<Route> {
         let n = slot & NUMBER;
@@ -1011,6 +1058,18 @@ impl Store {
             (false, false) => self.events.prefetch(n),
             (true, true) => self.claimed_steps.prefetch(n),
             (false, true) => self.claimed_events.prefetch(n),
+        }
+    }
+
+    /// Takes the event in `slot` if it is the event `id`: [`Store::holds`] and [`Store::take`]
+    /// in one look-up.
+    fn take_if(&mut self, slot: u32, id: EventId) -> Option<Event> {
+        let n = slot & NUMBER;
+        match (slot & STEP != 0, slot & CLAIMED != 0) {
+            (true, false) => self.steps.take_if(n, id, false).map(|s| s.event()),
+            (false, false) => self.events.take_if(n, id, false),
+            (true, true) => self.claimed_steps.take_if(n, id, true).map(|s| s.event()),
+            (false, true) => self.claimed_events.take_if(n, id, true),
         }
     }
 
