@@ -880,7 +880,7 @@ impl<T: Stored> Slots<T> {
             .chunks
             .get_mut((slot >> CHUNK_BITS) as usize)?
             .get_mut((slot & ((1 << CHUNK_BITS) - 1)) as usize)?;
-        if !cell.as_ref().is_some_and(|v| v.id() == id) {
+        if cell.as_ref().is_none_or(|v| v.id() != id) {
             return None;
         }
         let v = cell.take();

@@ -230,7 +230,7 @@ impl RadixQueue {
                 run.sort_unstable();
                 self.last = run[0].key;
                 self.limit = run[run.len() - 1].key;
-                self.pool.extend(bucket.drain(..));
+                self.pool.append(&mut bucket);
                 self.buckets[i] = bucket;
                 return;
             }
