@@ -584,14 +584,7 @@ impl EventQueue {
 
     /// Cancels an event; returns whether it was still pending.
     pub fn cancel(&mut self, h: Handle) -> bool {
-        let (id, slot) = (h.id, h.slot);
-        if !self.slots.holds(slot, id) {
-            return false;
-        }
-        let ev = self.slots.take(slot);
-        self.live -= 1;
-        self.unindex(&ev);
-        true
+        self.take_pending(h.slot, h.id).is_some()
     }
 
     fn unindex(&mut self, ev: &Event) {
@@ -620,20 +613,12 @@ impl EventQueue {
         }
     }
 
-    /// Takes the event of an entry just popped if it is still pending.
-    fn take_pending(&mut self, e: &Entry) -> Option<Event> {
-        let ev = self.slots.take_if(e.slot, Self::id_of(e))?;
+    /// Takes the event `id` out of `slot` if it is still pending there (one look-up).
+    fn take_pending(&mut self, slot: u32, id: EventId) -> Option<Event> {
+        let ev = self.slots.take_if(slot, id)?;
         self.live -= 1;
         self.unindex(&ev);
         Some(ev)
-    }
-
-    /// Takes the pending event of an entry just popped.
-    fn take(&mut self, e: &Entry) -> Event {
-        let ev = self.slots.take(e.slot);
-        self.live -= 1;
-        self.unindex(&ev);
-        ev
     }
 
     /// Time of the next pending event.
@@ -650,7 +635,7 @@ impl EventQueue {
     /// Removes and returns the next pending event.
     pub fn pop(&mut self) -> Option<Event> {
         while let Some(e) = self.order.pop() {
-            if let Some(ev) = self.take_pending(&e) {
+            if let Some(ev) = self.take_pending(e.slot, Self::id_of(&e)) {
                 return Some(ev);
             }
         }
@@ -661,7 +646,7 @@ impl EventQueue {
     pub fn pop_until(&mut self, until: f64) -> Option<Event> {
         while let Some(e) = self.order.pop() {
             if key_time(e.key) <= until {
-                match self.take_pending(&e) {
+                match self.take_pending(e.slot, Self::id_of(&e)) {
                     Some(ev) => return Some(ev),
                     None => continue,
                 }
@@ -682,7 +667,8 @@ impl EventQueue {
     pub fn pop_for(&mut self, target: Target, until: f64) -> Option<(Event, u32)> {
         loop {
             let e = *self.order.peek()?;
-            let Some((to, _)) = self.slots.route_if(e.slot, Self::id_of(&e)) else {
+            let id = Self::id_of(&e);
+            let Some((to, _)) = self.slots.route_where(e.slot, |x| x == id) else {
                 // Cancelled.
                 self.order.pop();
                 continue;
@@ -691,7 +677,8 @@ impl EventQueue {
                 return None;
             }
             self.order.pop();
-            return Some((self.take(&e), e.slot));
+            let ev = self.take_pending(e.slot, id);
+            return Some((ev.expect("pending: its route was just read"), e.slot));
         }
     }
 
@@ -726,7 +713,7 @@ impl EventQueue {
         }
         let mut route = |n: usize| {
             let e = *self.order.peek_nth(n)?;
-            self.slots.route(e.slot)
+            self.slots.route_where(e.slot, |_| true)
         };
         let after = route(1);
         Ahead {
@@ -873,8 +860,8 @@ impl<T: Stored> Slots<T> {
         }
     }
 
-    /// Takes the value out of `slot` if it is the event `id` ([`Slots::take`]): one look-up
-    /// for the check and the taking.
+    /// Takes the value out of `slot` if it is the event `id`; the slot becomes free (for
+    /// [`Slots::put`] unless the slots are claimed ones, whose claimer frees them).
     fn take_if(&mut self, slot: u32, id: EventId, claimed: bool) -> Option<T> {
         let cell = self
             .chunks
@@ -884,16 +871,6 @@ impl<T: Stored> Slots<T> {
             return None;
         }
         let v = cell.take();
-        if !claimed {
-            self.free.push(slot);
-        }
-        v
-    }
-
-    /// Takes the value out of `slot`, which becomes free (for [`Slots::put`] unless the
-    /// slots are claimed ones, whose claimer frees them).
-    fn take(&mut self, slot: u32, claimed: bool) -> T {
-        let v = self.cell(slot).take().expect("a pending event");
         if !claimed {
             self.free.push(slot);
         }
@@ -1023,31 +1000,18 @@ impl Store {
         }
     }
 
-    /// The target and robots of the event in `slot` if it is the event `id`: [`Store::holds`]
-    /// and [`Store::route`] in one look-up.
-    fn route_if(&self, slot: u32, id: EventId) -> Option<Route> {
+    /// The target and robots of the event in `slot`, if there is one and `wanted` accepts its
+    /// id (the check of [`Store::holds`] and the route in one look-up).
+    fn route_where(&self, slot: u32, wanted: impl Fn(EventId) -> bool) -> Option<Route> {
         let n = slot & NUMBER;
         let step =
-            |s: &CompactStep| (s.id == id).then_some((Target::MotionManager, [s.robot, NO_ROBOT]));
-        let event = |e: &Event| (e.id == id).then_some((e.target, e.concerns));
+            |s: &CompactStep| wanted(s.id).then_some((Target::MotionManager, [s.robot, NO_ROBOT]));
+        let event = |e: &Event| wanted(e.id).then_some((e.target, e.concerns));
         match (slot & STEP != 0, slot & CLAIMED != 0) {
             (true, false) => self.steps.get(n).and_then(step),
             (false, false) => self.events.get(n).and_then(event),
             (true, true) => self.claimed_steps.get(n).and_then(step),
             (false, true) => self.claimed_events.get(n).and_then(event),
-        }
-    }
-
-    /// The target and robots of the event in `slot`, if any.
-    fn route(&self, slot: u32) -> Option<Route> {
-        let n = slot & NUMBER;
-        let step = |s: &CompactStep| (Target::MotionManager, [s.robot, NO_ROBOT]);
-        let event = |e: &Event| (e.target, e.concerns);
-        match (slot & STEP != 0, slot & CLAIMED != 0) {
-            (true, false) => self.steps.get(n).map(step),
-            (false, false) => self.events.get(n).map(event),
-            (true, true) => self.claimed_steps.get(n).map(step),
-            (false, true) => self.claimed_events.get(n).map(event),
         }
     }
 
@@ -1061,8 +1025,8 @@ impl Store {
         }
     }
 
-    /// Takes the event in `slot` if it is the event `id`: [`Store::holds`] and [`Store::take`]
-    /// in one look-up.
+    /// Takes the event in `slot` if it is the event `id` (the check of [`Store::holds`] and the
+    /// taking in one look-up).
     fn take_if(&mut self, slot: u32, id: EventId) -> Option<Event> {
         let n = slot & NUMBER;
         match (slot & STEP != 0, slot & CLAIMED != 0) {
@@ -1070,16 +1034,6 @@ impl Store {
             (false, false) => self.events.take_if(n, id, false),
             (true, true) => self.claimed_steps.take_if(n, id, true).map(|s| s.event()),
             (false, true) => self.claimed_events.take_if(n, id, true),
-        }
-    }
-
-    fn take(&mut self, slot: u32) -> Event {
-        let n = slot & NUMBER;
-        match (slot & STEP != 0, slot & CLAIMED != 0) {
-            (true, false) => self.steps.take(n, false).event(),
-            (false, false) => self.events.take(n, false),
-            (true, true) => self.claimed_steps.take(n, true).event(),
-            (false, true) => self.claimed_events.take(n, true),
         }
     }
 
