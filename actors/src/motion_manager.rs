@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 use actix::prelude::*;
 
 use crate::scheduler::{Deliver, HandleEvent};
-use crate::world::event::{Effect, Outbox};
+use crate::world::event::{Effect, Event, Outbox};
 use crate::world::virtual_world::VirtualWorld;
 
 /// The motion manager.
@@ -34,6 +34,12 @@ impl HandleEvent for MotionManager {
         let mut world = self.world.lock().expect("world lock");
         world.handle_motion(msg.event.id, msg.event.payload, &mut out);
         out.into_effects()
+    }
+
+    fn prefetch(&self, next: Option<&Event>, after: Option<&Event>) {
+        if let Ok(world) = self.world.try_lock() {
+            world.prefetch(next.map(|e| e.concerns), after.map(|e| e.concerns));
+        }
     }
 }
 

@@ -1032,6 +1032,7 @@ mod tests {
             effects: Vec::new(),
             reply: None,
             then: Default::default(),
+            look_ahead: false,
         })
     }
 
@@ -1181,6 +1182,7 @@ mod tests {
                     effects: Vec::with_capacity(8),
                     reply: None,
                     then: Default::default(),
+                    look_ahead: false,
                 };
                 let before = crate::allocations::on_this_thread();
                 let effects = actor.handle_event(deliver);
