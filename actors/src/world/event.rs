@@ -583,6 +583,12 @@ impl EventQueue {
         }
     }
 
+    /// Asks for the slot of a handle's event to be brought into cache ([`super::prefetch`]),
+    /// ahead of its cancellation. Only a hint: it changes nothing.
+    pub fn prefetch_slot(&self, h: Handle) {
+        self.slots.prefetch(h.slot);
+    }
+
     /// Cancels an event; returns whether it was still pending.
     pub fn cancel(&mut self, h: Handle) -> bool {
         self.take_pending(h.slot, h.id).is_some()
