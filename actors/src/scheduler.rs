@@ -1289,10 +1289,12 @@ mod tests {
     /// never. What is handled is the same either way.
     #[test]
     fn a_run_asks_ahead_for_its_next_two_events_when_told_to() {
+        /// An ask: the last time handled before it, the next event's and the one after's.
+        type Ask = (f64, Option<f64>, Option<f64>);
         #[derive(Default)]
         struct Actor {
             handled: Vec<f64>,
-            asked: std::cell::RefCell<Vec<(f64, Option<f64>, Option<f64>)>>,
+            asked: std::cell::RefCell<Vec<Ask>>,
         }
         impl HandleEvent for Actor {
             fn handle_event(&mut self, msg: Deliver) -> Vec<Effect> {
