@@ -51,6 +51,14 @@ impl Track<'_> {
     /// to four: no allocation per prediction for the built-in motions).
     pub fn pieces_from(&self, now: f64) -> Pieces {
         let mut out = Pieces::new();
+        self.pieces_into(now, &mut out);
+        out
+    }
+
+    /// [`Track::pieces_from`] into `out` (emptied first): a caller's buffer, filled where it
+    /// lies rather than copied out of a return (issue 17).
+    pub fn pieces_into(&self, now: f64, out: &mut Pieces) {
+        out.clear();
         let mut rest_from = now;
         if let Some(m) = self.motion {
             let end = m.end_time();
@@ -67,11 +75,7 @@ impl Track<'_> {
                         },
                     });
                 }
-                m.for_each_piece(&mut |p| {
-                    if p.t1 > now && p.t1 > p.t0 {
-                        out.push(clip_start(p, now));
-                    }
-                });
+                m.pieces_after(now, out);
                 rest_from = end;
             }
         }
@@ -83,12 +87,11 @@ impl Track<'_> {
                 v: Vector::zeros(),
             },
         });
-        out
     }
 }
 
 /// The part of `p` from `t` on (a linear piece's origin moves to `t`).
-fn clip_start(p: Piece, t: f64) -> Piece {
+pub(crate) fn clip_start(p: Piece, t: f64) -> Piece {
     if p.t0 >= t {
         return p;
     }
@@ -191,20 +194,20 @@ pub fn predict_contact_from(
     reach: f64,
     now: f64,
 ) -> Option<f64> {
-    first_in_windows(pa, &b.pieces_from(now), |s, e, x, y| {
-        match (x.shape, y.shape) {
-            (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
-                let d0 = linear_at(p, u, x.t0, s) - linear_at(q, w, y.t0, s);
-                first_contact_linear(d0, u - w, reach, e - s).map(|tau| s + tau)
-            }
-            _ => advance(
-                s,
-                e,
-                speed_bound(&x.shape) + speed_bound(&y.shape),
-                |t| (a.pos_at(t) - b.pos_at(t)).norm() - reach,
-                |t| (a.pos_at(t) - b.pos_at(t)).dot(&(a.vel_at(t) - b.vel_at(t))) < 0.0,
-            ),
+    let mut pb = Pieces::new();
+    b.pieces_into(now, &mut pb);
+    first_in_windows(pa, &pb, |s, e, x, y| match (x.shape, y.shape) {
+        (Shape::Linear { p0: p, v: u }, Shape::Linear { p0: q, v: w }) => {
+            let d0 = linear_at(p, u, x.t0, s) - linear_at(q, w, y.t0, s);
+            first_contact_linear(d0, u - w, reach, e - s).map(|tau| s + tau)
         }
+        _ => advance(
+            s,
+            e,
+            speed_bound(&x.shape) + speed_bound(&y.shape),
+            |t| (a.pos_at(t) - b.pos_at(t)).norm() - reach,
+            |t| (a.pos_at(t) - b.pos_at(t)).dot(&(a.vel_at(t) - b.vel_at(t))) < 0.0,
+        ),
     })
 }
 

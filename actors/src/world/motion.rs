@@ -153,6 +153,18 @@ pub trait MotionPattern: fmt::Debug + Send + Sync {
     fn for_each_piece(&self, f: &mut dyn FnMut(Piece)) {
         self.pieces().into_iter().for_each(f);
     }
+    /// Appends to `out` those of [`MotionPattern::for_each_piece`]'s pieces that last and end
+    /// after `now`, each cut to begin at `now` at the earliest
+    /// ([`super::collision::clip_start`]). The engine asks for both robots of every pair it
+    /// predicts; this default goes through `for_each_piece`, the built-in patterns answer
+    /// directly (issue 17).
+    fn pieces_after(&self, now: f64, out: &mut super::collision::Pieces) {
+        self.for_each_piece(&mut |p| {
+            if p.t1 > now && p.t1 > p.t0 {
+                out.push(super::collision::clip_start(p, now));
+            }
+        });
+    }
     /// What is left of the motion at `t`, for the Neko log.
     fn progress_at(&self, _t: f64) -> Progress {
         Progress {
@@ -502,6 +514,28 @@ impl TurnForward {
     fn end_pos(&self) -> Point {
         self.from.pos + self.u * self.distance
     }
+
+    /// The path's pieces: the turn on the spot, then the straight move.
+    fn two_pieces(&self) -> (Piece, Piece) {
+        (
+            Piece {
+                t0: self.t0,
+                t1: self.t_turned,
+                shape: Shape::Linear {
+                    p0: self.from.pos,
+                    v: Vector::zeros(),
+                },
+            },
+            Piece {
+                t0: self.t_turned,
+                t1: self.t_end,
+                shape: Shape::Linear {
+                    p0: self.from.pos,
+                    v: self.u * self.move_speed,
+                },
+            },
+        )
+    }
 }
 
 impl MotionPattern for TurnForward {
@@ -599,23 +633,19 @@ impl MotionPattern for TurnForward {
     }
 
     fn for_each_piece(&self, f: &mut dyn FnMut(Piece)) {
-        let u = self.u;
-        f(Piece {
-            t0: self.t0,
-            t1: self.t_turned,
-            shape: Shape::Linear {
-                p0: self.from.pos,
-                v: Vector::zeros(),
-            },
-        });
-        f(Piece {
-            t0: self.t_turned,
-            t1: self.t_end,
-            shape: Shape::Linear {
-                p0: self.from.pos,
-                v: u * self.move_speed,
-            },
-        });
+        let (turn, forward) = self.two_pieces();
+        f(turn);
+        f(forward);
+    }
+
+    fn pieces_after(&self, now: f64, out: &mut super::collision::Pieces) {
+        // `for_each_piece`'s two pieces, kept and cut as the default keeps and cuts them.
+        let (turn, forward) = self.two_pieces();
+        for p in [turn, forward] {
+            if p.t1 > now && p.t1 > p.t0 {
+                out.push(super::collision::clip_start(p, now));
+            }
+        }
     }
 
     fn progress_at(&self, t: f64) -> Progress {
@@ -833,6 +863,40 @@ mod tests {
             let from_piece = p0 + v * (t - piece.t0);
             prop_assert!((from_piece - m.state_at(t).pos).norm() < 1e-9);
             prop_assert!((m.state_at(m.end_time()).pos - Point::new(dx, dy)).norm() < 1e-9);
+        }
+
+        /// The built-in motions' own `pieces_after` gives exactly the pieces the trait's
+        /// default gives from `for_each_piece`, for a turn, a move and both, at any instant.
+        #[test]
+        fn builtin_pieces_after_is_the_default(x in -100.0f64..100.0, y in -100.0f64..100.0,
+                                               a in 0.0f64..360.0, dx in -100.0f64..100.0,
+                                               dy in -100.0f64..100.0, ms in 0.5f64..20.0,
+                                               ts in 1.0f64..90.0, kind in 0usize..4,
+                                               f in -0.2f64..1.2) {
+            /// A pattern that answers as `.0` does, but with the default `pieces_after`.
+            #[derive(Debug)]
+            struct Plain<'a>(&'a dyn MotionPattern);
+            impl MotionPattern for Plain<'_> {
+                fn start_time(&self) -> f64 { self.0.start_time() }
+                fn end_time(&self) -> f64 { self.0.end_time() }
+                fn state_at(&self, t: f64) -> Kinematics { self.0.state_at(t) }
+                fn events(&self) -> Vec<MotionStep> { self.0.events() }
+                fn pieces(&self) -> Vec<Piece> { self.0.pieces() }
+                fn for_each_piece(&self, f: &mut dyn FnMut(Piece)) { self.0.for_each_piece(f) }
+            }
+            let motion = match kind {
+                0 => Motion::Turn { angle: dx, turn_speed: ts },
+                1 => Motion::Forward { distance: dy.abs(), move_speed: ms },
+                2 => Motion::MoveTo { dest: Point::new(x, y), move_speed: ms, turn_speed: ts },
+                _ => Motion::MoveTo { dest: Point::new(dx, dy), move_speed: ms, turn_speed: ts },
+            };
+            let m = motion.begin(3.0, pose(x, y, a)).unwrap();
+            let now = 3.0 + f * (m.end_time() - 3.0);
+            let mut own = super::super::collision::Pieces::new();
+            let mut default = own.clone();
+            m.pieces_after(now, &mut own);
+            Plain(&*m).pieces_after(now, &mut default);
+            prop_assert_eq!(own, default);
         }
     }
 }
