@@ -35,7 +35,7 @@ use nekosim::{Algorithm, AlgorithmFuture, Robot, SimConfig};
 use rand::SeedableRng;
 
 #[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+static GLOBAL: nekosim::allocator::MiMalloc = nekosim::allocator::MiMalloc;
 
 /// Sleeps one simulated second at a time, forever: one scheduler round trip per event.
 #[derive(Debug)]

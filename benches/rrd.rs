@@ -12,7 +12,7 @@ use nekosim::scenario::{Built, Overrides, Registry, Source};
 
 // The allocator of the `nekosim` command (src/main.rs), so the bench measures what it runs.
 #[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+static GLOBAL: nekosim::allocator::MiMalloc = nekosim::allocator::MiMalloc;
 
 const ROBOTS: usize = 1_000;
 const UNTIL: f64 = 100.0;

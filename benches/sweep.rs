@@ -17,7 +17,7 @@ const REPEATS: usize = 5;
 
 // The allocator of the `nekosim` binary, so the figures are the command's.
 #[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+static GLOBAL: nekosim::allocator::MiMalloc = nekosim::allocator::MiMalloc;
 
 fn main() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));

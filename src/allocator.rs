@@ -69,9 +69,106 @@ fn set_option(o: libmimalloc_sys::mi_option_t, v: std::ffi::c_long) {
     unsafe { libmimalloc_sys::mi_option_set(o, v) }
 }
 
+/// The global allocator of the binary and the benches: mimalloc, asked through its plain entry
+/// points (`mi_malloc`, `mi_zalloc`, `mi_realloc`) when the alignment asked for is at most a
+/// word, which every mimalloc block has, and through its aligned ones otherwise.
+/// `mimalloc::MiMalloc` always takes the aligned ones, which at every allocation test the
+/// alignment first and, when the page has no free block, go through two more layers before
+/// mimalloc's generic path (issue 17: 68 instructions an allocation on average over the
+/// 150,771 allocations of `nekosim run` 1k x 330 s, 2.6 an actor message).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct MiMalloc;
+
+/// The alignment of every mimalloc block: its size classes are multiples of a word.
+const WORD: usize = std::mem::size_of::<usize>();
+
+#[allow(unsafe_code)]
+// SAFETY: each method hands the layout to the mimalloc function that honours it: the plain
+// ones only when the alignment is at most a word (every block mimalloc gives is), the aligned
+// ones otherwise; memory is freed by `mi_free` whichever gave it, as mimalloc allows.
+unsafe impl std::alloc::GlobalAlloc for MiMalloc {
+    #[inline]
+    unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
+        // SAFETY: see the impl.
+        unsafe {
+            if layout.align() <= WORD {
+                libmimalloc_sys::mi_malloc(layout.size()).cast()
+            } else {
+                libmimalloc_sys::mi_malloc_aligned(layout.size(), layout.align()).cast()
+            }
+        }
+    }
+
+    #[inline]
+    unsafe fn alloc_zeroed(&self, layout: std::alloc::Layout) -> *mut u8 {
+        // SAFETY: see the impl.
+        unsafe {
+            if layout.align() <= WORD {
+                libmimalloc_sys::mi_zalloc(layout.size()).cast()
+            } else {
+                libmimalloc_sys::mi_zalloc_aligned(layout.size(), layout.align()).cast()
+            }
+        }
+    }
+
+    #[inline]
+    unsafe fn dealloc(&self, ptr: *mut u8, _layout: std::alloc::Layout) {
+        // SAFETY: see the impl.
+        unsafe { libmimalloc_sys::mi_free(ptr.cast()) }
+    }
+
+    #[inline]
+    unsafe fn realloc(&self, ptr: *mut u8, layout: std::alloc::Layout, new_size: usize) -> *mut u8 {
+        // SAFETY: see the impl.
+        unsafe {
+            if layout.align() <= WORD {
+                libmimalloc_sys::mi_realloc(ptr.cast(), new_size).cast()
+            } else {
+                libmimalloc_sys::mi_realloc_aligned(ptr.cast(), new_size, layout.align()).cast()
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Blocks of every alignment up to a page, and of sizes that are not multiples of it, come
+    /// back aligned, keep their bytes when grown and shrunk, and are zero when asked so.
+    #[test]
+    #[allow(unsafe_code)]
+    fn blocks_are_aligned_and_keep_their_bytes() {
+        use std::alloc::{GlobalAlloc, Layout};
+        let a = MiMalloc;
+        for align in [1, 2, 4, 8, 16, 32, 64, 4096] {
+            for size in [1, 3, 8, 24, 40, 100, 1000, 70_000] {
+                let layout = Layout::from_size_align(size, align).expect("a layout");
+                // SAFETY: non-zero sizes; each block is freed once with its layout.
+                unsafe {
+                    let p = a.alloc(layout);
+                    assert!(!p.is_null() && p as usize % align == 0, "{size} {align}");
+                    for k in 0..size {
+                        *p.add(k) = (k % 251) as u8;
+                    }
+                    let q = a.realloc(p, layout, 2 * size + 5);
+                    assert!(!q.is_null() && q as usize % align == 0, "{size} {align}");
+                    assert!((0..size).all(|k| *q.add(k) == (k % 251) as u8));
+                    let grown = Layout::from_size_align(2 * size + 5, align).expect("a layout");
+                    let r = a.realloc(q, grown, size / 2 + 1);
+                    assert!(r as usize % align == 0);
+                    assert!((0..size / 2 + 1).all(|k| *r.add(k) == (k % 251) as u8));
+                    a.dealloc(
+                        r,
+                        Layout::from_size_align(size / 2 + 1, align).expect("a layout"),
+                    );
+                    let z = a.alloc_zeroed(layout);
+                    assert!(z as usize % align == 0 && (0..size).all(|k| *z.add(k) == 0));
+                    a.dealloc(z, layout);
+                }
+            }
+        }
+    }
 
     #[test]
     fn the_options_set_are_the_purge_delay_and_the_collection_interval() {

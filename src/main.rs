@@ -1,7 +1,7 @@
 //! The `nekosim` command (see [`nekosim::cli`]): the built-in protocols and algorithms.
 
 #[global_allocator]
-static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+static GLOBAL: nekosim::allocator::MiMalloc = nekosim::allocator::MiMalloc;
 
 fn main() -> std::process::ExitCode {
     nekosim::allocator::keep_freed_memory();
