@@ -426,12 +426,30 @@ impl Grid {
         self.get(c)
     }
 
-    /// Robots in the 3×3 block of cells around `c`.
+    /// Robots in the 3×3 block of cells around `c`, column by column (`x` - 1 first), each
+    /// from its lowest row.
     pub fn neighbours(&self, c: Cell) -> impl Iterator<Item = RobotId> + '_ {
-        (-1..=1)
-            .flat_map(move |dx| (-1..=1).map(move |dy| [c[0] + dx, c[1] + dy]))
-            .flat_map(|k| self.get(k))
-            .copied()
+        let cell = |k: usize| [c[0] + k as i64 / 3 - 1, c[1] + k as i64 % 3 - 1];
+        // Away from its tile's edges, a dense cell's neighbours are at fixed offsets from it:
+        // one index worked out instead of nine (issue 17).
+        let interior = self.dense.as_ref().and_then(|d| {
+            let i = d.index(c)?;
+            let (x, y) = (
+                i & (TILE as usize - 1),
+                (i >> TILE_BITS) & (TILE as usize - 1),
+            );
+            let inside = 1..TILE as usize - 1;
+            (inside.contains(&x) && inside.contains(&y)).then_some((d, i))
+        });
+        let cells: [&[RobotId]; 9] = match interior {
+            Some((d, i)) => std::array::from_fn(|k| {
+                let [x, y] = cell(k);
+                let (dx, dy) = (x - c[0], y - c[1]);
+                d.get((i as i64 + dy * TILE + dx) as usize)
+            }),
+            None => std::array::from_fn(|k| self.get(cell(k))),
+        };
+        cells.into_iter().flatten().copied()
     }
 
     /// Robots registered in cells that intersect the square `[lo, hi]`, or `None` when that
