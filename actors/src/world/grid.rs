@@ -429,7 +429,8 @@ impl Grid {
     /// Robots in the 3×3 block of cells around `c`, column by column (`x` - 1 first), each
     /// from its lowest row.
     pub fn neighbours(&self, c: Cell) -> impl Iterator<Item = RobotId> + '_ {
-        let cell = |k: usize| [c[0] + k as i64 / 3 - 1, c[1] + k as i64 % 3 - 1];
+        // The k-th cell's offset from `c`.
+        let offset = |k: usize| (k as i64 / 3 - 1, k as i64 % 3 - 1);
         // Away from its tile's edges, a dense cell's neighbours are at fixed offsets from it:
         // one index worked out instead of nine (issue 17).
         let interior = self.dense.as_ref().and_then(|d| {
@@ -443,11 +444,13 @@ impl Grid {
         });
         let cells: [&[RobotId]; 9] = match interior {
             Some((d, i)) => std::array::from_fn(|k| {
-                let [x, y] = cell(k);
-                let (dx, dy) = (x - c[0], y - c[1]);
+                let (dx, dy) = offset(k);
                 d.get((i as i64 + dy * TILE + dx) as usize)
             }),
-            None => std::array::from_fn(|k| self.get(cell(k))),
+            None => std::array::from_fn(|k| {
+                let (dx, dy) = offset(k);
+                self.get([c[0] + dx, c[1] + dy])
+            }),
         };
         cells.into_iter().flatten().copied()
     }
