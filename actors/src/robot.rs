@@ -117,16 +117,17 @@ impl Stream {
     fn live(&mut self, stream: u64) -> &mut ChaCha8Rng {
         let (seed, pos) = (self.seed, self.pos);
         self.live.get_or_insert_with(|| {
-            let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            rng.set_stream(stream);
-            rng.set_word_pos(u128::from(pos));
-            match SPARE.with_borrow_mut(|s| s.rng.take()) {
+            let (spare, key) = SPARE.with_borrow_mut(|s| (s.rng.take(), s.key(seed)));
+            let mut rng = match spare {
                 Some(mut spare) => {
-                    *spare = rng;
+                    *spare = ChaCha8Rng::from_seed(key);
                     spare
                 }
-                None => Box::new(rng),
-            }
+                None => Box::new(ChaCha8Rng::from_seed(key)),
+            };
+            rng.set_stream(stream);
+            rng.set_word_pos(u128::from(pos));
+            rng
         })
     }
 
@@ -149,6 +150,9 @@ struct Spare {
     inbox: VecDeque<Notice>,
     outbox: Vec<Request>,
     rng: Option<Box<ChaCha8Rng>>,
+    /// The last seed a generator was built from and its 32-byte key: every robot's stream
+    /// has the run's seed, so the key is expanded once, not at each handling's first draw.
+    key: Option<(u64, [u8; 32])>,
 }
 
 thread_local! {
@@ -156,6 +160,18 @@ thread_local! {
 }
 
 impl Spare {
+    /// The key `ChaCha8Rng::seed_from_u64(seed)` is built from.
+    fn key(&mut self, seed: u64) -> [u8; 32] {
+        match self.key {
+            Some((s, key)) if s == seed => key,
+            _ => {
+                let key = ChaCha8Rng::seed_from_u64(seed).get_seed();
+                self.key = Some((seed, key));
+                key
+            }
+        }
+    }
+
     /// Lends the thread's empty buffers to `io` where it has none.
     fn lend(io: &mut RobotIo) {
         SPARE.with_borrow_mut(|s| {
@@ -1202,6 +1218,38 @@ mod tests {
             rng.set_stream(id as u64);
             let expected: Vec<f64> = (0..4).map(|_| rng.gen()).collect();
             assert_eq!(*drawn.lock().unwrap(), expected, "robot {id}'s stream");
+        }
+    }
+
+    /// A stream at rest resumes exactly where it stopped, whatever seed the generator built
+    /// between its handlings had (the thread keeps the key of the last seed only): streams
+    /// of two seeds, taking turns, draw what one generator each, never rebuilt, draws.
+    #[test]
+    fn a_stream_resumes_across_handlings_of_other_seeds() {
+        let mut streams = [(7, 3), (8, 3), (7, 4)].map(|(seed, id)| (Stream::new(seed), id));
+        let mut drawn = [(); 3].map(|_| Vec::new());
+        for round in 0..5 {
+            for (k, (stream, id)) in streams.iter_mut().enumerate() {
+                let rng = stream.live(*id);
+                // An odd number of words at times: a handling may stop inside a block.
+                drawn[k].push(rng.next_u64());
+                if round % 2 == 0 {
+                    drawn[k].push(u64::from(rng.next_u32()));
+                }
+                stream.rest();
+            }
+        }
+        for (k, &(seed, id)) in [(7, 3), (8, 3), (7, 4)].iter().enumerate() {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            rng.set_stream(id);
+            let expected: Vec<u64> = (0..5)
+                .flat_map(|round| {
+                    let a = rng.next_u64();
+                    let b = (round % 2 == 0).then(|| u64::from(rng.next_u32()));
+                    std::iter::once(a).chain(b)
+                })
+                .collect();
+            assert_eq!(drawn[k], expected, "stream {k}");
         }
     }
 
