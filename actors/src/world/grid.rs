@@ -66,6 +66,24 @@ impl Span {
         self.0 = (self.0 | code << (3 + 4 * n)) & !7 | (n + 1);
     }
 
+    /// The cells, from `first`, as a list kept inline ([`SpanCells`]).
+    pub fn cell_list(self, first: Cell) -> SpanCells {
+        let mut list = SpanCells {
+            cells: [first; SPAN],
+            len: self.count() as u8,
+        };
+        let mut c = first;
+        for k in 1..self.count() {
+            let code = (self.0 >> (3 + 4 * (k - 1))) & 15;
+            c = [
+                c[0] + i64::from(code / 3) - 1,
+                c[1] + i64::from(code % 3) - 1,
+            ];
+            list.cells[k] = c;
+        }
+        list
+    }
+
     /// The cells, from `first`.
     pub fn cells(self, first: Cell) -> impl Iterator<Item = Cell> {
         let mut c = first;
@@ -79,6 +97,22 @@ impl Span {
             }
             c
         })
+    }
+}
+
+/// A span's cells, in order ([`Span::cell_list`]): a fixed array and a length, filled without
+/// the checks of a growing vector (issue 17: collecting into a `SmallVec` took about 180
+/// instructions).
+#[derive(Clone, Copy, Debug)]
+pub struct SpanCells {
+    cells: [Cell; SPAN],
+    len: u8,
+}
+
+impl std::ops::Deref for SpanCells {
+    type Target = [Cell];
+    fn deref(&self) -> &[Cell] {
+        &self.cells[..usize::from(self.len)]
     }
 }
 
@@ -578,6 +612,17 @@ mod tests {
             span.cells([5, -7]).collect::<Vec<_>>(),
             vec![[5, -7], [6, -7], [7, -6], [7, -7]]
         );
+        assert_eq!(
+            &*span.cell_list([5, -7]),
+            &[[5, -7], [6, -7], [7, -6], [7, -7]]
+        );
+        assert_eq!(&*Span::default().cell_list([5, -7]), &[[5, -7]]);
+        // A full span, as a list and as the iterator.
+        span.push([-1, -1]);
+        span.push([-1, 1]);
+        let full = [[5, -7], [6, -7], [7, -6], [7, -7], [6, -8], [5, -7]];
+        assert_eq!(&*span.cell_list([5, -7]), &full);
+        assert_eq!(span.cells([5, -7]).collect::<Vec<_>>(), full);
         // Every one of the eight steps, and -1 in both coordinates.
         for dx in -1..=1 {
             for dy in -1..=1 {

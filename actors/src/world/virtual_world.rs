@@ -24,7 +24,7 @@ use super::collision::{
 };
 use super::event::{Claims, EventClass, EventId, Handle, Notice, Outbox, Payload, Target};
 use super::geometry::Point;
-use super::grid::{blocks, blocks_beyond, next_to, Cell, Grid, Span, SPAN};
+use super::grid::{blocks, blocks_beyond, next_to, Cell, Grid, Span, SpanCells, SPAN};
 use super::motion::{Kinematics, Motion, Path, Piece, Pose};
 use super::observation::Observation;
 use super::obstacle::{predict_obstacle, ObstacleIndex, Shape, ShapeError};
@@ -581,9 +581,9 @@ impl VirtualWorld {
     }
 
     /// The cells `id` is registered in, in order along its path.
-    fn span_cells(&self, id: RobotId) -> SmallVec<[Cell; SPAN]> {
+    fn span_cells(&self, id: RobotId) -> SpanCells {
         let r = &self.robots[id as usize];
-        r.span.cells(r.cell).collect()
+        r.span.cell_list(r.cell)
     }
 
     /// Registers `id` in the cells its centre passes through from `first` on, from now: up to
@@ -800,8 +800,8 @@ impl VirtualWorld {
         let mut first: Option<(f64, Point, u32)> = None;
         let around: Vec<u32> = self
             .span_cells(id)
-            .into_iter()
-            .flat_map(|c| self.obstacles.around(c))
+            .iter()
+            .flat_map(|&c| self.obstacles.around(c))
             .collect();
         for i in around {
             let (k, prim) = self.obstacles.get(i);
