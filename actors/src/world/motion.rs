@@ -16,7 +16,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use super::geometry::{
-    heading_vector, normalize_deg, shortest_turn, vector_heading, Point, Vector,
+    heading_vector, normalize_deg, rem_360, shortest_turn, vector_heading, Point, Vector,
 };
 
 /// Where a robot is and where it faces.
@@ -436,7 +436,7 @@ impl TurnRule {
         match self {
             TurnRule::Shortest => shortest_turn(from, to),
             TurnRule::Anticlockwise => {
-                let t = (to - from).rem_euclid(360.0);
+                let t = rem_360(to - from);
                 // A heading already reached up to rounding is not a full turn.
                 if 360.0 - t < 1e-9 {
                     0.0
