@@ -537,7 +537,9 @@ impl VirtualWorld {
         // robots (issue 17). Such a pair may be predicted again when a scan finds it again,
         // which predicts nothing again.
         if !ids.is_empty() {
-            self.robots[a as usize].pairs.insert(b, ids.clone());
+            self.robots[a as usize]
+                .pairs
+                .insert(b, PairEvents::from_slice(&ids));
             self.robots[b as usize].pairs.insert(a, ids);
         }
     }

@@ -202,19 +202,19 @@ impl VirtualWorld {
     }
 
     /// Robots and walls that `x` touches at `now` while moving towards them, other than those
-    /// in `known`: contacts at the same instant as a collision that stops `x`.
+    /// in `known` (contacts, their points aside): contacts at the same instant as a collision that stops `x`.
     fn simultaneous_contacts(
         &self,
         x: RobotId,
         now: f64,
-        known: &[(RobotId, Obstacle)],
+        known: &[(RobotId, Obstacle, Option<Point>)],
     ) -> SmallVec<[(Obstacle, Option<Point>); 2]> {
         const TOUCH: f64 = 1e-9;
         let kx = self.state_at(x, now);
         let rx = self.radius(x);
         let mut out = SmallVec::new();
         let listed = |o: Obstacle| {
-            known.iter().any(|&(p, q)| {
+            known.iter().any(|&(p, q, _)| {
                 (p == x && q == o) || (q == Obstacle::Robot(x) && Obstacle::Robot(p) == o)
             })
         };
@@ -294,9 +294,7 @@ impl VirtualWorld {
                 sides.push((y, Obstacle::Robot(x)));
             }
             for (r, with) in sides {
-                let known: SmallVec<[(RobotId, Obstacle); 4]> =
-                    contacts.iter().map(|&(p, q, _)| (p, q)).collect();
-                for (o, c) in self.simultaneous_contacts(r, now, &known) {
+                for (o, c) in self.simultaneous_contacts(r, now, &contacts) {
                     contacts.push((r, o, c));
                 }
                 if self.end_motion(r, MotionOutcome::Collided { with }, out) {
