@@ -72,14 +72,8 @@ impl Span {
             cells: [first; SPAN],
             len: self.count() as u8,
         };
-        let mut c = first;
-        for k in 1..self.count() {
-            let code = (self.0 >> (3 + 4 * (k - 1))) & 15;
-            c = [
-                c[0] + i64::from(code / 3) - 1,
-                c[1] + i64::from(code % 3) - 1,
-            ];
-            list.cells[k] = c;
+        for (slot, c) in list.cells.iter_mut().zip(self.cells(first)) {
+            *slot = c;
         }
         list
     }

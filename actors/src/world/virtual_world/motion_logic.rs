@@ -202,7 +202,8 @@ impl VirtualWorld {
     }
 
     /// Robots and walls that `x` touches at `now` while moving towards them, other than those
-    /// in `known` (contacts, their points aside): contacts at the same instant as a collision that stops `x`.
+    /// in `known` (contacts, their points aside): contacts at the same instant as a collision
+    /// that stops `x`.
     fn simultaneous_contacts(
         &self,
         x: RobotId,
