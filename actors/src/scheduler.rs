@@ -381,6 +381,35 @@ impl Core {
         }
     }
 
+    /// In a large queue (as [`EventQueue::look_ahead`]), the robots of the first two events
+    /// for robot actors that `effects` schedule at the instants of the run they answer. A robot's notice is mostly scheduled by the
+    /// handling just before it, at the same instant, and delivered next: the look-ahead, a
+    /// delivery or two ahead in the queue, never sees it, so the scheduler asks for the
+    /// robot's actor memory from the reply instead, its entries before the reply is applied
+    /// and the memory they name after (issue 17).
+    #[inline]
+    pub(crate) fn notified(&self, effects: &[Effect]) -> [Option<RobotId>; 2] {
+        let mut found = [None; 2];
+        if self.queue.len() < LOOK_AHEAD_FROM {
+            return found;
+        }
+        // The run's events after the first were taken at their own instants, none before.
+        let now = self.run.last().map_or(self.now, |&(t, _)| t.max(self.now));
+        let robots = effects.iter().filter_map(|e| match e {
+            Effect::Schedule(ev) | Effect::ScheduleIn(ev, _) | Effect::AtInstantEnd(ev) => {
+                match ev.target {
+                    Target::Robot(r) if ev.time <= now => Some(r),
+                    _ => None,
+                }
+            }
+            _ => None,
+        });
+        for (slot, r) in found.iter_mut().zip(robots) {
+            *slot = Some(r);
+        }
+        found
+    }
+
     /// In a large queue (as [`EventQueue::look_ahead`]), asks for the slots of the events that
     /// `effects` cancel, all at once before the first is read: at a million robots each is a
     /// cache miss of its own (issue 17).
@@ -713,12 +742,7 @@ impl Scheduler {
         }
         let ahead = self.core.ahead();
         if let Some((Target::Robot(r), _)) = ahead.after {
-            // The robot's address, read first when an event is sent to it, and where its
-            // memory is.
-            if let Some(addr) = self.routes.robots.get(r as usize) {
-                crate::world::prefetch::prefetch(addr);
-            }
-            self.routes.whereabouts.prefetch_entry(r);
+            self.prefetch_entries(r);
         }
         if let Some((Target::Robot(r), _)) = ahead.next {
             self.routes.whereabouts.prefetch_memory(r);
@@ -733,6 +757,15 @@ impl Scheduler {
             Target::Robot(r) => self.routes.robots[r as usize].do_send(deliver),
             _ => self.route(target).do_send(deliver),
         }
+    }
+
+    /// Stage one of the look-ahead into a robot actor: asks for the robot's address, read
+    /// first when an event is sent to it, and for its entry of where its memory is.
+    fn prefetch_entries(&self, r: RobotId) {
+        if let Some(addr) = self.routes.robots.get(r as usize) {
+            crate::world::prefetch::prefetch(addr);
+        }
+        self.routes.whereabouts.prefetch_entry(r);
     }
 
     /// Hands the output over. The actor is not stopped: the run's host drops or leaves the
@@ -776,7 +809,14 @@ impl Handler<Replied> for Scheduler {
             .expect("a reply to the delivery in flight");
         match reply.0 {
             Ok(reply) => {
+                let notified = self.core.notified(&reply.effects);
+                for &r in notified.iter().flatten() {
+                    self.prefetch_entries(r);
+                }
                 self.core.apply_reply(reply);
+                for &r in notified.iter().flatten() {
+                    self.routes.whereabouts.prefetch_memory(r);
+                }
                 self.step(ctx);
             }
             Err(e) => {
@@ -971,6 +1011,49 @@ mod tests {
         let route = |r: RobotId| Some((Target::Robot(r), [r, crate::world::event::NO_ROBOT]));
         assert_eq!(large.ahead().next, route(1));
         assert_eq!(large.ahead().after, route(2));
+    }
+
+    /// From a reply's effects, the look-ahead names the robots of the first two robot events
+    /// scheduled at the instant handled, in a large queue only: not a later robot event, not
+    /// a manager's.
+    #[test]
+    fn a_reply_names_the_robots_it_notifies_at_once() {
+        let core_of = |n: usize| {
+            let mut setup = Outbox::new(0.0, 0);
+            for k in 0..n {
+                let r = k as RobotId;
+                setup.schedule(
+                    1.0 + k as f64,
+                    Target::Robot(r),
+                    EventClass::Eventual,
+                    [Some(r), None],
+                    timer(r),
+                );
+            }
+            Core::new(1e9, setup, Observers::default())
+        };
+        let effects = |now: f64| {
+            let mut out = Outbox::new(now, 1);
+            let at = |out: &mut Outbox, t: f64, target: Target, r: RobotId| {
+                out.schedule(t, target, EventClass::Eventual, [Some(r), None], timer(r))
+            };
+            at(&mut out, now + 1.0, Target::Robot(7), 7);
+            at(&mut out, now, Target::MotionManager, 8);
+            at(&mut out, now, Target::Robot(5), 5);
+            at(&mut out, now, Target::Robot(3), 3);
+            at(&mut out, now, Target::Robot(4), 4);
+            out.into_effects()
+        };
+        let mut large = core_of(LOOK_AHEAD_FROM + 1);
+        let Next::Deliver(_, d) = large.next() else {
+            panic!("an event to deliver")
+        };
+        assert_eq!(large.notified(&effects(d.now)), [Some(5), Some(3)]);
+        let mut small = core_of(LOOK_AHEAD_FROM);
+        let Next::Deliver(_, d) = small.next() else {
+            panic!("an event to deliver")
+        };
+        assert_eq!(small.notified(&effects(d.now)), [None, None]);
     }
 
     /// The robot an event stands for here: its timer's, 99 for the end of an instant, 100
