@@ -983,30 +983,32 @@ mod tests {
         order
     }
 
+    /// A core with timers for robots `0..n` at 1, 2, ... s.
+    fn timers_core(n: usize) -> Core {
+        let mut setup = Outbox::new(0.0, 0);
+        for k in 0..n {
+            let r = k as RobotId;
+            setup.schedule(
+                1.0 + k as f64,
+                Target::Robot(r),
+                EventClass::Eventual,
+                [Some(r), None],
+                timer(r),
+            );
+        }
+        Core::new(1e9, setup, Observers::default())
+    }
+
     /// The core looks ahead only while the queue holds [`LOOK_AHEAD_FROM`] events or more,
     /// and then sees the routes of the next two events and tells the actor to look ahead in
     /// its run ([`Deliver::look_ahead`]).
     #[test]
     fn the_core_looks_ahead_only_in_a_large_queue() {
-        let core_of = |n: usize| {
-            let mut setup = Outbox::new(0.0, 0);
-            for k in 0..n {
-                let r = k as RobotId;
-                setup.schedule(
-                    1.0 + k as f64,
-                    Target::Robot(r),
-                    EventClass::Eventual,
-                    [Some(r), None],
-                    timer(r),
-                );
-            }
-            Core::new(1e9, setup, Observers::default())
-        };
         // One event taken leaves LOOK_AHEAD_FROM - 1 pending: no look.
-        let mut small = core_of(LOOK_AHEAD_FROM);
+        let mut small = timers_core(LOOK_AHEAD_FROM);
         assert!(matches!(small.next(), Next::Deliver(Target::Robot(0), d) if !d.look_ahead));
         assert_eq!(small.ahead(), Ahead::default());
-        let mut large = core_of(LOOK_AHEAD_FROM + 1);
+        let mut large = timers_core(LOOK_AHEAD_FROM + 1);
         assert!(matches!(large.next(), Next::Deliver(Target::Robot(0), d) if d.look_ahead));
         let route = |r: RobotId| Some((Target::Robot(r), [r, crate::world::event::NO_ROBOT]));
         assert_eq!(large.ahead().next, route(1));
@@ -1018,20 +1020,6 @@ mod tests {
     /// a manager's.
     #[test]
     fn a_reply_names_the_robots_it_notifies_at_once() {
-        let core_of = |n: usize| {
-            let mut setup = Outbox::new(0.0, 0);
-            for k in 0..n {
-                let r = k as RobotId;
-                setup.schedule(
-                    1.0 + k as f64,
-                    Target::Robot(r),
-                    EventClass::Eventual,
-                    [Some(r), None],
-                    timer(r),
-                );
-            }
-            Core::new(1e9, setup, Observers::default())
-        };
         let effects = |now: f64| {
             let mut out = Outbox::new(now, 1);
             let at = |out: &mut Outbox, t: f64, target: Target, r: RobotId| {
@@ -1044,12 +1032,12 @@ mod tests {
             at(&mut out, now, Target::Robot(4), 4);
             out.into_effects()
         };
-        let mut large = core_of(LOOK_AHEAD_FROM + 1);
+        let mut large = timers_core(LOOK_AHEAD_FROM + 1);
         let Next::Deliver(_, d) = large.next() else {
             panic!("an event to deliver")
         };
         assert_eq!(large.notified(&effects(d.now)), [Some(5), Some(3)]);
-        let mut small = core_of(LOOK_AHEAD_FROM);
+        let mut small = timers_core(LOOK_AHEAD_FROM);
         let Next::Deliver(_, d) = small.next() else {
             panic!("an event to deliver")
         };
