@@ -382,11 +382,11 @@ impl Core {
     }
 
     /// In a large queue (as [`EventQueue::look_ahead`]), the robots of the first two events
-    /// for robot actors that `effects` schedule at the instants of the run they answer. A robot's notice is mostly scheduled by the
-    /// handling just before it, at the same instant, and delivered next: the look-ahead, a
-    /// delivery or two ahead in the queue, never sees it, so the scheduler asks for the
-    /// robot's actor memory from the reply instead, its entries before the reply is applied
-    /// and the memory they name after (issue 17).
+    /// for robot actors that `effects` schedule at the instants of the run they answer. A
+    /// robot's notice is mostly scheduled by the handling just before it, at the same instant,
+    /// and delivered next: the look-ahead, a delivery or two ahead in the queue, never sees
+    /// it, so the scheduler asks for the robot's actor memory from the reply instead, its
+    /// entries before the reply is applied and the memory they name after (issue 17).
     #[inline]
     pub(crate) fn notified(&self, effects: &[Effect]) -> [Option<RobotId>; 2] {
         let mut found = [None; 2];

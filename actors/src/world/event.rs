@@ -717,10 +717,9 @@ impl EventQueue {
     /// their handlings will read ([`Ahead`]). At a million robots every slot, every robot's
     /// state and every cell is a cache miss of its own (issue 17). It takes nothing; the
     /// queue's order may move on to later instants early, which changes nothing of what it
-    /// gives. A delivery takes a run of several events at once (the scheduler's), so the
-    /// slots of the [`SLOTS_AHEAD`] events from the third on are asked for: a slot asked for
-    /// only as the third was read, two or more deliveries later, without having been asked for
-    /// when the run before took it and the next two with it.
+    /// gives. The scheduler takes a run of several events at once, after which the next two
+    /// may never have been third at a look; so the slots of the [`SLOTS_AHEAD`] events from
+    /// the third on are asked for, not the third's alone.
     pub fn look_ahead(&mut self) -> Ahead {
         for n in 2..2 + SLOTS_AHEAD {
             match self.order.peek_nth(n) {
