@@ -449,6 +449,13 @@ impl Grid {
         }
     }
 
+    /// Asks for the dense table's head of cell `c` ([`super::prefetch`]); a no-op outside it.
+    pub fn prefetch_cell(&self, c: Cell) {
+        if let Some((d, i)) = self.dense.as_ref().and_then(|d| Some((d, d.index(c)?))) {
+            super::prefetch::prefetch(&d.heads[i]);
+        }
+    }
+
     /// The robots registered in cell `c`.
     pub fn robots_in(&self, c: Cell) -> &[RobotId] {
         self.get(c)
@@ -580,6 +587,41 @@ mod tests {
                 prop_assert_eq!(hashed.in_box(lo, hi, 1000), dense.in_box(lo, hi, 1000));
             }
         }
+    }
+
+    /// Asking for cells ahead is only a hint: it reads nothing it returns and changes nothing,
+    /// for any cell, in the dense table, at its edges and outside it, dense or hashed.
+    #[test]
+    fn asking_for_cells_changes_nothing() {
+        let mut dense = Grid::for_area(10.0, Point::new(0.0, 0.0), Point::new(355.0, 355.0), 40);
+        let mut hashed = Grid::new(10.0);
+        for (k, c) in [[0, 0], [5, 5], [31, 32], [-1, -1], [36, 36], [400, -7]]
+            .iter()
+            .enumerate()
+        {
+            dense.insert(k as RobotId, *c);
+            hashed.insert(k as RobotId, *c);
+        }
+        let look = |g: &Grid| -> Vec<Vec<RobotId>> {
+            (-3..40)
+                .flat_map(|x| (-3..40).map(move |y| [x, y]))
+                .map(|c| g.neighbours(c).collect())
+                .collect()
+        };
+        let (before_dense, before_hashed) = (look(&dense), look(&hashed));
+        for x in -3..40 {
+            for y in -3..40 {
+                for g in [&dense, &hashed] {
+                    g.prefetch_cell([x, y]);
+                    g.prefetch_around([x, y]);
+                }
+            }
+        }
+        dense.prefetch_cell([i64::MAX, i64::MIN]);
+        dense.prefetch_around([i64::MIN, i64::MAX]);
+        assert_eq!(look(&dense), before_dense);
+        assert_eq!(look(&hashed), before_hashed);
+        assert_eq!(before_dense, before_hashed);
     }
 
     #[test]
