@@ -449,13 +449,6 @@ impl Grid {
         }
     }
 
-    /// Asks for the dense table's head of cell `c` ([`super::prefetch`]); a no-op outside it.
-    pub fn prefetch_cell(&self, c: Cell) {
-        if let Some((d, i)) = self.dense.as_ref().and_then(|d| Some((d, d.index(c)?))) {
-            super::prefetch::prefetch(&d.heads[i]);
-        }
-    }
-
     /// The robots registered in cell `c`.
     pub fn robots_in(&self, c: Cell) -> &[RobotId] {
         self.get(c)
@@ -612,12 +605,11 @@ mod tests {
         for x in -3..40 {
             for y in -3..40 {
                 for g in [&dense, &hashed] {
-                    g.prefetch_cell([x, y]);
                     g.prefetch_around([x, y]);
                 }
             }
         }
-        dense.prefetch_cell([i64::MAX, i64::MIN]);
+        dense.prefetch_around([i64::MAX, i64::MIN]);
         dense.prefetch_around([i64::MIN, i64::MAX]);
         assert_eq!(look(&dense), before_dense);
         assert_eq!(look(&hashed), before_hashed);

@@ -400,13 +400,9 @@ impl VirtualWorld {
             if let Some(state) = self.robots.get(r as usize) {
                 // Asked for already unless the event came in between.
                 super::prefetch::prefetch(state);
-                // Its cells, which a crossing or a stop takes it out of, and the block around
-                // the last of them: where it crosses next.
-                let cells = state.span.cell_list(state.cell);
-                for &c in &cells[..cells.len() - 1] {
-                    self.grid.prefetch_cell(c);
-                }
-                self.grid.prefetch_around(cells[cells.len() - 1]);
+                // The last of its cells: where it crosses next.
+                let last = state.span.cells(state.cell).last();
+                self.grid.prefetch_around(last.unwrap_or(state.cell));
             }
         }
     }
