@@ -582,8 +582,9 @@ mod tests {
         }
     }
 
-    /// Asking for cells ahead is only a hint: it reads nothing it returns and changes nothing,
-    /// for any cell, in the dense table, at its edges and outside it, dense or hashed.
+    /// Asking for the block around any cell (in the dense table, at its tiles' and its own
+    /// edges, outside it, or in a hashed grid) is only a hint: it does not panic, and every
+    /// cell's neighbours stay as they were.
     #[test]
     fn asking_for_cells_changes_nothing() {
         let mut dense = Grid::for_area(10.0, Point::new(0.0, 0.0), Point::new(355.0, 355.0), 40);
