@@ -12,6 +12,12 @@
 //! mimalloc also visits every page of the heap every 10,000 allocations that miss its fast
 //! path; at a million robots that was 4 % of the run, so the binary asks for the visits a
 //! hundred times less often.
+//!
+//! Small blocks freed are kept, a few of each size class per thread, and handed out again
+//! before mimalloc is asked ([`MiMalloc`]): an actor message frees and allocates small blocks
+//! that at a million robots are cold, and mimalloc's bookkeeping of them (the page record a
+//! free reads, the link an allocation reads from its block) was 9.4 % of the samples of a
+//! million robots' later phase, 0.4 % with the blocks kept (docs/performance.md).
 
 /// mimalloc's `mi_option_purge_delay`: its place in `mi_option_e`, the same in mimalloc 2 and
 /// 3 (the test below checks it names the purge delay).
@@ -75,23 +81,126 @@ fn set_option(o: libmimalloc_sys::mi_option_t, v: std::ffi::c_long) {
 /// `mimalloc::MiMalloc` always takes the aligned ones, which at every allocation test the
 /// alignment first and, when the page has no free block, go through two more layers before
 /// mimalloc's generic path (issue 17: 68 instructions an allocation on average over the
-/// 150,771 allocations of `nekosim run` 1k x 330 s, 2.6 an actor message).
+/// 150,771 allocations of `nekosim run` 1k x 330 s, 2.6 an actor message). Blocks of up to
+/// 256 bytes, aligned to a word at most, are freed into a small ring per size class and
+/// thread ([`Kept`]) and taken from it first.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct MiMalloc;
 
 /// The alignment of every mimalloc block: its size classes are multiples of a word.
 const WORD: usize = std::mem::size_of::<usize>();
 
+/// Small blocks freed on this thread and kept for the next allocations of their class
+/// (issue 17). At a million robots most blocks an actor message frees are cold: a robot's
+/// mailbox frees, with each message, the queue node of its message before, allocated seconds
+/// ago. `mi_free` then reads the block's page record, and a later `mi_malloc` from its page
+/// reads the link written into the block: memory not touched for seconds. This cache neither
+/// reads nor writes a block it keeps, and hands blocks out oldest first to a new owner, who
+/// writes them before reading. Blocks of a class are the size of the class ([`class`]: every block of that
+/// class asked of mimalloc is asked at that size), so any is as good as another.
+struct Kept {
+    /// Per class, up to [`KEEP`] blocks in a ring: `first[c]` the oldest, `len[c]` of them.
+    blocks: [[*mut u8; KEEP]; CLASSES],
+    first: [u8; CLASSES],
+    len: [u8; CLASSES],
+}
+
+/// Blocks kept per class.
+const KEEP: usize = 16;
+
+/// Classes of blocks kept: the sizes of mimalloc's own up to 256 bytes.
+const CLASSES: usize = 13;
+
+/// The largest block kept [bytes].
+const KEPT_MAX: usize = 256;
+
+/// The class of a block of `size` bytes (1 to [`KEPT_MAX`]) and the size of its blocks,
+/// mimalloc's own size classes: a word, then two words up to 128 bytes, then four classes
+/// for each doubling (its blocks are aligned to two words).
+#[inline]
+fn class(size: usize) -> (usize, usize) {
+    if size <= WORD {
+        (0, WORD)
+    } else if size <= 128 {
+        let c = size.div_ceil(16);
+        (c, c * 16)
+    } else {
+        let c = size.div_ceil(32);
+        (c + 4, c * 32)
+    }
+}
+
+/// Whether blocks of `layout` are kept: small, and aligned to a word at most.
+#[inline]
+fn kept(layout: std::alloc::Layout) -> bool {
+    layout.size() <= KEPT_MAX && layout.align() <= WORD
+}
+
+thread_local! {
+    /// This thread's kept blocks. No destructor: the few a thread keeps when it ends stay
+    /// allocated (at most [`KEEP`] of each class, about 20 KB).
+    static KEPT: std::cell::UnsafeCell<Kept> = const {
+        std::cell::UnsafeCell::new(Kept {
+            blocks: [[std::ptr::null_mut(); KEEP]; CLASSES],
+            first: [0; CLASSES],
+            len: [0; CLASSES],
+        })
+    };
+}
+
+#[allow(unsafe_code)]
+impl Kept {
+    /// The oldest kept block of class `c`, if any.
+    #[inline]
+    fn take(c: usize) -> Option<*mut u8> {
+        KEPT.try_with(|k| {
+            // SAFETY: only this thread reaches its `Kept`, and no call here reenters.
+            let k = unsafe { &mut *k.get() };
+            (k.len[c] > 0).then(|| {
+                let at = k.first[c] as usize;
+                k.first[c] = ((at + 1) % KEEP) as u8;
+                k.len[c] -= 1;
+                k.blocks[c][at]
+            })
+        })
+        .ok()
+        .flatten()
+    }
+
+    /// Keeps `p`, a block of class `c`, unless the class has [`KEEP`] already.
+    #[inline]
+    fn keep(c: usize, p: *mut u8) -> bool {
+        KEPT.try_with(|k| {
+            // SAFETY: only this thread reaches its `Kept`, and no call here reenters.
+            let k = unsafe { &mut *k.get() };
+            let n = k.len[c] as usize;
+            (n < KEEP).then(|| {
+                k.blocks[c][(k.first[c] as usize + n) % KEEP] = p;
+                k.len[c] += 1;
+            })
+        })
+        .ok()
+        .flatten()
+        .is_some()
+    }
+}
+
 #[allow(unsafe_code)]
 // SAFETY: each method hands the layout to the mimalloc function that honours it: the plain
 // ones only when the alignment is at most a word (every block mimalloc gives is), the aligned
-// ones otherwise; memory is freed by `mi_free` whichever gave it, as mimalloc allows.
+// ones otherwise; memory is freed by `mi_free` whichever gave it, as mimalloc allows. A block
+// of a kept layout ([`kept`]) is always asked of mimalloc at its class's size ([`class`]),
+// also when grown or shrunk into that layout, so a kept block serves any size of its class;
+// it is handed out once, being out of the ring once taken.
 unsafe impl std::alloc::GlobalAlloc for MiMalloc {
     #[inline]
     unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
         // SAFETY: see the impl.
         unsafe {
-            if layout.align() <= WORD {
+            if kept(layout) {
+                let (c, size) = class(layout.size());
+                Kept::take(c).unwrap_or_else(|| libmimalloc_sys::mi_malloc(size).cast())
+            } else if layout.align() <= WORD {
                 libmimalloc_sys::mi_malloc(layout.size()).cast()
             } else {
                 libmimalloc_sys::mi_malloc_aligned(layout.size(), layout.align()).cast()
@@ -103,7 +212,9 @@ unsafe impl std::alloc::GlobalAlloc for MiMalloc {
     unsafe fn alloc_zeroed(&self, layout: std::alloc::Layout) -> *mut u8 {
         // SAFETY: see the impl.
         unsafe {
-            if layout.align() <= WORD {
+            if kept(layout) {
+                libmimalloc_sys::mi_zalloc(class(layout.size()).1).cast()
+            } else if layout.align() <= WORD {
                 libmimalloc_sys::mi_zalloc(layout.size()).cast()
             } else {
                 libmimalloc_sys::mi_zalloc_aligned(layout.size(), layout.align()).cast()
@@ -112,7 +223,10 @@ unsafe impl std::alloc::GlobalAlloc for MiMalloc {
     }
 
     #[inline]
-    unsafe fn dealloc(&self, ptr: *mut u8, _layout: std::alloc::Layout) {
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: std::alloc::Layout) {
+        if kept(layout) && Kept::keep(class(layout.size()).0, ptr) {
+            return;
+        }
         // SAFETY: see the impl.
         unsafe { libmimalloc_sys::mi_free(ptr.cast()) }
     }
@@ -122,7 +236,12 @@ unsafe impl std::alloc::GlobalAlloc for MiMalloc {
         // SAFETY: see the impl.
         unsafe {
             if layout.align() <= WORD {
-                libmimalloc_sys::mi_realloc(ptr.cast(), new_size).cast()
+                let size = if new_size <= KEPT_MAX {
+                    class(new_size).1
+                } else {
+                    new_size
+                };
+                libmimalloc_sys::mi_realloc(ptr.cast(), size).cast()
             } else {
                 libmimalloc_sys::mi_realloc_aligned(ptr.cast(), new_size, layout.align()).cast()
             }
@@ -167,6 +286,164 @@ mod tests {
                     a.dealloc(z, layout);
                 }
             }
+        }
+    }
+
+    /// The kept classes are mimalloc's own size classes up to 256 bytes (`mi_good_size`, the
+    /// size of the block mimalloc gives for a size): keeping blocks by class wastes nothing.
+    #[test]
+    #[allow(unsafe_code)]
+    fn kept_classes_are_mimallocs() {
+        let mut seen = Vec::new();
+        for size in 1..=KEPT_MAX {
+            let (c, block) = class(size);
+            // SAFETY: `mi_good_size` only computes.
+            let good = unsafe { libmimalloc_sys::mi_good_size(size) };
+            assert_eq!(block, good, "size {size}");
+            assert!(c < CLASSES && block >= size);
+            assert_eq!(class(block), (c, block), "a class's size is in its class");
+            if seen.last() != Some(&c) {
+                assert!(!seen.contains(&c), "class {c} is one run of sizes");
+                seen.push(c);
+            }
+        }
+        assert_eq!(seen, (0..CLASSES).collect::<Vec<_>>());
+    }
+
+    /// A random mix of allocations, frees and reallocations, of kept layouts and others, with
+    /// each live block filled with its own byte: no two live blocks overlap (a block handed
+    /// out twice would overwrite another's bytes), every block is as large as its class and
+    /// as aligned as asked, and grown or shrunk blocks keep their bytes.
+    #[test]
+    #[allow(unsafe_code)]
+    fn kept_blocks_are_handed_out_once() {
+        use std::alloc::{GlobalAlloc, Layout};
+        let a = MiMalloc;
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = |n: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % n
+        };
+        let mut live: Vec<(*mut u8, Layout, u8)> = Vec::new();
+        let check = |p: *mut u8, l: Layout, tag: u8| {
+            // SAFETY: `p` is live with `l.size()` bytes.
+            assert!(
+                (0..l.size()).all(|k| unsafe { *p.add(k) } == tag),
+                "bytes kept"
+            );
+        };
+        let fill = |p: *mut u8, l: Layout, tag: u8| {
+            assert!(!p.is_null() && p as usize % l.align() == 0);
+            if kept(l) {
+                // SAFETY: `p` is a live mimalloc block.
+                let usable = unsafe { libmimalloc_sys::mi_usable_size(p.cast()) };
+                assert!(
+                    usable >= class(l.size()).1,
+                    "a kept block serves its whole class"
+                );
+            }
+            // SAFETY: `p` is live with `l.size()` bytes.
+            unsafe { std::ptr::write_bytes(p, tag, l.size()) };
+        };
+        for step in 0..40_000u32 {
+            let tag = (step % 251) as u8 + 1;
+            match next(10) {
+                0..=4 if live.len() < 2_000 => {
+                    let size = 1 + next(400) as usize;
+                    let align = 1 << next(5);
+                    let l = Layout::from_size_align(size, align).expect("a layout");
+                    // SAFETY: a non-zero size.
+                    let p = unsafe {
+                        if next(8) == 0 {
+                            a.alloc_zeroed(l)
+                        } else {
+                            a.alloc(l)
+                        }
+                    };
+                    fill(p, l, tag);
+                    live.push((p, l, tag));
+                }
+                0..=7 if !live.is_empty() => {
+                    let (p, l, t) = live.swap_remove(next(live.len() as u64) as usize);
+                    check(p, l, t);
+                    // SAFETY: `p` is live, allocated with `l`, and freed once.
+                    unsafe { a.dealloc(p, l) };
+                }
+                _ if !live.is_empty() => {
+                    let k = next(live.len() as u64) as usize;
+                    let (p, l, t) = live[k];
+                    check(p, l, t);
+                    let size = 1 + next(400) as usize;
+                    // SAFETY: `p` is live with `l`; a non-zero new size.
+                    let q = unsafe { a.realloc(p, l, size) };
+                    let grown = Layout::from_size_align(size, l.align()).expect("a layout");
+                    check(
+                        q,
+                        Layout::from_size_align(size.min(l.size()), 1).expect("a layout"),
+                        t,
+                    );
+                    fill(q, grown, tag);
+                    live[k] = (q, grown, tag);
+                }
+                _ => {}
+            }
+        }
+        for (p, l, t) in live {
+            check(p, l, t);
+            // SAFETY: `p` is live, allocated with `l`, and freed once.
+            unsafe { a.dealloc(p, l) };
+        }
+    }
+
+    /// Blocks freed on another thread than the one that allocated them are kept by the
+    /// freeing thread and serve its allocations; either thread's blocks stay apart.
+    #[test]
+    #[allow(unsafe_code)]
+    fn blocks_freed_on_another_thread_serve_it() {
+        use std::alloc::{GlobalAlloc, Layout};
+        let l = Layout::from_size_align(40, 8).expect("a layout");
+        // SAFETY: a non-zero size; each block is written within its size.
+        let blocks: Vec<usize> = (0..KEEP)
+            .map(|k| unsafe {
+                let p = MiMalloc.alloc(l);
+                std::ptr::write_bytes(p, k as u8, l.size());
+                p as usize
+            })
+            .collect();
+        let theirs = blocks.clone();
+        let reused = std::thread::spawn(move || {
+            for &p in &theirs {
+                // SAFETY: each block is live, allocated with `l`, and freed once.
+                unsafe { MiMalloc.dealloc(p as *mut u8, l) };
+            }
+            // SAFETY: a non-zero size.
+            let again: Vec<usize> = (0..KEEP)
+                .map(|_| unsafe { MiMalloc.alloc(l) } as usize)
+                .collect();
+            for &p in &again {
+                // SAFETY: each block is live with `l` and freed once.
+                unsafe { MiMalloc.dealloc(p as *mut u8, l) };
+            }
+            again
+        })
+        .join()
+        .expect("the thread ends");
+        let mut a = blocks.clone();
+        let mut b = reused;
+        a.sort_unstable();
+        b.sort_unstable();
+        assert_eq!(
+            a, b,
+            "the other thread's allocations took the blocks it kept, oldest first"
+        );
+        // This thread's own allocations do not see them.
+        // SAFETY: a non-zero size; freed once.
+        unsafe {
+            let p = MiMalloc.alloc(l);
+            assert!(!blocks.contains(&(p as usize)));
+            MiMalloc.dealloc(p, l);
         }
     }
 
