@@ -96,14 +96,23 @@ const WORD: usize = std::mem::size_of::<usize>();
 /// ago. `mi_free` then reads the block's page record, and a later `mi_malloc` from its page
 /// reads the link written into the block: memory not touched for seconds. This cache neither
 /// reads nor writes a block it keeps, and hands blocks out oldest first to a new owner, who
-/// writes them before reading. Blocks of a class are the size of the class ([`class`]: every block of that
-/// class asked of mimalloc is asked at that size), so any is as good as another.
+/// writes them before reading. Blocks of a class are the size of the class ([`class`]: every
+/// block of that class asked of mimalloc is asked at that size), so any is as good as another.
+/// A thread's kept blocks go back to mimalloc when the thread ends ([`release`]).
 struct Kept {
     /// Per class, up to [`KEEP`] blocks in a ring: `first[c]` the oldest, `len[c]` of them.
     blocks: [[*mut u8; KEEP]; CLASSES],
     first: [u8; CLASSES],
     len: [u8; CLASSES],
+    /// Whether the thread keeps blocks: [`NOT_YET`] until it first frees a small block, then
+    /// [`KEEPING`] once its end will release them, or [`NEVER`] (after the release, or when
+    /// the release could not be arranged).
+    state: u8,
 }
+
+const NOT_YET: u8 = 0;
+const KEEPING: u8 = 1;
+const NEVER: u8 = 2;
 
 /// Blocks kept per class.
 const KEEP: usize = 16;
@@ -137,51 +146,114 @@ fn kept(layout: std::alloc::Layout) -> bool {
 }
 
 thread_local! {
-    /// This thread's kept blocks. No destructor: the few a thread keeps when it ends stay
-    /// allocated (at most [`KEEP`] of each class, about 20 KB).
+    /// This thread's kept blocks. Without a destructor (a global allocator may not register
+    /// one while it allocates): a thread's end releases them through a POSIX thread key
+    /// instead ([`release`]).
     static KEPT: std::cell::UnsafeCell<Kept> = const {
         std::cell::UnsafeCell::new(Kept {
             blocks: [[std::ptr::null_mut(); KEEP]; CLASSES],
             first: [0; CLASSES],
             len: [0; CLASSES],
+            state: NOT_YET,
         })
     };
 }
 
+/// Arranges for [`release`] to run when this thread ends: a POSIX thread key, made once per
+/// process, whose destructor it is, set to a non-null value on this thread. Neither call
+/// allocates through the global allocator. Whether it could be arranged (never off Unix,
+/// where threads then keep no blocks).
+#[cfg(unix)]
 #[allow(unsafe_code)]
+fn release_at_exit() -> bool {
+    static KEY: std::sync::OnceLock<Option<libc::pthread_key_t>> = std::sync::OnceLock::new();
+    let key = KEY.get_or_init(|| {
+        let mut key: libc::pthread_key_t = 0;
+        // SAFETY: `key` is written by the call; `release` has the destructor's signature.
+        (unsafe { libc::pthread_key_create(&mut key, Some(release)) } == 0).then_some(key)
+    });
+    // SAFETY: the key was made above; the value is only a non-null marker.
+    key.is_some_and(
+        |key| unsafe { libc::pthread_setspecific(key, std::ptr::dangling::<libc::c_void>()) } == 0,
+    )
+}
+
+#[cfg(not(unix))]
+fn release_at_exit() -> bool {
+    false
+}
+
+/// Gives a thread's kept blocks back to mimalloc as the thread ends (the thread key's
+/// destructor), after which the thread keeps none.
+#[cfg(unix)]
+#[allow(unsafe_code)]
+unsafe extern "C" fn release(_: *mut libc::c_void) {
+    let _ = KEPT.try_with(|k| {
+        // SAFETY: only this thread reaches its `Kept`, and no call here reenters (`mi_free`
+        // does not allocate).
+        let k = unsafe { &mut *k.get() };
+        k.state = NEVER;
+        for c in 0..CLASSES {
+            while let Some(p) = k.pop(c) {
+                #[cfg(test)]
+                tests::released(p);
+                // SAFETY: a kept block is live and owned by the ring alone.
+                unsafe { libmimalloc_sys::mi_free(p.cast()) };
+            }
+        }
+    });
+}
+
 impl Kept {
-    /// The oldest kept block of class `c`, if any.
+    /// Takes the oldest block of class `c`, if any.
     #[inline]
-    fn take(c: usize) -> Option<*mut u8> {
-        KEPT.try_with(|k| {
-            // SAFETY: only this thread reaches its `Kept`, and no call here reenters.
-            let k = unsafe { &mut *k.get() };
-            (k.len[c] > 0).then(|| {
-                let at = k.first[c] as usize;
-                k.first[c] = ((at + 1) % KEEP) as u8;
-                k.len[c] -= 1;
-                k.blocks[c][at]
-            })
+    fn pop(&mut self, c: usize) -> Option<*mut u8> {
+        (self.len[c] > 0).then(|| {
+            let at = self.first[c] as usize;
+            self.first[c] = ((at + 1) % KEEP) as u8;
+            self.len[c] -= 1;
+            self.blocks[c][at]
         })
-        .ok()
-        .flatten()
     }
 
-    /// Keeps `p`, a block of class `c`, unless the class has [`KEEP`] already.
+    /// Keeps `p`, a block of class `c`, unless the class has [`KEEP`] already or the thread
+    /// keeps none; the thread's first block kept arranges the release at its end.
     #[inline]
+    fn push(&mut self, c: usize, p: *mut u8) -> bool {
+        if self.state != KEEPING {
+            if self.state == NEVER || !release_at_exit() {
+                self.state = NEVER;
+                return false;
+            }
+            self.state = KEEPING;
+        }
+        let n = self.len[c] as usize;
+        if n == KEEP {
+            return false;
+        }
+        self.blocks[c][(self.first[c] as usize + n) % KEEP] = p;
+        self.len[c] += 1;
+        true
+    }
+
+    /// The oldest block of class `c` this thread keeps, if any.
+    #[inline]
+    #[allow(unsafe_code)]
+    fn take(c: usize) -> Option<*mut u8> {
+        // SAFETY: only this thread reaches its `Kept`, and no call here reenters.
+        KEPT.try_with(|k| unsafe { &mut *k.get() }.pop(c))
+            .ok()
+            .flatten()
+    }
+
+    /// Keeps `p`, a block of class `c`, on this thread if it can ([`Kept::push`]).
+    #[inline]
+    #[allow(unsafe_code)]
     fn keep(c: usize, p: *mut u8) -> bool {
-        KEPT.try_with(|k| {
-            // SAFETY: only this thread reaches its `Kept`, and no call here reenters.
-            let k = unsafe { &mut *k.get() };
-            let n = k.len[c] as usize;
-            (n < KEEP).then(|| {
-                k.blocks[c][(k.first[c] as usize + n) % KEEP] = p;
-                k.len[c] += 1;
-            })
-        })
-        .ok()
-        .flatten()
-        .is_some()
+        // SAFETY: only this thread reaches its `Kept`; `push` allocates nothing through the
+        // global allocator (`release_at_exit`), so no call here reenters.
+        KEPT.try_with(|k| unsafe { &mut *k.get() }.push(c, p))
+            .unwrap_or(false)
     }
 }
 
@@ -398,7 +470,7 @@ mod tests {
     }
 
     /// Blocks freed on another thread than the one that allocated them are kept by the
-    /// freeing thread and serve its allocations; either thread's blocks stay apart.
+    /// freeing thread and serve its allocations.
     #[test]
     #[allow(unsafe_code)]
     fn blocks_freed_on_another_thread_serve_it() {
@@ -436,15 +508,49 @@ mod tests {
         b.sort_unstable();
         assert_eq!(
             a, b,
-            "the other thread's allocations took the blocks it kept, oldest first"
+            "the other thread's allocations took the blocks it kept"
         );
-        // This thread's own allocations do not see them.
-        // SAFETY: a non-zero size; freed once.
-        unsafe {
-            let p = MiMalloc.alloc(l);
-            assert!(!blocks.contains(&(p as usize)));
-            MiMalloc.dealloc(p, l);
-        }
+    }
+
+    /// Blocks [`release`] gave back to mimalloc, in the tests.
+    #[cfg(unix)]
+    static RELEASED: std::sync::Mutex<Vec<usize>> = std::sync::Mutex::new(Vec::new());
+
+    #[cfg(unix)]
+    pub(super) fn released(p: *mut u8) {
+        RELEASED
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .push(p as usize);
+    }
+
+    /// The blocks a thread keeps go back to mimalloc when it ends.
+    #[cfg(unix)]
+    #[test]
+    #[allow(unsafe_code)]
+    fn a_threads_kept_blocks_go_back_when_it_ends() {
+        use std::alloc::{GlobalAlloc, Layout};
+        let l = Layout::from_size_align(200, 8).expect("a layout");
+        let kept = std::thread::spawn(move || {
+            // SAFETY: a non-zero size.
+            let blocks: Vec<usize> = (0..KEEP)
+                .map(|_| unsafe { MiMalloc.alloc(l) } as usize)
+                .collect();
+            for &p in &blocks {
+                // SAFETY: each block is live, allocated with `l`, and freed once.
+                unsafe { MiMalloc.dealloc(p as *mut u8, l) };
+            }
+            blocks
+        })
+        .join()
+        .expect("the thread ends");
+        let released = RELEASED
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        assert!(
+            kept.iter().all(|p| released.contains(p)),
+            "every kept block released"
+        );
     }
 
     #[test]
