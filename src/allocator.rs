@@ -117,6 +117,8 @@ const NEVER: u8 = 2;
 /// Blocks kept per class.
 const KEEP: usize = 16;
 
+use nekosim_actors::world::prefetch::{note_small_block, SMALL_BLOCK_MAX};
+
 /// Classes of blocks kept: the sizes of mimalloc's own up to 256 bytes.
 const CLASSES: usize = 13;
 
@@ -271,7 +273,11 @@ unsafe impl std::alloc::GlobalAlloc for MiMalloc {
         unsafe {
             if kept(layout) {
                 let (c, size) = class(layout.size());
-                Kept::take(c).unwrap_or_else(|| libmimalloc_sys::mi_malloc(size).cast())
+                let p = Kept::take(c).unwrap_or_else(|| libmimalloc_sys::mi_malloc(size).cast());
+                if size <= SMALL_BLOCK_MAX {
+                    note_small_block(p as usize);
+                }
+                p
             } else if layout.align() <= WORD {
                 libmimalloc_sys::mi_malloc(layout.size()).cast()
             } else {
@@ -324,6 +330,33 @@ unsafe impl std::alloc::GlobalAlloc for MiMalloc {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each block of at most `SMALL_BLOCK_MAX` bytes handed out, fresh or kept, is noted for
+    /// the scheduler's look-ahead into robots' mailboxes, and no larger one is.
+    #[test]
+    #[allow(unsafe_code)]
+    fn small_blocks_are_noted() {
+        use nekosim_actors::world::prefetch::take_small_block;
+        use std::alloc::{GlobalAlloc, Layout};
+        let a = MiMalloc;
+        for size in 1..=2 * SMALL_BLOCK_MAX {
+            let layout = Layout::from_size_align(size, 8).expect("a layout");
+            for round in 0..3 {
+                take_small_block();
+                // SAFETY: a non-zero size; the block is freed once with its layout, and is
+                // kept for the next round's allocation.
+                let p = unsafe { a.alloc(layout) };
+                let noted = take_small_block();
+                if size <= SMALL_BLOCK_MAX {
+                    assert_eq!(noted, p as usize, "{size} bytes, round {round}");
+                } else {
+                    assert_eq!(noted, 0, "{size} bytes, round {round}");
+                }
+                // SAFETY: as above.
+                unsafe { a.dealloc(p, layout) };
+            }
+        }
+    }
 
     /// Blocks of every alignment up to a page, and of sizes that are not multiples of it, come
     /// back aligned, keep their bytes when grown and shrunk, and are zero when asked so.

@@ -27,7 +27,9 @@ pub use robot::{Algorithm, AlgorithmFuture, MotionEnd, Received, Robot};
 pub use simulation::{run, run_then_exit, Comms, Fault, SimConfig, SimError};
 
 /// The unit tests' allocator: the system's, counting each thread's allocations, for the tests
-/// that a hot path allocates nothing (issue 17).
+/// that a hot path allocates nothing (issue 17), noting small blocks as the binary's allocator
+/// does ([`crate::world::prefetch::note_small_block`]) and telling whether a block watched
+/// was freed.
 #[cfg(test)]
 #[allow(unsafe_code)]
 pub(crate) mod allocations {
@@ -47,14 +49,33 @@ pub(crate) mod allocations {
         COUNT.with(Cell::get)
     }
 
+    thread_local! {
+        /// A block whose freeing on this thread is looked for ([`watch`]), and whether it was.
+        static WATCHED: Cell<(usize, bool)> = const { Cell::new((0, false)) };
+    }
+
+    /// Looks for the freeing of the block at `addr` on this thread from now on.
+    pub(crate) fn watch(addr: usize) {
+        WATCHED.with(|w| w.set((addr, false)));
+    }
+
+    /// Whether the block watched was freed on this thread since [`watch`].
+    pub(crate) fn watched_freed() -> bool {
+        WATCHED.with(|w| w.get().1)
+    }
+
     struct Counting;
 
-    // SAFETY: every call goes to the system allocator unchanged; counting touches a
-    // thread-local cell only, which allocates nothing and has no destructor.
+    // SAFETY: every call goes to the system allocator unchanged; counting, noting and watching
+    // touch thread-local cells only, which allocate nothing and have no destructor.
     unsafe impl GlobalAlloc for Counting {
         unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
             count();
-            unsafe { System.alloc(layout) }
+            let p = unsafe { System.alloc(layout) };
+            if layout.size() <= crate::world::prefetch::SMALL_BLOCK_MAX {
+                crate::world::prefetch::note_small_block(p as usize);
+            }
+            p
         }
         unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
             count();
@@ -65,6 +86,11 @@ pub(crate) mod allocations {
             unsafe { System.realloc(ptr, layout, new_size) }
         }
         unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            let _ = WATCHED.try_with(|w| {
+                if w.get().0 == ptr as usize {
+                    w.set((ptr as usize, true));
+                }
+            });
             unsafe { System.dealloc(ptr, layout) }
         }
     }

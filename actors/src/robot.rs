@@ -721,14 +721,32 @@ pub struct RobotActor {
 /// future are cold memory on every event it handles. The robot writes the addresses when it
 /// starts and when its algorithm starts; the scheduler only ever prefetches them
 /// ([`crate::world::prefetch::prefetch_at`]), so a stale or missing one changes nothing.
+///
+/// The scheduler also notes, each time it sends a robot an event, where the message's node in
+/// the robot's mailbox is ([`Whereabouts::set_node`]): actix's queue keeps the last node taken
+/// out as its end, so the robot's next message reads that node when it is sent and again when
+/// it is taken out.
 #[derive(Debug)]
-pub struct Whereabouts(Box<[[std::sync::atomic::AtomicUsize; 4]]>);
+pub struct Whereabouts(Box<[Entry]>);
+
+/// A robot's entry: one cache line.
+#[derive(Debug, Default)]
+#[repr(align(64))]
+struct Entry([std::sync::atomic::AtomicUsize; 5]);
+
+impl std::ops::Index<usize> for Entry {
+    type Output = std::sync::atomic::AtomicUsize;
+    fn index(&self, what: usize) -> &Self::Output {
+        &self.0[what]
+    }
+}
 
 /// What a [`Whereabouts`] entry holds, in order.
 const MAILBOX: usize = 0;
 const ACTOR: usize = 1;
 const SHARED: usize = 2;
 const FUTURE: usize = 3;
+const NODE: usize = 4;
 
 impl Whereabouts {
     /// Room for `n` robots, none known yet.
@@ -761,6 +779,12 @@ impl Whereabouts {
         self.set(id, MAILBOX, at.0);
     }
 
+    /// Notes where the node of the message just sent to the robot is: `addr`, the last small
+    /// block allocated ([`crate::world::prefetch::take_small_block`]), or `0` when unknown.
+    pub fn set_node(&self, id: RobotId, addr: usize) {
+        self.set(id, NODE, addr);
+    }
+
     /// Stage one of the look-ahead: asks for the robot's entry.
     pub fn prefetch_entry(&self, id: RobotId) {
         if let Some(e) = self.0.get(id as usize) {
@@ -790,6 +814,10 @@ impl Whereabouts {
         }
         if at(FUTURE) != 0 {
             prefetch_at(at(FUTURE), 256);
+        }
+        // The mailbox's end: the node of the last message sent to the robot.
+        if at(NODE) != 0 {
+            prefetch_at(at(NODE), 24);
         }
     }
 }
@@ -1251,6 +1279,67 @@ mod tests {
                 .collect();
             assert_eq!(drawn[k], expected, "stream {k}");
         }
+    }
+
+    /// What the scheduler's note of a robot's mailbox node rests on ([`Whereabouts::set_node`]):
+    /// the last small block allocated while a message is sent to an actor is the mailbox's
+    /// node of that message, which stays allocated while the actor handles it and is freed
+    /// when the actor's next message is taken out.
+    #[test]
+    fn the_block_noted_at_a_send_is_freed_by_the_next_message() {
+        use crate::world::prefetch::take_small_block;
+        struct Sink(Rc<std::cell::Cell<u64>>);
+        impl Actor for Sink {
+            type Context = Context<Self>;
+        }
+        struct Ping;
+        impl Message for Ping {
+            type Result = ();
+        }
+        impl Handler<Ping> for Sink {
+            type Result = ();
+            fn handle(&mut self, _: Ping, _: &mut Context<Self>) {
+                self.0.set(self.0.get() + 1);
+            }
+        }
+        let handled = Rc::new(std::cell::Cell::new(0));
+        let seen = handled.clone();
+        System::new().block_on(async move {
+            let sink = Sink(seen).start();
+            let settle = || async {
+                for _ in 0..8 {
+                    tokio::task::yield_now().await;
+                }
+            };
+            settle().await;
+            let mut last = 0;
+            for round in 1..=4 {
+                take_small_block();
+                sink.do_send(Ping);
+                let node = take_small_block();
+                assert_ne!(node, 0, "round {round}: no block noted");
+                if round > 1 {
+                    assert!(!crate::allocations::watched_freed(), "round {round}: freed early");
+                }
+                settle().await;
+                assert_eq!(handled.get(), round, "round {round}: the message was handled");
+                if round > 1 {
+                    assert!(
+                        crate::allocations::watched_freed(),
+                        "round {round}: the last message's node was not freed"
+                    );
+                }
+                assert_ne!(node, last);
+                crate::allocations::watch(node);
+                last = node;
+                assert!(!crate::allocations::watched_freed());
+                settle().await;
+                assert!(
+                    !crate::allocations::watched_freed(),
+                    "round {round}: freed with no message after it"
+                );
+            }
+        });
     }
 
     /// A started robot tells where its actor, shared state, algorithm future and mailbox are:

@@ -754,7 +754,12 @@ impl Scheduler {
         self.in_flight = Some(target);
         // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
         match target {
-            Target::Robot(r) => self.routes.robots[r as usize].do_send(deliver),
+            Target::Robot(r) => {
+                crate::world::prefetch::take_small_block();
+                self.routes.robots[r as usize].do_send(deliver);
+                let node = crate::world::prefetch::take_small_block();
+                self.routes.whereabouts.set_node(r, node);
+            }
             _ => self.route(target).do_send(deliver),
         }
     }
