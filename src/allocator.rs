@@ -117,7 +117,7 @@ const NEVER: u8 = 2;
 /// Blocks kept per class.
 const KEEP: usize = 16;
 
-use nekosim_actors::world::prefetch::{note_small_block, SMALL_BLOCK_MAX};
+use nekosim_actors::world::prefetch::note_small_block;
 
 /// Classes of blocks kept: the sizes of mimalloc's own up to 256 bytes.
 const CLASSES: usize = 13;
@@ -274,9 +274,7 @@ unsafe impl std::alloc::GlobalAlloc for MiMalloc {
             if kept(layout) {
                 let (c, size) = class(layout.size());
                 let p = Kept::take(c).unwrap_or_else(|| libmimalloc_sys::mi_malloc(size).cast());
-                if size <= SMALL_BLOCK_MAX {
-                    note_small_block(p as usize);
-                }
+                note_small_block(layout.size(), p as usize);
                 p
             } else if layout.align() <= WORD {
                 libmimalloc_sys::mi_malloc(layout.size()).cast()
@@ -291,7 +289,9 @@ unsafe impl std::alloc::GlobalAlloc for MiMalloc {
         // SAFETY: see the impl.
         unsafe {
             if kept(layout) {
-                libmimalloc_sys::mi_zalloc(class(layout.size()).1).cast()
+                let p = libmimalloc_sys::mi_zalloc(class(layout.size()).1).cast();
+                note_small_block(layout.size(), p as usize);
+                p
             } else if layout.align() <= WORD {
                 libmimalloc_sys::mi_zalloc(layout.size()).cast()
             } else {
@@ -331,29 +331,39 @@ unsafe impl std::alloc::GlobalAlloc for MiMalloc {
 mod tests {
     use super::*;
 
-    /// Each block of at most `SMALL_BLOCK_MAX` bytes handed out, fresh or kept, is noted for
-    /// the scheduler's look-ahead into robots' mailboxes, and no larger one is.
+    /// Each block of at most 32 bytes handed out, fresh, kept or zeroed, is noted for the scheduler's
+    /// look-ahead into robots' mailboxes, among those of at most 16 bytes if it is one, and
+    /// no larger one is.
     #[test]
     #[allow(unsafe_code)]
     fn small_blocks_are_noted() {
         use nekosim_actors::world::prefetch::take_small_block;
         use std::alloc::{GlobalAlloc, Layout};
         let a = MiMalloc;
-        for size in 1..=2 * SMALL_BLOCK_MAX {
+        for size in 1..=64 {
             let layout = Layout::from_size_align(size, 8).expect("a layout");
-            for round in 0..3 {
-                take_small_block();
+            for round in 0..4 {
+                take_small_block(16);
+                take_small_block(32);
                 // SAFETY: a non-zero size; the block is freed once with its layout, and is
-                // kept for the next round's allocation.
-                let p = unsafe { a.alloc(layout) };
-                let noted = take_small_block();
-                if size <= SMALL_BLOCK_MAX {
-                    assert_eq!(noted, p as usize, "{size} bytes, round {round}");
-                } else {
-                    assert_eq!(noted, 0, "{size} bytes, round {round}");
-                }
+                // kept for the next round's allocation. Every other round asks for zeros (a
+                // compiler turns an allocation written with zeros into one).
+                let p = unsafe {
+                    if round % 2 == 0 {
+                        a.alloc(layout)
+                    } else {
+                        a.alloc_zeroed(layout)
+                    }
+                } as usize;
+                let noted = [take_small_block(16), take_small_block(32)];
+                let expected = match size {
+                    ..=16 => [p, p],
+                    17..=32 => [0, p],
+                    _ => [0, 0],
+                };
+                assert_eq!(noted, expected, "{size} bytes, round {round}");
                 // SAFETY: as above.
-                unsafe { a.dealloc(p, layout) };
+                unsafe { a.dealloc(p as *mut u8, layout) };
             }
         }
     }

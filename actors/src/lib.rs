@@ -38,10 +38,17 @@ pub(crate) mod allocations {
 
     thread_local! {
         static COUNT: Cell<u64> = const { Cell::new(0) };
+        /// Of them, blocks of at most 16 bytes.
+        static TINY: Cell<u64> = const { Cell::new(0) };
     }
 
     fn count() {
         let _ = COUNT.try_with(|c| c.set(c.get() + 1));
+    }
+
+    /// Allocations of at most 16 bytes made on this thread so far.
+    pub(crate) fn tiny_on_this_thread() -> u64 {
+        TINY.with(Cell::get)
     }
 
     /// Allocations made on this thread so far.
@@ -71,15 +78,21 @@ pub(crate) mod allocations {
     unsafe impl GlobalAlloc for Counting {
         unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
             count();
-            let p = unsafe { System.alloc(layout) };
-            if layout.size() <= crate::world::prefetch::SMALL_BLOCK_MAX {
-                crate::world::prefetch::note_small_block(p as usize);
+            if layout.size() <= 16 {
+                let _ = TINY.try_with(|c| c.set(c.get() + 1));
             }
+            let p = unsafe { System.alloc(layout) };
+            crate::world::prefetch::note_small_block(layout.size(), p as usize);
             p
         }
         unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
             count();
-            unsafe { System.alloc_zeroed(layout) }
+            if layout.size() <= 16 {
+                let _ = TINY.try_with(|c| c.set(c.get() + 1));
+            }
+            let p = unsafe { System.alloc_zeroed(layout) };
+            crate::world::prefetch::note_small_block(layout.size(), p as usize);
+            p
         }
         unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
             count();

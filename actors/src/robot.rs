@@ -732,7 +732,7 @@ pub struct Whereabouts(Box<[Entry]>);
 /// A robot's entry: one cache line.
 #[derive(Debug, Default)]
 #[repr(align(64))]
-struct Entry([std::sync::atomic::AtomicUsize; 5]);
+struct Entry([std::sync::atomic::AtomicUsize; 7]);
 
 impl std::ops::Index<usize> for Entry {
     type Output = std::sync::atomic::AtomicUsize;
@@ -747,6 +747,35 @@ const ACTOR: usize = 1;
 const SHARED: usize = 2;
 const FUTURE: usize = 3;
 const NODE: usize = 4;
+const PARKED: usize = 5;
+const TASK: usize = 6;
+
+/// How far a robot actor lies after the header of the task that runs it [bytes], `0` until
+/// a robot measured it ([`TaskProbe`]): the same for every robot actor, whose tasks are all
+/// of one type.
+static TASK_OFFSET: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// Measures, once the first robot actor runs, where the header of its task is: what the task's
+/// waker points to, read when an event wakes the robot and cold at a million robots unless
+/// asked for ahead. Every later robot derives its own from where it is ([`TASK_OFFSET`]).
+struct TaskProbe;
+
+impl ActorFuture<RobotActor> for TaskProbe {
+    type Output = ();
+
+    fn poll(
+        self: Pin<&mut Self>,
+        actor: &mut RobotActor,
+        _: &mut Context<RobotActor>,
+        task: &mut TaskContext<'_>,
+    ) -> Poll<()> {
+        let header = task.waker().data() as usize;
+        let offset = (actor as *const RobotActor as usize).wrapping_sub(header);
+        TASK_OFFSET.store(offset, std::sync::atomic::Ordering::Relaxed);
+        actor.tell(TASK, header);
+        Poll::Ready(())
+    }
+}
 
 impl Whereabouts {
     /// Room for `n` robots, none known yet.
@@ -785,6 +814,13 @@ impl Whereabouts {
         self.set(id, NODE, addr);
     }
 
+    /// Notes where the end of the robot's mailbox's queue of parked senders is: `addr`, the
+    /// last block of at most 16 bytes allocated while the robot actor was started
+    /// ([`crate::world::prefetch::take_small_block`]), or `0` when unknown.
+    pub fn set_parked(&self, id: RobotId, addr: usize) {
+        self.set(id, PARKED, addr);
+    }
+
     /// Stage one of the look-ahead: asks for the robot's entry.
     pub fn prefetch_entry(&self, id: RobotId) {
         if let Some(e) = self.0.get(id as usize) {
@@ -815,9 +851,17 @@ impl Whereabouts {
         if at(FUTURE) != 0 {
             prefetch_at(at(FUTURE), 256);
         }
-        // The mailbox's end: the node of the last message sent to the robot.
+        // The mailbox's ends: the node of the last message sent to the robot, and that of
+        // the queue of parked senders.
         if at(NODE) != 0 {
             prefetch_at(at(NODE), 24);
+        }
+        if at(PARKED) != 0 {
+            prefetch_at(at(PARKED), 16);
+        }
+        // The header of the robot's task, which the event's sending wakes.
+        if at(TASK) != 0 {
+            prefetch_at(at(TASK), 64);
         }
     }
 }
@@ -876,10 +920,18 @@ impl RobotActor {
 impl Actor for RobotActor {
     type Context = Context<Self>;
 
-    fn started(&mut self, _: &mut Self::Context) {
+    fn started(&mut self, ctx: &mut Self::Context) {
         // Started: the actor does not move any more.
         self.tell(ACTOR, self as *const Self as usize);
         self.tell(SHARED, Rc::as_ptr(&self.handle.shared) as usize);
+        if self.whereabouts.is_some() {
+            match TASK_OFFSET.load(std::sync::atomic::Ordering::Relaxed) {
+                0 => {
+                    ctx.spawn(TaskProbe);
+                }
+                offset => self.tell(TASK, (self as *const Self as usize).wrapping_sub(offset)),
+            }
+        }
     }
 }
 
@@ -1314,15 +1366,22 @@ mod tests {
             settle().await;
             let mut last = 0;
             for round in 1..=4 {
-                take_small_block();
+                take_small_block(32);
                 sink.do_send(Ping);
-                let node = take_small_block();
+                let node = take_small_block(32);
                 assert_ne!(node, 0, "round {round}: no block noted");
                 if round > 1 {
-                    assert!(!crate::allocations::watched_freed(), "round {round}: freed early");
+                    assert!(
+                        !crate::allocations::watched_freed(),
+                        "round {round}: freed early"
+                    );
                 }
                 settle().await;
-                assert_eq!(handled.get(), round, "round {round}: the message was handled");
+                assert_eq!(
+                    handled.get(),
+                    round,
+                    "round {round}: the message was handled"
+                );
                 if round > 1 {
                     assert!(
                         crate::allocations::watched_freed(),
@@ -1396,6 +1455,106 @@ mod tests {
     }
 
     /// Runs a closure on a started robot actor, in its handler.
+    /// Asks a robot actor where the header of its task is: what the waker it is polled with
+    /// points to.
+    struct TaskHeader;
+
+    impl Message for TaskHeader {
+        type Result = usize;
+    }
+
+    struct WakerData;
+
+    impl ActorFuture<RobotActor> for WakerData {
+        type Output = usize;
+        fn poll(
+            self: Pin<&mut Self>,
+            _: &mut RobotActor,
+            _: &mut Context<RobotActor>,
+            task: &mut TaskContext<'_>,
+        ) -> Poll<usize> {
+            Poll::Ready(task.waker().data() as usize)
+        }
+    }
+
+    impl Handler<TaskHeader> for RobotActor {
+        type Result = ResponseActFuture<Self, usize>;
+        fn handle(&mut self, _: TaskHeader, _: &mut Context<Self>) -> Self::Result {
+            Box::pin(WakerData)
+        }
+    }
+
+    /// Started robots tell where their tasks' headers are, as their wakers show them (the
+    /// first measured, the others derived from where they are), and where the ends of their
+    /// mailboxes' queues of parked senders are: the one block of at most 16 bytes a start
+    /// allocates, which lives as long as the mailbox, freed when it goes and not while
+    /// messages come and go.
+    #[test]
+    fn robots_tell_where_their_tasks_and_parked_queues_are() {
+        use crate::world::prefetch::take_small_block;
+        use std::sync::atomic::Ordering::Relaxed;
+        const N: usize = 4;
+        let w = std::sync::Arc::new(Whereabouts::new(N));
+        let at = |id: usize, what: usize| w.0[id][what].load(Relaxed);
+        let info = |id| RobotInfo {
+            id,
+            count: N,
+            radius: 5.0,
+            world: WorldSize::Infinite,
+        };
+        let headers = System::new().block_on(async {
+            let settle = || async {
+                for _ in 0..8 {
+                    tokio::task::yield_now().await;
+                }
+            };
+            let mut robots = Vec::new();
+            for id in 0..N {
+                take_small_block(16);
+                let tiny = crate::allocations::tiny_on_this_thread();
+                let a = RobotActor::new(
+                    info(id as RobotId),
+                    Box::new(Sleeper),
+                    7,
+                    Default::default(),
+                )
+                .telling(w.clone())
+                .start();
+                w.set_parked(id as RobotId, take_small_block(16));
+                // The end of the queue of parked senders is the only block this small.
+                let made = crate::allocations::tiny_on_this_thread() - tiny;
+                assert_eq!(made, 1, "robot {id}: {made} blocks of at most 16 bytes");
+                robots.push(a);
+            }
+            let mut headers = Vec::new();
+            for a in &robots {
+                headers.push(a.send(TaskHeader).await.expect("answered"));
+            }
+            crate::allocations::watch(at(0, PARKED));
+            for _ in 0..5 {
+                robots[0].do_send(TaskHeader);
+                settle().await;
+            }
+            assert!(!crate::allocations::watched_freed(), "freed while in use");
+            drop(robots);
+            settle().await;
+            assert!(
+                crate::allocations::watched_freed(),
+                "not freed with the mailbox"
+            );
+            headers
+        });
+        for (id, &header) in headers.iter().enumerate() {
+            assert_ne!(header, 0);
+            assert_eq!(at(id, TASK), header, "robot {id}");
+            assert_ne!(at(id, PARKED), 0, "robot {id}");
+            for (other, &before) in headers[..id].iter().enumerate() {
+                assert_ne!(before, header);
+                assert_ne!(at(other, PARKED), at(id, PARKED));
+            }
+        }
+    }
+
     struct Probe(Box<dyn FnOnce(&mut RobotActor) + Send>);
 
     impl Message for Probe {

@@ -755,9 +755,9 @@ impl Scheduler {
         // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
         match target {
             Target::Robot(r) => {
-                crate::world::prefetch::take_small_block();
+                crate::world::prefetch::take_small_block(32);
                 self.routes.robots[r as usize].do_send(deliver);
-                let node = crate::world::prefetch::take_small_block();
+                let node = crate::world::prefetch::take_small_block(32);
                 self.routes.whereabouts.set_node(r, node);
             }
             _ => self.route(target).do_send(deliver),

@@ -16,6 +16,7 @@ use crate::sensor_manager::SensorManager;
 use crate::world::event::Outbox;
 use crate::world::event::{EventClass, Payload, Target};
 use crate::world::network::{Network, Networks, Partition};
+use crate::world::prefetch::take_small_block;
 use crate::world::sensor::Sensors;
 use crate::world::virtual_world::{RobotSpec, Sensing, VirtualWorld, WorldConfig, WorldError};
 use crate::world::RobotId;
@@ -312,9 +313,14 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                     // This thread's arbiter: started in place, without a closure sent over the
                     // arbiter's queue and a task to run it (at 1M robots, both held until the
                     // system ran).
-                    RobotActor::new(info, algorithm, seed, ids)
-                        .telling(w)
-                        .start()
+                    // The end of the mailbox's queue of parked senders is its last block
+                    // of at most 16 bytes ([`Whereabouts::set_parked`]).
+                    take_small_block(16);
+                    let addr = RobotActor::new(info, algorithm, seed, ids)
+                        .telling(w.clone())
+                        .start();
+                    w.set_parked(info.id, take_small_block(16));
+                    addr
                 } else {
                     RobotActor::start_in_arbiter(&arbiter_of(info.id), move |_| {
                         RobotActor::new(info, algorithm, seed, ids).telling(w)

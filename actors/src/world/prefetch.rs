@@ -38,30 +38,47 @@ pub fn prefetch_at(addr: usize, bytes: usize) {
 }
 
 thread_local! {
-    /// The last small block the global allocator handed out on this thread, if it says so
-    /// ([`note_small_block`]); `0` when none was noted since [`take_small_block`].
-    static SMALL_BLOCK: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+    /// The last blocks of at most 16 and at most 32 bytes the global allocator handed out on
+    /// this thread, if it says so ([`note_small_block`]); `0` for none since the last
+    /// [`take_small_block`] of that size.
+    static SMALL_BLOCKS: std::cell::Cell<[usize; 2]> = const { std::cell::Cell::new([0; 2]) };
 }
 
 /// The largest block [bytes] whose address a global allocator notes ([`note_small_block`]):
-/// an actix mailbox's queue node (a link and a message's box, 24 bytes).
+/// an actix mailbox's queue node of a message (a link and the message's box, 24 bytes).
 pub const SMALL_BLOCK_MAX: usize = 32;
 
-/// Notes the address of a block of at most [`SMALL_BLOCK_MAX`] bytes just handed out on this
-/// thread. For a global allocator to call (the `nekosim` binary's and benches' one does): it
-/// neither allocates nor registers a destructor. Only a hint, like a prefetch: an allocator
-/// that never calls it leaves the look-ahead without the nodes ([`take_small_block`]).
+/// Notes the address of a block of `size` bytes just handed out on this thread (nothing if
+/// `size` is over [`SMALL_BLOCK_MAX`]). For a global allocator to call (the `nekosim`
+/// binary's and benches' one does): it neither allocates nor registers a destructor. Only a
+/// hint, like a prefetch: an allocator that never calls it leaves the look-ahead without the
+/// mailboxes' nodes ([`take_small_block`]).
 #[inline]
-pub fn note_small_block(addr: usize) {
-    let _ = SMALL_BLOCK.try_with(|b| b.set(addr));
+pub fn note_small_block(size: usize, addr: usize) {
+    if size <= SMALL_BLOCK_MAX {
+        let _ = SMALL_BLOCKS.try_with(|b| {
+            let [tiny, _] = b.get();
+            b.set([if size <= 16 { addr } else { tiny }, addr]);
+        });
+    }
 }
 
-/// The address of the last small block noted on this thread since the last call, or `0`.
-/// The scheduler asks it right after sending an event to a robot actor: the block is then
-/// the mailbox's node of that message, which the robot's next message reads when it is sent
-/// and when it is taken out (actix's queue keeps the last node taken as its end), cold at a
-/// million robots unless asked for ahead.
+/// The address of the last block of at most `max` bytes (16 or 32) noted on this thread
+/// since the last such call, or `0`. Right after sending an event to a robot actor, the last
+/// of at most 32 bytes is the mailbox's node of that message, which the robot's next message
+/// reads when it is sent and when it is taken out (actix's queue keeps the last node taken
+/// out as its end). Right after starting a robot actor, the last of at most 16 bytes is the
+/// end of its mailbox's queue of parked senders, which stays empty and is read each time a
+/// message is taken out. Both are cold at a million robots unless asked for ahead.
 #[inline]
-pub fn take_small_block() -> usize {
-    SMALL_BLOCK.try_with(|b| b.replace(0)).unwrap_or(0)
+pub fn take_small_block(max: usize) -> usize {
+    let k = usize::from(max > 16);
+    SMALL_BLOCKS
+        .try_with(|b| {
+            let mut v = b.get();
+            let addr = std::mem::replace(&mut v[k], 0);
+            b.set(v);
+            addr
+        })
+        .unwrap_or(0)
 }
