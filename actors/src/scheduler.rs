@@ -754,12 +754,15 @@ impl Scheduler {
         self.in_flight = Some(target);
         // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
         match target {
-            Target::Robot(r) => {
+            // Where the message's node in the robot's mailbox is, for the look-ahead when it
+            // runs ([`crate::robot::Whereabouts::set_node`]).
+            Target::Robot(r) if deliver.look_ahead => {
                 crate::world::prefetch::take_small_block(32);
                 self.routes.robots[r as usize].do_send(deliver);
                 let node = crate::world::prefetch::take_small_block(32);
                 self.routes.whereabouts.set_node(r, node);
             }
+            Target::Robot(r) => self.routes.robots[r as usize].do_send(deliver),
             _ => self.route(target).do_send(deliver),
         }
     }
