@@ -221,8 +221,16 @@ impl Pairs {
         }
     }
 
+    /// Takes the pair events with `partner` out. A table that fits inline again goes back
+    /// inline: kept on the heap, it was a cache miss of its own at every look at a million
+    /// robots, and more robots' tables had spilled the longer a run went (issue 17).
     fn remove(&mut self, partner: &RobotId) -> Option<PairEvents> {
-        self.find(*partner).ok().map(|i| self.0.remove(i).1)
+        let i = self.find(*partner).ok()?;
+        let ids = self.0.remove(i).1;
+        if self.0.spilled() && self.0.len() <= self.0.inline_size() {
+            self.0.shrink_to_fit();
+        }
+        Some(ids)
     }
 
     /// Takes every partner's events out, in partner order, keeping the table's room: a robot
@@ -495,7 +503,9 @@ impl VirtualWorld {
             ids.into_iter().for_each(|h| self.drop_handle(h, out));
             self.robots[p as usize].pairs.remove(&id);
         }
-        self.robots[id as usize].pairs = pairs;
+        if !pairs.0.spilled() {
+            self.robots[id as usize].pairs = pairs;
+        }
     }
 
     /// Cancels every conditional event that depends on `id`'s path.
@@ -899,4 +909,39 @@ fn schedule_contact(
             at: contact,
         },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A robot's partner table that spilled to the heap goes back inline once it fits again,
+    /// its partners still in order with their events.
+    #[test]
+    fn a_spilled_partner_table_goes_back_inline_when_it_fits() {
+        let h = |k: RobotId| Handle {
+            id: EventId {
+                cause: u64::from(k),
+                index: 0,
+            },
+            slot: k,
+        };
+        let mut pairs = Pairs::default();
+        for partner in [7, 3, 9, 5] {
+            pairs.insert(partner, smallvec::smallvec![h(partner)]);
+        }
+        assert!(pairs.0.spilled());
+        let listed = |p: &Pairs| -> Vec<(RobotId, u32)> {
+            p.0.iter().map(|(r, ids)| (*r, ids[0].slot)).collect()
+        };
+        assert_eq!(listed(&pairs), [(3, 3), (5, 5), (7, 7), (9, 9)]);
+        assert_eq!(pairs.remove(&3).map(|ids| ids[0].slot), Some(3));
+        assert!(pairs.0.spilled(), "three do not fit inline");
+        assert!(pairs.remove(&4).is_none());
+        assert_eq!(pairs.remove(&9).map(|ids| ids[0].slot), Some(9));
+        assert!(!pairs.0.spilled(), "two fit inline");
+        assert_eq!(listed(&pairs), [(5, 5), (7, 7)]);
+        pairs.insert(6, smallvec::smallvec![h(6)]);
+        assert_eq!(listed(&pairs), [(5, 5), (6, 6), (7, 7)]);
+    }
 }
