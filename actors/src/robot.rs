@@ -732,7 +732,7 @@ pub struct Whereabouts(Box<[Entry]>);
 /// A robot's entry: one cache line.
 #[derive(Debug, Default)]
 #[repr(align(64))]
-struct Entry([std::sync::atomic::AtomicUsize; 7]);
+struct Entry([std::sync::atomic::AtomicUsize; 6]);
 
 impl std::ops::Index<usize> for Entry {
     type Output = std::sync::atomic::AtomicUsize;
@@ -748,7 +748,6 @@ const SHARED: usize = 2;
 const FUTURE: usize = 3;
 const NODE: usize = 4;
 const PARKED: usize = 5;
-const TASK: usize = 6;
 
 /// How far a robot actor lies after the header of the task that runs it [bytes], `0` until
 /// a robot measured it ([`TaskProbe`]): the same for every robot actor, whose tasks are all
@@ -757,7 +756,7 @@ static TASK_OFFSET: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUs
 
 /// Measures, once the first robot actor runs, where the header of its task is: what the task's
 /// waker points to, read when an event wakes the robot and cold at a million robots unless
-/// asked for ahead. Every later robot derives its own from where it is ([`TASK_OFFSET`]).
+/// asked for ahead. Every robot's is then derived from where its actor is ([`TASK_OFFSET`]).
 struct TaskProbe;
 
 impl ActorFuture<RobotActor> for TaskProbe {
@@ -772,7 +771,6 @@ impl ActorFuture<RobotActor> for TaskProbe {
         let header = task.waker().data() as usize;
         let offset = (actor as *const RobotActor as usize).wrapping_sub(header);
         TASK_OFFSET.store(offset, std::sync::atomic::Ordering::Relaxed);
-        actor.tell(TASK, header);
         Poll::Ready(())
     }
 }
@@ -821,6 +819,14 @@ impl Whereabouts {
         self.set(id, PARKED, addr);
     }
 
+    /// Where the header of the robot's task is: as far before its actor as the first robot
+    /// measured ([`TaskProbe`]), once both are known.
+    fn task_header(&self, id: RobotId) -> Option<usize> {
+        let actor = self.0.get(id as usize)?[ACTOR].load(std::sync::atomic::Ordering::Relaxed);
+        let offset = TASK_OFFSET.load(std::sync::atomic::Ordering::Relaxed);
+        (actor != 0 && offset != 0).then(|| actor.wrapping_sub(offset))
+    }
+
     /// Stage one of the look-ahead: asks for the robot's entry.
     pub fn prefetch_entry(&self, id: RobotId) {
         if let Some(e) = self.0.get(id as usize) {
@@ -860,8 +866,8 @@ impl Whereabouts {
             prefetch_at(at(PARKED), 16);
         }
         // The header of the robot's task, which the event's sending wakes.
-        if at(TASK) != 0 {
-            prefetch_at(at(TASK), 64);
+        if let Some(header) = self.task_header(id) {
+            prefetch_at(header, 64);
         }
     }
 }
@@ -924,13 +930,9 @@ impl Actor for RobotActor {
         // Started: the actor does not move any more.
         self.tell(ACTOR, self as *const Self as usize);
         self.tell(SHARED, Rc::as_ptr(&self.handle.shared) as usize);
-        if self.whereabouts.is_some() {
-            match TASK_OFFSET.load(std::sync::atomic::Ordering::Relaxed) {
-                0 => {
-                    ctx.spawn(TaskProbe);
-                }
-                offset => self.tell(TASK, (self as *const Self as usize).wrapping_sub(offset)),
-            }
+        if self.whereabouts.is_some() && TASK_OFFSET.load(std::sync::atomic::Ordering::Relaxed) == 0
+        {
+            ctx.spawn(TaskProbe);
         }
     }
 }
@@ -1546,7 +1548,7 @@ mod tests {
         });
         for (id, &header) in headers.iter().enumerate() {
             assert_ne!(header, 0);
-            assert_eq!(at(id, TASK), header, "robot {id}");
+            assert_eq!(w.task_header(id as RobotId), Some(header), "robot {id}");
             assert_ne!(at(id, PARKED), 0, "robot {id}");
             for (other, &before) in headers[..id].iter().enumerate() {
                 assert_ne!(before, header);
