@@ -533,15 +533,7 @@ mod tests {
                 // SAFETY: each block is live, allocated with `l`, and freed once.
                 unsafe { MiMalloc.dealloc(p as *mut u8, l) };
             }
-            // SAFETY: a non-zero size.
-            let again: Vec<usize> = (0..KEEP)
-                .map(|_| unsafe { MiMalloc.alloc(l) } as usize)
-                .collect();
-            for &p in &again {
-                // SAFETY: each block is live with `l` and freed once.
-                unsafe { MiMalloc.dealloc(p as *mut u8, l) };
-            }
-            again
+            allocate_and_free(l)
         })
         .join()
         .expect("the thread ends");
@@ -553,6 +545,22 @@ mod tests {
             a, b,
             "the other thread's allocations took the blocks it kept"
         );
+    }
+
+    /// Allocates [`KEEP`] blocks of layout `l` on this thread, then frees them (the thread
+    /// keeps them): their addresses.
+    #[allow(unsafe_code)]
+    fn allocate_and_free(l: std::alloc::Layout) -> Vec<usize> {
+        use std::alloc::GlobalAlloc;
+        // SAFETY: a non-zero size.
+        let blocks: Vec<usize> = (0..KEEP)
+            .map(|_| unsafe { MiMalloc.alloc(l) } as usize)
+            .collect();
+        for &p in &blocks {
+            // SAFETY: each block is live, allocated with `l`, and freed once.
+            unsafe { MiMalloc.dealloc(p as *mut u8, l) };
+        }
+        blocks
     }
 
     /// Blocks [`release`] gave back to mimalloc, in the tests.
@@ -570,23 +578,12 @@ mod tests {
     /// The blocks a thread keeps go back to mimalloc when it ends.
     #[cfg(unix)]
     #[test]
-    #[allow(unsafe_code)]
     fn a_threads_kept_blocks_go_back_when_it_ends() {
-        use std::alloc::{GlobalAlloc, Layout};
+        use std::alloc::Layout;
         let l = Layout::from_size_align(200, 8).expect("a layout");
-        let kept = std::thread::spawn(move || {
-            // SAFETY: a non-zero size.
-            let blocks: Vec<usize> = (0..KEEP)
-                .map(|_| unsafe { MiMalloc.alloc(l) } as usize)
-                .collect();
-            for &p in &blocks {
-                // SAFETY: each block is live, allocated with `l`, and freed once.
-                unsafe { MiMalloc.dealloc(p as *mut u8, l) };
-            }
-            blocks
-        })
-        .join()
-        .expect("the thread ends");
+        let kept = std::thread::spawn(move || allocate_and_free(l))
+            .join()
+            .expect("the thread ends");
         let released = RELEASED
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
