@@ -67,6 +67,9 @@ const KEEP: usize = 1 << 16;
 /// Entries in a block of a bucket (24 KB).
 const BLOCK: usize = 1 << 10;
 
+/// How many entries ahead [`RadixQueue::retain`] shows the owner the entry it will ask about.
+const AHEAD: usize = 16;
+
 /// Bits of a digit of the keys.
 const DIGIT_BITS: u32 = 4;
 /// Values of a digit.
@@ -260,6 +263,62 @@ impl RadixQueue {
         self.buckets[i] = bucket;
     }
 
+    /// Drops the entries that `keep` refuses and keeps the others in their order. `ahead` is
+    /// shown each entry [`AHEAD`] entries before `keep` is asked about it, so that the owner
+    /// can ask for the memory `keep` will read (at a million robots each look-up is a cache
+    /// miss of its own, and a few dozen of them can be under way at once). A bucket's kept
+    /// entries close up into its first blocks; the blocks emptied go to the pool.
+    pub fn retain(&mut self, mut ahead: impl FnMut(&Entry), mut keep: impl FnMut(&Entry) -> bool) {
+        let now = self.now.make_contiguous();
+        let n = now.len();
+        let mut w = 0;
+        for r in 0..n {
+            if r + AHEAD < n {
+                ahead(&now[r + AHEAD]);
+            }
+            let e = now[r];
+            if keep(&e) {
+                now[w] = e;
+                w += 1;
+            }
+        }
+        self.now.truncate(w);
+        let mut len = w;
+        for b in 0..BUCKETS {
+            if self.full[b / 64] & (1 << (b % 64)) == 0 {
+                continue;
+            }
+            let bucket = &mut self.buckets[b];
+            // Every block but the last is full ([`append`]), so entry `r` of the bucket is
+            // entry `r % BLOCK` of block `r / BLOCK`, and the kept ones close up behind.
+            debug_assert!(bucket.iter().rev().skip(1).all(|x| x.len() == BLOCK));
+            let n: usize = bucket.iter().map(Vec::len).sum();
+            let mut w = 0;
+            for r in 0..n {
+                if r + AHEAD < n {
+                    ahead(&bucket[(r + AHEAD) / BLOCK][(r + AHEAD) % BLOCK]);
+                }
+                let e = bucket[r / BLOCK][r % BLOCK];
+                if keep(&e) {
+                    bucket[w / BLOCK][w % BLOCK] = e;
+                    w += 1;
+                }
+            }
+            let blocks = w.div_ceil(BLOCK);
+            for mut block in bucket.drain(blocks..) {
+                block.clear();
+                self.pool.push(block);
+            }
+            if let Some(last) = bucket.last_mut() {
+                last.truncate(w - (blocks - 1) * BLOCK);
+            } else {
+                self.full[b / 64] &= !(1 << (b % 64));
+            }
+            len += w;
+        }
+        self.len = len;
+    }
+
     /// Appends `e` to bucket `b`.
     fn append(&mut self, b: usize, e: Entry) {
         self.full[b / 64] |= 1 << (b % 64);
@@ -310,6 +369,8 @@ mod tests {
         Peek,
         /// The entry this many places after the next.
         PeekNth(u8),
+        /// Drop the entries whose index is a multiple of this (plus 2).
+        Retain(u8),
     }
 
     fn ops() -> impl Strategy<Value = Vec<Op>> {
@@ -319,6 +380,7 @@ mod tests {
                 2 => Just(Op::Pop),
                 1 => Just(Op::Peek),
                 2 => (0u8..4).prop_map(Op::PeekNth),
+                1 => (0u8..4).prop_map(Op::Retain),
             ],
             0..400,
         )
@@ -360,6 +422,11 @@ mod tests {
                     Op::PeekNth(n) => {
                         let got = q.peek_nth(usize::from(n)).copied();
                         prop_assert_eq!(got.as_ref(), oracle.iter().nth(usize::from(n)));
+                    }
+                    Op::Retain(m) => {
+                        let drop = |e: &Entry| e.index % (u32::from(m) + 2) == 0;
+                        q.retain(|_| (), |e| !drop(e));
+                        oracle.retain(|e| !drop(e));
                     }
                     Op::Pop => {
                         let got = q.pop();
@@ -407,6 +474,43 @@ mod tests {
                 let n = (rand() % 4) as usize;
                 let got = q.peek_nth(n).copied();
                 assert_eq!(got.as_ref(), oracle.iter().nth(n));
+            }
+            if cause % 50_000 == 49_999 {
+                // Drop a third, with what is shown ahead and asked about logged: each entry
+                // shown is asked about after exactly AHEAD others are; only the first few of
+                // each bucket (and of the current run) are not shown.
+                let log = std::cell::RefCell::new(Vec::new());
+                let drop = |e: &Entry| e.cause % 3 == 0;
+                q.retain(
+                    |e| log.borrow_mut().push((true, *e)),
+                    |e| {
+                        log.borrow_mut().push((false, *e));
+                        !drop(e)
+                    },
+                );
+                oracle.retain(|e| !drop(e));
+                let log = log.into_inner();
+                let asks: Vec<Entry> = log.iter().filter(|x| !x.0).map(|x| x.1).collect();
+                let (mut shown, mut asked_before) = (0, 0);
+                for (was_shown, e) in &log {
+                    if *was_shown {
+                        shown += 1;
+                        assert_eq!(asks.get(asked_before + AHEAD), Some(e));
+                    } else {
+                        asked_before += 1;
+                    }
+                }
+                assert!(asks.len() - shown <= AHEAD * (BUCKETS + 1));
+                assert!(shown > 0);
+                for bucket in &q.buckets {
+                    assert!(bucket.iter().all(|b| !b.is_empty()));
+                    assert!(bucket.iter().rev().skip(1).all(|b| b.len() == BLOCK));
+                }
+                assert_eq!(q.len(), oracle.len());
+                assert_eq!(
+                    q.buckets.iter().flatten().map(Vec::len).sum::<usize>() + q.now.len(),
+                    oracle.len()
+                );
             }
             if rand() % 3 == 0 {
                 let got = q.pop();
