@@ -12,8 +12,8 @@
 //!   same handling code without actors), and the ratio of the two; also the same figures
 //!   within the long run, from its first progress call at simulated second 1 to its last
 //!   (start-up and teardown outside, no difference of two runs); then the later phase, seconds
-//!   30 to 40 of a 40 s run (30 to 330 at 1k), where the robots have turned and move on
-//!   (`scale_late`). Timed by
+//!   30 to 40 of a 40 s run (30 to 60 at 1k, where the robots have not yet crowded towards the
+//!   world's middle), where the robots have turned and move on (`scale_late`). Timed by
 //!   hand (a 1M run takes 5-40 s here), least of a few runs; run it alone with
 //!   `cargo bench --bench engine -- scale`. `NEKOSIM_SCALE_SIZES=100000` runs one size.
 //!   Each of the series' runs is a process of its own, as a `nekosim run` is: the bench
@@ -505,18 +505,27 @@ fn scale(_: &mut Criterion) {
     late(&wanted);
 }
 
-/// The scale series' later phase: seconds 30 to 40 of a 40 s run (30 to 330 at 1k). At the
+/// The scale series' later phase: seconds 30 to 40 of a 40 s run (30 to 60 at 1k). At the
 /// start every robot of the seed's random movement turns in place towards its first
 /// destination (up to a minute at the seed's turn speeds), so the first seconds have fewer
 /// events, and cheaper ones, than the phase where the robots move on and collide; seconds 1
-/// to 11 say little about that phase. `scale_late` as the filter runs only this; least of
-/// three runs at 1k, two at 100k, one at 1M.
+/// to 11 say little about that phase.
+///
+/// The 1k window stops at second 60 because the workload does not stay the same: every
+/// destination is drawn over the whole world, so the robots crowd towards its middle, in a
+/// time that grows with the world's side (31.6 times longer at 1M than at 1k). Of a 1k run's
+/// collisions between robots, 31 % were in the central quarter of the world in seconds 30-60,
+/// 73 % in 270-300 and 97-98 % after second 1,500 (25 % if the robots stayed spread evenly),
+/// with more events per robot and dearer ones (docs/performance.md, twenty-fifth session).
+/// The 1M window's crowding is as little as 1k's in seconds 30-60. `scale_late` as the filter
+/// runs only this; least of fifteen runs at 1k, two at 100k, one at 1M.
 fn late(wanted: &dyn Fn(&str) -> bool) {
     let hosts = hosts_wanted("scale_late", wanted);
     let mut base = [None, None];
-    // 1k robots make 561 events a simulated second: 300 s of them for a stable figure.
+    // 1k robots make about 300 events a simulated second: 30 s of them, 9,000 events, about
+    // 8 ms, so the least of many runs.
     for (n, from, until, repeats) in [
-        (1_000usize, 30.0, 330.0, 3),
+        (1_000usize, 30.0, 60.0, 15),
         (100_000, 30.0, 40.0, 2),
         (1_000_000, 30.0, 40.0, 1),
     ]

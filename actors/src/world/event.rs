@@ -527,7 +527,8 @@ const STALE_FLOOR: usize = if cfg!(test) { 4 } else { 1 << 12 };
 /// largest single cost of a million-robot run's steady state.
 #[derive(Debug, Default)]
 pub struct EventQueue {
-    /// The order of pending events; cancelled events' entries stay until they come up.
+    /// The order of pending events; cancelled events' entries stay until they come up or a
+    /// sweep drops them ([`EventQueue::sweep`]).
     order: RadixQueue,
     slots: Store,
     /// Number of pending events.

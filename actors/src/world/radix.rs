@@ -98,7 +98,7 @@ fn bucket_of(key: u64, last: u64) -> usize {
 type Bucket = Vec<Vec<Entry>>;
 
 /// The radix queue. Entries that the owner no longer wants (cancelled events) stay until they
-/// come up and are skipped there.
+/// come up and are skipped there, or until the owner drops them ([`RadixQueue::retain`]).
 #[derive(Debug)]
 pub struct RadixQueue {
     /// The key from which the buckets' digits are counted ([`bucket_of`]); every entry in
