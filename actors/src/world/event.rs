@@ -513,8 +513,8 @@ impl Outbox {
 
 /// How many more entries than twice the pending events the queue's order may hold before it
 /// drops those of cancelled events ([`EventQueue::cancel`]). The crate's own tests sweep
-/// after a handful, so that their runs sweep often.
-const STALE_FLOOR: usize = if cfg!(test) { 4 } else { 1 << 12 };
+/// as soon as the cancelled outnumber the pending, so that their queues sweep often.
+const STALE_FLOOR: usize = if cfg!(test) { 0 } else { 1 << 12 };
 
 /// The event manager's queue: register, cancel, pop in order, and list a robot's future
 /// events (seed 4.2.3).
@@ -1284,6 +1284,10 @@ mod tests {
             /// Cancel the `k`-th pending cancellable event (in the oracle's order) and release
             /// its slot, as the world does.
             Cancel(usize),
+            /// Cancel every pending cancellable event of a robot and release their slots, as a
+            /// robot that turns has its predictions cancelled (the entries left behind pile
+            /// up until the order sweeps them).
+            Turn(RobotId),
             /// Drop the `k`-th last held handle of a cancellable event that fired: cancelling
             /// it does nothing; its slot is released.
             CancelGone(usize),
@@ -1304,6 +1308,7 @@ mod tests {
                     2 => (0usize..20).prop_map(Op::Cancel),
                     1 => (0usize..20).prop_map(Op::CancelGone),
                     1 => (0u32..6).prop_map(Op::List),
+                    2 => (0u32..6).prop_map(Op::Turn),
                     1 => (0u16..300).prop_map(Op::PopUntil),
                     1 => Just(Op::LookAhead),
                 ],
@@ -1380,6 +1385,21 @@ mod tests {
                                 prop_assert!(q.cancel(h));
                                 prop_assert!(!q.cancel(h));
                                 claims.release(h);
+                                prop_assert!(q.order.len() <= 2 * q.len() + STALE_FLOOR);
+                            }
+                        }
+                        Op::Turn(robot) => {
+                            let found: Vec<_> = oracle
+                                .iter()
+                                .filter(|(_, (_, r, h))| *r == robot && h.is_some())
+                                .map(|(key, (_, _, h))| (*key, *h))
+                                .collect();
+                            for (key, h) in found {
+                                let h = h.expect("cancellable");
+                                oracle.remove(&key);
+                                prop_assert!(q.cancel(h));
+                                claims.release(h);
+                                prop_assert!(q.order.len() <= 2 * q.len() + STALE_FLOOR);
                             }
                         }
                         Op::CancelGone(k) => {
