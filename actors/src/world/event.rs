@@ -618,6 +618,9 @@ impl EventQueue {
     /// million robots 1.2 MB more each simulated second). A sweep reads every entry's slot,
     /// asked for some entries ahead ([`RadixQueue::retain`]); it comes after more
     /// cancellations than the entries it keeps, so its cost per cancellation is bounded.
+    /// Out of line: cancellations are frequent, sweeps rare.
+    #[cold]
+    #[inline(never)]
     fn sweep(&mut self) {
         let slots = &self.slots;
         self.order.retain(
