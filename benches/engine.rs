@@ -512,14 +512,13 @@ fn scale(_: &mut Criterion) {
 /// to 11 say little about that phase.
 ///
 /// The 1k window stops at second 60 because the workload does not stay the same: every
-/// destination is drawn over the whole world, so the robots crowd towards its middle, in a
-/// time that grows with the world's side (31.6 times longer at 1M than at 1k). Of a 1k run's
-/// collisions between robots, 31 % were in the central quarter of the world in seconds 30-60,
-/// 73 % in 270-300 and 97-98 % after second 1,500 (25 % if the robots stayed spread evenly),
-/// with more events per robot and dearer ones (docs/performance.md, twenty-fifth session).
-/// At 1M the drift is 31.6 times slower, so the robots of its window are crowded no more than
-/// 1k's in seconds 30-60. `scale_late` as the filter
-/// runs only this; least of fifteen runs at 1k, two at 100k, one at 1M.
+/// destination is drawn over the whole world, so the robots crowd towards its middle. Of a 1k
+/// run's collisions between robots, 31 % were in the central quarter of the world in seconds
+/// 30-60, 73 % in 270-300 and 97-98 % after second 1,500 (25 % if the robots stayed spread
+/// evenly), with more events per robot and dearer ones (docs/performance.md, twenty-fifth
+/// session). The drift's pace follows the world's side, 31.6 times longer at 1M, so the
+/// robots of the 1M window are crowded no more than 1k's in seconds 30-60. `scale_late` as
+/// the filter runs only this; least of fifteen runs at 1k, two at 100k, one at 1M.
 fn late(wanted: &dyn Fn(&str) -> bool) {
     let hosts = hosts_wanted("scale_late", wanted);
     let mut base = [None, None];

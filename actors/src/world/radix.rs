@@ -145,6 +145,46 @@ fn append(bucket: &mut Bucket, pool: &mut Vec<Vec<Entry>>, e: Entry) {
     }
 }
 
+/// Moves the entries of `blocks` that `keep` accepts to the front, in order, and returns how
+/// many there are; the rest of the entries are left as they were. Every block but the last
+/// holds `width` entries, and the kept ones close up behind the reading. `ahead` is shown each entry [`AHEAD`] entries before
+/// `keep` is asked about it ([`RadixQueue::retain`]).
+fn close_up<B: AsMut<[Entry]>>(
+    blocks: &mut [B],
+    width: usize,
+    ahead: &mut impl FnMut(&Entry),
+    keep: &mut impl FnMut(&Entry) -> bool,
+) -> usize {
+    let n: usize = blocks.iter_mut().map(|b| b.as_mut().len()).sum();
+    // Cursors (block, entry): the entry read, the place of the next one kept, the entry shown.
+    let next = |(b, i): (usize, usize)| {
+        if i + 1 == width {
+            (b + 1, 0)
+        } else {
+            (b, i + 1)
+        }
+    };
+    let (mut read, mut write, mut shown) = ((0, 0), (0, 0), (0, 0));
+    for _ in 0..AHEAD.min(n) {
+        shown = next(shown);
+    }
+    let mut kept = 0;
+    for r in 0..n {
+        if r + AHEAD < n {
+            ahead(&blocks[shown.0].as_mut()[shown.1]);
+            shown = next(shown);
+        }
+        let e = blocks[read.0].as_mut()[read.1];
+        read = next(read);
+        if keep(&e) {
+            blocks[write.0].as_mut()[write.1] = e;
+            write = next(write);
+            kept += 1;
+        }
+    }
+    kept
+}
+
 impl RadixQueue {
     /// Entries held, skipped ones included.
     pub fn len(&self) -> usize {
@@ -270,51 +310,29 @@ impl RadixQueue {
     /// entries close up into its first blocks; the blocks emptied go to the pool.
     pub fn retain(&mut self, mut ahead: impl FnMut(&Entry), mut keep: impl FnMut(&Entry) -> bool) {
         let now = self.now.make_contiguous();
-        let n = now.len();
-        let mut w = 0;
-        for r in 0..n {
-            if r + AHEAD < n {
-                ahead(&now[r + AHEAD]);
-            }
-            let e = now[r];
-            if keep(&e) {
-                now[w] = e;
-                w += 1;
-            }
-        }
-        self.now.truncate(w);
-        let mut len = w;
+        let width = now.len().max(1);
+        let kept = close_up(&mut [now], width, &mut ahead, &mut keep);
+        self.now.truncate(kept);
+        let mut len = kept;
         for b in 0..BUCKETS {
             if self.full[b / 64] & (1 << (b % 64)) == 0 {
                 continue;
             }
             let bucket = &mut self.buckets[b];
-            // Every block but the last is full ([`append`]), so entry `r` of the bucket is
-            // entry `r % BLOCK` of block `r / BLOCK`, and the kept ones close up behind.
+            // Every block but the last is full ([`append`]).
             debug_assert!(bucket.iter().rev().skip(1).all(|x| x.len() == BLOCK));
-            let n: usize = bucket.iter().map(Vec::len).sum();
-            let mut w = 0;
-            for r in 0..n {
-                if r + AHEAD < n {
-                    ahead(&bucket[(r + AHEAD) / BLOCK][(r + AHEAD) % BLOCK]);
-                }
-                let e = bucket[r / BLOCK][r % BLOCK];
-                if keep(&e) {
-                    bucket[w / BLOCK][w % BLOCK] = e;
-                    w += 1;
-                }
-            }
-            let blocks = w.div_ceil(BLOCK);
+            let kept = close_up(bucket, BLOCK, &mut ahead, &mut keep);
+            let blocks = kept.div_ceil(BLOCK);
             for mut block in bucket.drain(blocks..) {
                 block.clear();
                 self.pool.push(block);
             }
             if let Some(last) = bucket.last_mut() {
-                last.truncate(w - (blocks - 1) * BLOCK);
+                last.truncate(kept - (blocks - 1) * BLOCK);
             } else {
                 self.full[b / 64] &= !(1 << (b % 64));
             }
-            len += w;
+            len += kept;
         }
         self.len = len;
     }
