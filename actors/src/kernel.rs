@@ -69,9 +69,9 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
     core.set_instant_limit(p.instant_limit);
     while let Next::Deliver(target, msg) = core.next() {
         // The same look ahead as the scheduler actor's ([`crate::scheduler::Routes::prefetch`]).
-        if let Some((next, after)) = core.ahead_in_world() {
+        if let Some(ahead) = core.ahead_in_world() {
             if let Ok(w) = p.world.try_lock() {
-                w.prefetch(next, after);
+                ahead.prefetch(&w);
             }
         }
         let handler: &mut dyn HandleEvent = match target {

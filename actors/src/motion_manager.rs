@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 use actix::prelude::*;
 
 use crate::scheduler::{Deliver, HandleEvent};
-use crate::world::event::{Effect, Event, Outbox};
+use crate::world::event::{Effect, Event, Outbox, Payload};
 use crate::world::virtual_world::VirtualWorld;
 
 /// The motion manager.
@@ -39,6 +39,9 @@ impl HandleEvent for MotionManager {
     fn prefetch(&self, next: Option<&Event>, after: Option<&Event>) {
         if let Ok(world) = self.world.try_lock() {
             world.prefetch(next.map(|e| e.concerns), after.map(|e| e.concerns));
+            if let Some(Payload::CellCrossing { robot, offset }) = next.map(|e| &e.payload) {
+                world.prefetch_crossing(*robot, *offset);
+            }
         }
     }
 }

@@ -136,11 +136,29 @@ pub struct Routes {
 
 /// The look-ahead into the world ([`Routes::prefetch`]): called with the robots of the next
 /// event and of the one after it.
-pub type Prefetch = Box<dyn Fn(Option<[RobotId; 2]>, Option<[RobotId; 2]>)>;
+pub type Prefetch = Box<dyn Fn(&WorldAhead)>;
 
-/// The robots of the next pending event and of the one after it, each when its handling reads
-/// the world ([`Core::ahead_in_world`]).
-pub type WorldAhead = (Option<[RobotId; 2]>, Option<[RobotId; 2]>);
+/// What the next two pending events read in the world ([`Core::ahead_in_world`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WorldAhead {
+    /// The robots of the next event, when its handling reads the world,
+    pub next: Option<[RobotId; 2]>,
+    /// those of the event after it, likewise,
+    pub after: Option<[RobotId; 2]>,
+    /// and the robot and offset of the next event when it is a cell crossing.
+    pub crossing: Option<(RobotId, [i64; 2])>,
+}
+
+impl WorldAhead {
+    /// Asks `world` for all of it ([`VirtualWorld::prefetch`](crate::world::virtual_world::VirtualWorld::prefetch),
+    /// [`VirtualWorld::prefetch_crossing`](crate::world::virtual_world::VirtualWorld::prefetch_crossing)).
+    pub fn prefetch(&self, world: &crate::world::virtual_world::VirtualWorld) {
+        world.prefetch(self.next, self.after);
+        if let Some((robot, offset)) = self.crossing {
+            world.prefetch_crossing(robot, offset);
+        }
+    }
+}
 
 impl std::fmt::Debug for Routes {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -685,7 +703,11 @@ impl Core {
             _ => None,
         };
         let (next, after) = (in_world(self.ahead.next), in_world(self.ahead.after));
-        (next.is_some() || after.is_some()).then_some((next, after))
+        (next.is_some() || after.is_some()).then_some(WorldAhead {
+            next,
+            after,
+            crossing: self.ahead.crossing,
+        })
     }
 
     /// Fails the run when more than `limit` events happen at one instant of virtual time.
@@ -737,8 +759,8 @@ impl Scheduler {
             Next::Finish => return self.finish(),
             Next::Deliver(target, deliver) => (target, deliver),
         };
-        if let Some((next, after)) = self.core.ahead_in_world() {
-            (self.routes.prefetch)(next, after);
+        if let Some(world) = self.core.ahead_in_world() {
+            (self.routes.prefetch)(&world);
         }
         let ahead = self.core.ahead();
         if let Some((Target::Robot(r), _)) = ahead.after {

@@ -280,14 +280,12 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
             .recipient();
         let prefetch = {
             let world = world.clone();
-            Box::new(
-                move |next: Option<[RobotId; 2]>, after: Option<[RobotId; 2]>| {
-                    // One event is in flight at a time, so the world is never held here.
-                    if let Ok(w) = world.try_lock() {
-                        w.prefetch(next, after);
-                    }
-                },
-            )
+            Box::new(move |ahead: &crate::scheduler::WorldAhead| {
+                // One event is in flight at a time, so the world is never held here.
+                if let Ok(w) = world.try_lock() {
+                    ahead.prefetch(&w);
+                }
+            })
         };
         let sensor_manager = SensorManager::new(world, p.sensing).start().recipient();
         let arbiter_of = {
