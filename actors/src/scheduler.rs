@@ -134,8 +134,8 @@ pub struct Routes {
     pub whereabouts: std::sync::Arc<crate::robot::Whereabouts>,
 }
 
-/// The look-ahead into the world ([`Routes::prefetch`]): called with the robots of the next
-/// event and of the one after it.
+/// The look-ahead into the world ([`Routes::prefetch`]): called with what the next event and
+/// the one after it read there ([`WorldAhead`]).
 pub type Prefetch = Box<dyn Fn(&WorldAhead)>;
 
 /// What the next two pending events read in the world ([`Core::ahead_in_world`]).

@@ -762,15 +762,12 @@ impl EventQueue {
             let e = *self.order.peek_nth(n)?;
             self.slots.route_where(e.slot, |_| true)
         };
-        let (after, next) = (route(1), route(0));
-        let crossing = self
-            .order
-            .peek_nth(0)
-            .and_then(|e| self.slots.crossing(e.slot));
+        let after = route(1);
+        let next = self.order.peek_nth(0).map(|e| e.slot);
         Ahead {
-            next,
+            next: next.and_then(|slot| self.slots.route_where(slot, |_| true)),
             after,
-            crossing,
+            crossing: next.and_then(|slot| self.slots.crossing(slot)),
         }
     }
 

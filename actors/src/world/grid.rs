@@ -418,8 +418,8 @@ impl Grid {
     /// Asks for the dense table's cell `c` to be brought into cache ([`super::prefetch`]): a
     /// no-op outside the dense table.
     pub fn prefetch_cell(&self, c: Cell) {
-        if let Some(i) = self.dense.as_ref().and_then(|d| d.index(c)) {
-            if let Some(d) = &self.dense {
+        if let Some(d) = &self.dense {
+            if let Some(i) = d.index(c) {
                 super::prefetch::prefetch(&d.heads[i]);
             }
         }
