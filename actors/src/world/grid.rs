@@ -200,10 +200,10 @@ pub struct Grid {
     cells: HashMap<Cell, Robots, FixedHash>,
 }
 
-/// The cells of a rectangle of them, in square tiles of [`TILE`] x [`TILE`] cells (4 KB, a
-/// memory page), tile by tile and row by row within a tile: the 3×3 block around a cell is
-/// then almost always on one page, where rows of a million robots' world are 16 KB apart
-/// and each of the block's three rows was a page of its own (a miss in the address
+/// The cells of a rectangle of them, in square tiles of [`TILE`] x [`TILE`] cells (8 KB, two
+/// memory pages), tile by tile and row by row within a tile: the 3×3 block around a cell is
+/// then almost always on one page or two, where rows of a million robots' world are 32 KB
+/// apart and each of the block's three rows was a page of its own (a miss in the address
 /// translation's cache, issue 17).
 #[derive(Clone)]
 struct Dense {
@@ -212,11 +212,12 @@ struct Dense {
     height: i64,
     /// Tiles in a row of tiles.
     tiles: i64,
-    /// Per cell (four bytes a cell: a million robots at the seed's density have 16 million
-    /// cells), [`EMPTY`], or the robot itself when it is alone there (most occupied cells
-    /// hold one robot, and reading a list was a second cache miss at every look), or
-    /// [`LIST`] plus the index of the cell's robots in `lists`.
-    heads: Vec<u32>,
+    /// Per cell (eight bytes a cell: a million robots at the seed's density have 16 million
+    /// cells), `[EMPTY, EMPTY]`; or its robots themselves when they are one or two, the second
+    /// [`EMPTY`] when alone (most occupied cells hold one robot or two, and reading a list was
+    /// a second cache miss at every look); or [`LIST`] plus the index of the cell's robots in
+    /// `lists` first.
+    heads: Vec<[u32; 2]>,
     lists: Vec<Robots>,
     /// Indices of empty lists in `lists`.
     free: Vec<u32>,
@@ -256,59 +257,70 @@ impl Dense {
 
     /// The robots of cell `i`, in order.
     fn get(&self, i: usize) -> &[RobotId] {
-        match self.heads[i] {
+        let h = &self.heads[i];
+        match h[0] {
             EMPTY => &[],
-            h if h & LIST != 0 => &self.lists[(h & !LIST) as usize],
-            _ => std::slice::from_ref(&self.heads[i]),
+            k if k & LIST != 0 => &self.lists[(k & !LIST) as usize],
+            _ => &h[..if h[1] == EMPTY { 1 } else { 2 }],
         }
     }
 
     /// Appends `id` to cell `i`'s robots.
     fn insert(&mut self, id: RobotId, i: usize) {
         let h = self.heads[i];
-        if h == EMPTY && id & LIST == 0 {
-            self.heads[i] = id;
-        } else if h != EMPTY && h & LIST != 0 {
-            self.lists[(h & !LIST) as usize].push(id);
-        } else {
-            let k = self.free.pop().unwrap_or_else(|| {
-                self.lists.push(Robots::new());
-                let k = u32::try_from(self.lists.len() - 1).expect("fewer than 2^31 lists");
-                assert!(k & LIST == 0, "fewer than 2^31 lists");
-                k
-            });
-            let list = &mut self.lists[k as usize];
-            if h != EMPTY {
-                list.push(h);
+        let inline = h[0] & LIST == 0;
+        if id & LIST == 0 {
+            if h[0] == EMPTY {
+                self.heads[i] = [id, EMPTY];
+                return;
             }
-            list.push(id);
-            self.heads[i] = k | LIST;
+            if inline && h[1] == EMPTY {
+                self.heads[i][1] = id;
+                return;
+            }
         }
+        if h[0] != EMPTY && !inline {
+            self.lists[(h[0] & !LIST) as usize].push(id);
+            return;
+        }
+        let k = self.free.pop().unwrap_or_else(|| {
+            self.lists.push(Robots::new());
+            let k = u32::try_from(self.lists.len() - 1).expect("fewer than 2^31 lists");
+            assert!(k & LIST == 0, "fewer than 2^31 lists");
+            k
+        });
+        let list = &mut self.lists[k as usize];
+        list.extend(h.into_iter().filter(|&r| r != EMPTY));
+        list.push(id);
+        self.heads[i] = [k | LIST, EMPTY];
     }
 
     /// Removes `id` from cell `i`'s robots (the last takes its place, as `swap_remove`).
     fn remove(&mut self, id: RobotId, i: usize) {
         let h = self.heads[i];
-        if h == EMPTY {
+        if h[0] == EMPTY {
             return;
         }
-        if h & LIST == 0 {
-            if h == id {
-                self.heads[i] = EMPTY;
+        if h[0] & LIST == 0 {
+            if h[0] == id {
+                self.heads[i] = [h[1], EMPTY];
+            } else if h[1] == id {
+                self.heads[i][1] = EMPTY;
             }
             return;
         }
-        let k = h & !LIST;
+        let k = h[0] & !LIST;
         let v = &mut self.lists[k as usize];
         if let Some(j) = v.iter().position(|&x| x == id) {
             v.swap_remove(j);
         }
-        let alone = match v.as_slice() {
-            [] => Some(EMPTY),
-            &[r] if r & LIST == 0 => Some(r),
+        let inline = match v.as_slice() {
+            [] => Some([EMPTY, EMPTY]),
+            &[r] if r & LIST == 0 => Some([r, EMPTY]),
+            &[r, s] if (r | s) & LIST == 0 => Some([r, s]),
             _ => None,
         };
-        if let Some(head) = alone {
+        if let Some(head) = inline {
             if v.spilled() {
                 *v = Robots::new();
             } else {
@@ -320,7 +332,7 @@ impl Dense {
     }
 }
 
-/// The most cells a dense table may have per robot (four bytes each), beyond a floor.
+/// The most cells a dense table may have per robot (eight bytes each), beyond a floor.
 const DENSE_PER_ROBOT: f64 = 32.0;
 
 impl Grid {
@@ -352,7 +364,7 @@ impl Grid {
                 width,
                 height,
                 tiles,
-                heads: vec![EMPTY; ((tiles * rows) as usize) << (2 * TILE_BITS)],
+                heads: vec![[EMPTY; 2]; ((tiles * rows) as usize) << (2 * TILE_BITS)],
                 lists: Vec::new(),
                 free: Vec::new(),
             });
