@@ -188,13 +188,15 @@ impl RobotState {
 /// A robot's partners (the robots it has pair events predicted with, under the current paths
 /// of both: a pair predicted without any is not kept) and those events, sorted by partner, so
 /// they are visited in partner order as a `BTreeMap` would: a robot has a handful of
-/// partners, and a B-tree's first node alone took about 280 bytes (issue 17). The first two are inline, in
-/// the robot's state, which the look-ahead brings into cache before the robot's events: most
-/// robots have two partners at most (100k robots at 40 s: 62 %), and a table of their own
-/// was a cache miss of its own at a million robots (a fifth of `predict_around`'s samples)
-/// and an allocation when it grew.
+/// partners, and a B-tree's first node alone took about 280 bytes (issue 17). The first three
+/// are inline, in the robot's state, which the look-ahead brings into cache before the robot's
+/// events: most robots have two partners at most (100k robots at 40 s: 62 %), and a table of
+/// their own was a cache miss of its own at a million robots (a fifth of `predict_around`'s
+/// samples) and an allocation when it grew. Three rather than two (32 bytes more a robot)
+/// made a million robots' events 2.3 % faster; four was 1.9 % slower than three
+/// (docs/performance.md, twenty-seventh session).
 #[derive(Debug, Default)]
-struct Pairs(SmallVec<[(RobotId, PairEvents); 2]>);
+struct Pairs(SmallVec<[(RobotId, PairEvents); 3]>);
 
 /// A robot's own conditional events, inline up to six (a motion's four steps, a wall contact,
 /// a cell crossing): a firing step looks its handle up without a second cache miss.
@@ -236,7 +238,7 @@ impl Pairs {
     /// Takes every partner's events out, in partner order, keeping the table's room: a robot
     /// whose path changes soon has as many partners again (issue 17: freeing the table and
     /// growing it anew was an allocation or more per change of path).
-    fn drain(&mut self) -> smallvec::Drain<'_, [(RobotId, PairEvents); 2]> {
+    fn drain(&mut self) -> smallvec::Drain<'_, [(RobotId, PairEvents); 3]> {
         self.0.drain(..)
     }
 
@@ -954,21 +956,21 @@ mod tests {
             slot: k,
         };
         let mut pairs = Pairs::default();
-        for partner in [7, 3, 9, 5] {
+        for partner in [7, 3, 9, 5, 11] {
             pairs.insert(partner, smallvec::smallvec![h(partner)]);
         }
         assert!(pairs.0.spilled());
         let listed = |p: &Pairs| -> Vec<(RobotId, u32)> {
             p.0.iter().map(|(r, ids)| (*r, ids[0].slot)).collect()
         };
-        assert_eq!(listed(&pairs), [(3, 3), (5, 5), (7, 7), (9, 9)]);
+        assert_eq!(listed(&pairs), [(3, 3), (5, 5), (7, 7), (9, 9), (11, 11)]);
         assert_eq!(pairs.remove(&3).map(|ids| ids[0].slot), Some(3));
-        assert!(pairs.0.spilled(), "three do not fit inline");
+        assert!(pairs.0.spilled(), "four do not fit inline");
         assert!(pairs.remove(&4).is_none());
         assert_eq!(pairs.remove(&9).map(|ids| ids[0].slot), Some(9));
-        assert!(!pairs.0.spilled(), "two fit inline");
-        assert_eq!(listed(&pairs), [(5, 5), (7, 7)]);
+        assert!(!pairs.0.spilled(), "three fit inline");
+        assert_eq!(listed(&pairs), [(5, 5), (7, 7), (11, 11)]);
         pairs.insert(6, smallvec::smallvec![h(6)]);
-        assert_eq!(listed(&pairs), [(5, 5), (6, 6), (7, 7)]);
+        assert_eq!(listed(&pairs), [(5, 5), (6, 6), (7, 7), (11, 11)]);
     }
 }
