@@ -129,34 +129,46 @@ pub struct RobotSpec {
     pub pose: Pose,
 }
 
+/// A robot's state in the world, laid out by hand (`repr(C)`), a cache line apart from the
+/// next: what predicting a partner against the robot reads (its motion, rest pose, radius and
+/// push sensors) comes first, in its first three lines ([`PARTNER_BYTES`]), then its partner
+/// table, then what only its own events read. At a million robots a prediction asks for the
+/// partner's first three lines only, and cancelling a pair for the partner table's lines
+/// alone, where each asked for the whole state, seven lines (issue 17).
 #[derive(Debug)]
+#[repr(C, align(64))]
 struct RobotState {
-    radius: f64,
-    /// Pose when there is no motion in progress.
-    rest: Pose,
     /// The motion in progress; its step events are asked of it (`events`) when needed
     /// rather than kept beside it (issue 17: 128 bytes a robot).
     motion: Option<Path>,
+    /// Radius [units].
+    radius: f64,
+    /// Pose when there is no motion in progress.
+    rest: Pose,
+    /// What the world shows of the robot's armed push sensors, once it arms one.
+    listening: Option<Box<Listening>>,
+    /// Partner -> pair events predicted under the current motions of both.
+    pairs: Pairs,
+    /// Own conditional events: motion steps, cell crossings, boundary contact.
+    own: OwnEvents,
+    /// The first cell the robot is registered in: its cell when it was registered.
+    cell: Cell,
     ticket: u64,
     /// Index of the next step event of the current motion.
     next_step: u32,
-    /// Own conditional events: motion steps, cell crossings, boundary contact.
-    own: OwnEvents,
+    /// The cells after `cell` it is registered in, along its path.
+    span: Span,
     /// The first obstacle contact predicted against the obstacles around the robot's cell
     /// (predicted again whenever it changes cell).
     obstacle: Option<Handle>,
-    /// Partner -> pair events predicted under the current motions of both.
-    pairs: Pairs,
-    /// The first cell the robot is registered in: its cell when it was registered.
-    cell: Cell,
-    /// The cells after `cell` it is registered in, along its path.
-    span: Span,
-    /// What the world shows of the robot's armed push sensors, once it arms one.
-    listening: Option<Box<Listening>>,
     crashed: bool,
     /// Stopped at this instant and not predicted for at rest yet ([`VirtualWorld::settle_all`]).
     unsettled: bool,
 }
+
+/// The bytes of a [`RobotState`] that predicting a partner against it reads: those before its
+/// partner table.
+const PARTNER_BYTES: usize = std::mem::offset_of!(RobotState, pairs);
 
 /// What the world shows of a robot's armed push sensors (the sensor manager owns the rest),
 /// kept apart from the robot's state: most robots never arm one (issue 17: 48 bytes a robot).
@@ -524,9 +536,9 @@ impl VirtualWorld {
 
     fn cancel_pairs(&mut self, id: RobotId, out: &mut Outbox) {
         let mut pairs = std::mem::take(&mut self.robots[id as usize].pairs);
-        // The partners' states, asked for together rather than one miss after the other.
+        // The partners' tables, asked for together rather than one miss after the other.
         for &(p, _) in &pairs.0 {
-            super::prefetch::prefetch(&self.robots[p as usize]);
+            super::prefetch::prefetch(&self.robots[p as usize].pairs);
         }
         for (p, ids) in pairs.drain() {
             ids.into_iter().for_each(|h| self.drop_handle(h, out));
@@ -685,7 +697,8 @@ impl VirtualWorld {
         });
         // Their states, asked for together rather than one miss after the other.
         for &o in &fresh {
-            super::prefetch::prefetch(&self.robots[o as usize]);
+            let state = &self.robots[o as usize] as *const RobotState;
+            super::prefetch::prefetch_at(state as usize, PARTNER_BYTES);
         }
         if fresh.is_empty() {
             return;
@@ -943,6 +956,22 @@ fn schedule_contact(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// What predicting a partner reads of its state lies in the state's first three cache
+    /// lines, the only ones such a prediction asks for ahead, and each state starts a line.
+    #[test]
+    fn a_partners_prediction_reads_its_first_three_lines() {
+        use std::mem::{align_of, offset_of, size_of};
+        assert_eq!(align_of::<RobotState>(), 64);
+        assert!(PARTNER_BYTES <= 3 * 64, "{PARTNER_BYTES} bytes");
+        let ends = [
+            offset_of!(RobotState, motion) + size_of::<Option<Path>>(),
+            offset_of!(RobotState, radius) + size_of::<f64>(),
+            offset_of!(RobotState, rest) + size_of::<Pose>(),
+            offset_of!(RobotState, listening) + size_of::<Option<Box<Listening>>>(),
+        ];
+        assert!(ends.iter().all(|&e| e <= PARTNER_BYTES), "{ends:?}");
+    }
 
     /// A robot's partner table that spilled to the heap goes back inline once it fits again,
     /// its partners still in order with their events.
