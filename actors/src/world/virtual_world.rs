@@ -210,6 +210,9 @@ impl RobotState {
 #[derive(Debug, Default)]
 struct Pairs(SmallVec<[(RobotId, PairEvents); 3]>);
 
+/// The robots a robot is to be predicted against, found around its cells.
+type Fresh = SmallVec<[RobotId; 8]>;
+
 /// A robot's own conditional events, inline up to six (a motion's four steps, a wall contact,
 /// a cell crossing): a firing step looks its handle up without a second cache miss.
 type OwnEvents = smallvec::SmallVec<[Handle; 6]>;
@@ -650,21 +653,40 @@ impl VirtualWorld {
         now: f64,
         until: f64,
     ) -> Option<(f64, [i64; 2])> {
-        for &c in old {
-            self.grid.remove(id, c);
-        }
+        let (span, exit) = self.walk(id, first, now, until);
+        self.register(id, old, first, span);
+        exit
+    }
+
+    /// The cells `id`'s centre passes through from `first` on, from now until `until`, as the
+    /// steps of a span of up to [`SPAN`] cells; and when and into which neighbour it leaves
+    /// the last one, if it does.
+    fn walk(
+        &self,
+        id: RobotId,
+        first: Cell,
+        now: f64,
+        until: f64,
+    ) -> (Span, Option<(f64, [i64; 2])>) {
         let (track, size) = (self.track(id), self.grid.cell_size());
         let mut span = Span::default();
         let exit = cell_walk(&track, first, size, now, until, SPAN - 1, |offset| {
             span.push(offset)
         });
+        (span, exit)
+    }
+
+    /// Registers `id` in the cells of `span` from `first` instead of the cells `old`.
+    fn register(&mut self, id: RobotId, old: &[Cell], first: Cell, span: Span) {
+        for &c in old {
+            self.grid.remove(id, c);
+        }
         let r = &mut self.robots[id as usize];
         r.cell = first;
         r.span = span;
         for c in span.cells(first) {
             self.grid.insert(id, c);
         }
-        exit
     }
 
     /// Schedules `id`'s crossing out of the last cell it is registered in.
@@ -686,7 +708,15 @@ impl VirtualWorld {
     /// it has no pair events with yet, each once, leaving out the cells next to `skip`, in the
     /// order of [`blocks`] ([`blocks_beyond`]).
     fn predict_around(&mut self, id: RobotId, cells: &[Cell], skip: &[Cell], out: &mut Outbox) {
-        let mut fresh: SmallVec<[RobotId; 8]> = SmallVec::new();
+        let fresh = self.fresh_around(id, cells, skip);
+        self.predict_fresh(id, fresh, out);
+    }
+
+    /// The robots next to `cells` but not to `skip` that `id` has no pair events with yet,
+    /// each once, in the order of [`blocks`] ([`blocks_beyond`]); what predicting against them
+    /// reads of their states is asked for, together rather than one miss after the other.
+    fn fresh_around(&self, id: RobotId, cells: &[Cell], skip: &[Cell]) -> Fresh {
+        let mut fresh = Fresh::new();
         let pairs = &self.robots[id as usize].pairs;
         blocks_beyond(cells, skip, |b| {
             for &o in self.grid.robots_in(b) {
@@ -695,11 +725,15 @@ impl VirtualWorld {
                 }
             }
         });
-        // Their states, asked for together rather than one miss after the other.
         for &o in &fresh {
             let state = &self.robots[o as usize] as *const RobotState;
             super::prefetch::prefetch_at(state as usize, PARTNER_BYTES);
         }
+        fresh
+    }
+
+    /// Predicts `id` against each of `fresh`, in order.
+    fn predict_fresh(&mut self, id: RobotId, fresh: Fresh, out: &mut Outbox) {
         if fresh.is_empty() {
             return;
         }
@@ -716,41 +750,50 @@ impl VirtualWorld {
         self.predict_around(id, &cells, &[], out);
     }
 
-    /// Predicts `id`, registered anew along its path after it was in the cells `old`, against
-    /// the robots it comes next to: those of the cells next to its new cells that were not
-    /// next to its old ones. The robots of the others already have predictions with a moving
-    /// robot (made when its motion began, when either came next to the other, or when either's
-    /// path changed), so a crossing reads only the cells ahead (issue 17).
-    fn predict_entered(&mut self, id: RobotId, old: &[Cell], out: &mut Outbox) {
-        let cells = self.span_cells(id);
-        debug_assert!(
-            blocks(&cells)
-                .into_iter()
-                .filter(|&c| old.iter().any(|&o| next_to(o, c)))
-                .flat_map(|c| self.grid.robots_in(c).to_vec())
-                .all(|o| o == id
-                    || self.is_unsettled(o)
-                    || self.robots[id as usize].pairs.contains_key(&o)
-                    || {
-                        // A pair not kept: predicting it from now finds nothing.
-                        let (now, mut none) = (out.now(), true);
-                        let pieces = self.track(id).pieces_from(now);
-                        self.pair_events(id, &pieces, o, now, |_, _, _, _| none = false);
-                        none
-                    }),
-            "a robot next to a moving robot without the prediction due with it"
-        );
-        self.predict_around(id, &cells, old, out);
-    }
-
     /// A crossing out of the last cell `robot` is registered in, by `offset`: it is registered
-    /// anew from the cell it enters.
+    /// anew from the cell it enters, and predicted against the robots it comes next to: those
+    /// of the cells next to its new cells that were not next to its old ones. The robots of
+    /// the others already have predictions with a moving robot (made when its motion began,
+    /// when either came next to the other, or when either's path changed), so a crossing reads
+    /// only the cells ahead (issue 17). Those robots are found, and their states asked for,
+    /// before the robot is registered anew, so that the states come in meanwhile: the cells
+    /// ahead are none of the cells it leaves nor next to them, and it is not in them yet, so
+    /// they hold the same robots in the same order before and after.
     fn cross(&mut self, robot: RobotId, offset: [i64; 2], out: &mut Outbox) {
         let old = self.span_cells(robot);
         let last = old[old.len() - 1];
         let first = [last[0] + offset[0], last[1] + offset[1]];
-        let exit = self.seat(robot, &old, first, out.now(), f64::INFINITY);
-        self.predict_entered(robot, &old, out);
+        let (span, exit) = self.walk(robot, first, out.now(), f64::INFINITY);
+        let fresh = self.fresh_around(robot, &span.cell_list(first), &old);
+        self.register(robot, &old, first, span);
+        debug_assert!(
+            {
+                let cells = self.span_cells(robot);
+                blocks(&cells)
+                    .into_iter()
+                    .filter(|&c| old.iter().any(|&o| next_to(o, c)))
+                    .flat_map(|c| self.grid.robots_in(c).to_vec())
+                    .all(|o| {
+                        o == robot
+                            || self.is_unsettled(o)
+                            || self.robots[robot as usize].pairs.contains_key(&o)
+                            || {
+                                // A pair not kept: predicting it from now finds nothing.
+                                let (now, mut none) = (out.now(), true);
+                                let pieces = self.track(robot).pieces_from(now);
+                                self.pair_events(robot, &pieces, o, now, |_, _, _, _| none = false);
+                                none
+                            }
+                    })
+            },
+            "a robot next to a moving robot without the prediction due with it"
+        );
+        debug_assert_eq!(
+            fresh,
+            self.fresh_around(robot, &self.span_cells(robot), &old),
+            "the robots ahead are the same once registered"
+        );
+        self.predict_fresh(robot, fresh, out);
         self.predict_obstacles(robot, out);
         self.schedule_crossing(robot, exit, out);
     }
