@@ -1006,7 +1006,7 @@ mod tests {
     fn a_partners_prediction_reads_its_first_three_lines() {
         use std::mem::{align_of, offset_of, size_of};
         assert_eq!(align_of::<RobotState>(), 64);
-        assert!(PARTNER_BYTES <= 3 * 64, "{PARTNER_BYTES} bytes");
+        const { assert!(PARTNER_BYTES <= 3 * 64) };
         let ends = [
             offset_of!(RobotState, motion) + size_of::<Option<Path>>(),
             offset_of!(RobotState, radius) + size_of::<f64>(),
