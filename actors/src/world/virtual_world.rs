@@ -208,7 +208,10 @@ impl RobotState {
 /// made a million robots' events 2.3 % faster; four was 1.9 % slower than three
 /// (docs/performance.md, twenty-seventh session).
 #[derive(Debug, Default)]
-struct Pairs(SmallVec<[(RobotId, PairEvents); 3]>);
+struct Pairs(SmallVec<[(RobotId, PairEvents); INLINE_PARTNERS]>);
+
+/// Partners kept inline in a robot's state ([`Pairs`]).
+const INLINE_PARTNERS: usize = 3;
 
 /// The robots a robot is to be predicted against, found around its cells.
 type Fresh = SmallVec<[RobotId; 8]>;
@@ -253,7 +256,7 @@ impl Pairs {
     /// Takes every partner's events out, in partner order, keeping the table's room: a robot
     /// whose path changes soon has as many partners again (issue 17: freeing the table and
     /// growing it anew was an allocation or more per change of path).
-    fn drain(&mut self) -> smallvec::Drain<'_, [(RobotId, PairEvents); 3]> {
+    fn drain(&mut self) -> smallvec::Drain<'_, [(RobotId, PairEvents); INLINE_PARTNERS]> {
         self.0.drain(..)
     }
 
@@ -767,25 +770,7 @@ impl VirtualWorld {
         let fresh = self.fresh_around(robot, &span.cell_list(first), &old);
         self.register(robot, &old, first, span);
         debug_assert!(
-            {
-                let cells = self.span_cells(robot);
-                blocks(&cells)
-                    .into_iter()
-                    .filter(|&c| old.iter().any(|&o| next_to(o, c)))
-                    .flat_map(|c| self.grid.robots_in(c).to_vec())
-                    .all(|o| {
-                        o == robot
-                            || self.is_unsettled(o)
-                            || self.robots[robot as usize].pairs.contains_key(&o)
-                            || {
-                                // A pair not kept: predicting it from now finds nothing.
-                                let (now, mut none) = (out.now(), true);
-                                let pieces = self.track(robot).pieces_from(now);
-                                self.pair_events(robot, &pieces, o, now, |_, _, _, _| none = false);
-                                none
-                            }
-                    })
-            },
+            self.neighbours_left_are_predicted(robot, &old, out.now()),
             "a robot next to a moving robot without the prediction due with it"
         );
         debug_assert_eq!(
@@ -796,6 +781,29 @@ impl VirtualWorld {
         self.predict_fresh(robot, fresh, out);
         self.predict_obstacles(robot, out);
         self.schedule_crossing(robot, exit, out);
+    }
+
+    /// Whether `robot`, registered anew after it was in the cells `old`, has the predictions
+    /// due with every robot of the cells next to both its old and its new cells, which a
+    /// crossing does not predict for again (a debug check of [`Self::cross`]).
+    fn neighbours_left_are_predicted(&self, robot: RobotId, old: &[Cell], now: f64) -> bool {
+        let cells = self.span_cells(robot);
+        blocks(&cells)
+            .into_iter()
+            .filter(|&c| old.iter().any(|&o| next_to(o, c)))
+            .flat_map(|c| self.grid.robots_in(c).to_vec())
+            .all(|o| {
+                o == robot
+                    || self.is_unsettled(o)
+                    || self.robots[robot as usize].pairs.contains_key(&o)
+                    || {
+                        // A pair not kept: predicting it from now finds nothing.
+                        let mut none = true;
+                        let pieces = self.track(robot).pieces_from(now);
+                        self.pair_events(robot, &pieces, o, now, |_, _, _, _| none = false);
+                        none
+                    }
+            })
     }
 
     /// Registers a robot whose motion ended in the one cell it stopped in, the last of its
