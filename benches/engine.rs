@@ -196,7 +196,6 @@ fn random_config(n: usize, until: f64) -> SimConfig {
 /// Placing a million robots at the seed's density (`random_born_points`, the rejection
 /// sampling behind every random born point): part of a large run's start-up (issue 17).
 fn placement(c: &mut Criterion) {
-    nekosim::allocator::keep_freed_memory();
     let mut g = c.benchmark_group("placement");
     g.sample_size(10);
     let n = 1_000_000usize;
@@ -212,7 +211,6 @@ fn placement(c: &mut Criterion) {
 }
 
 fn random_movement(c: &mut Criterion) {
-    nekosim::allocator::keep_freed_memory();
     let mut g = c.benchmark_group("random_movement");
     g.sample_size(10);
     for (n, until) in [(1_000usize, 100.0), (10_000, 20.0)] {
@@ -348,7 +346,7 @@ fn child(job: &str) {
             .and_then(|x| x.parse().ok())
             .unwrap_or_else(|| panic!("{CHILD}: `{job}` is not HOST ROBOTS UNTIL FROM"))
     };
-    nekosim::allocator::keep_freed_memory();
+
     let t = timed_here(host, num(1) as usize, num(2), num(3));
     println!("{}", t.line());
 }
@@ -437,7 +435,6 @@ fn hosts_wanted(series: &str, wanted: &dyn Fn(&str) -> bool) -> Vec<Host> {
 /// RSS printed is the larger of the two spans' own. `scale_actors` or `scale_kernel` as the
 /// filter runs one host only. Skipped when the bench is filtered to something else.
 fn scale(_: &mut Criterion) {
-    nekosim::allocator::keep_freed_memory();
     let filter: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))

@@ -4,6 +4,5 @@
 static GLOBAL: nekosim::allocator::MiMalloc = nekosim::allocator::MiMalloc;
 
 fn main() -> std::process::ExitCode {
-    nekosim::allocator::keep_freed_memory();
     nekosim::cli::main_with(nekosim::scenario::Registry::with_builtins())
 }

@@ -5,17 +5,17 @@
 //! in [`crate::scheduler`]). This module drives the very same handling code ([`HandleEvent`]
 //! of each actor type, the scheduler's [`Core`]) from a plain loop: one thread, no mailboxes,
 //! no futures. It takes the same events in the same order and produces the same observations,
-//! so the gap between the two is the cost of the actor hosting (issue 17's "physical limit"
-//! reference). It exists for the engine bench and the test that compares the two traces; runs
+//! so the gap between the two is the cost of the actor hosting. It exists for the engine bench and the test that compares the two traces; runs
 //! of the product are always actor-hosted.
 
 use std::collections::HashMap;
 
+use crate::handler::{handle_one, HandleEvent};
 use crate::layer::LayerActor;
 use crate::motion_manager::MotionManager;
 use crate::network::NetworkActor;
 use crate::robot::RobotActor;
-use crate::scheduler::{Core, HandleEvent, Next, RunOutput, STARTUP_EVERY};
+use crate::scheduler::{Core, Next, RunOutput, STARTUP_EVERY};
 use crate::sensor::Sensor;
 use crate::sensor_manager::SensorManager;
 use crate::simulation::{Prepared, SimConfig, SimError};
@@ -85,8 +85,13 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
                 .entry((r, k))
                 .or_insert_with(|| Sensor::new(r, k, p.seed, p.sensors.clone())),
         };
-        let effects = handler.handle_event(msg);
-        core.apply(effects);
+        core.apply(handle_one(
+            handler,
+            msg.now,
+            msg.seq,
+            msg.event,
+            msg.effects,
+        ));
     }
     let out = core.finish();
     match out.failure {

@@ -6,14 +6,14 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use actix::prelude::*;
 use nekosim_protocols::stack::{step_layer, Routed, Wiring};
 use nekosim_protocols::Layer;
 use nekosim_protocols::{Ctx, Indication, Input, LayerIx, Payload as MsgPayload, APP, NET};
 
-use crate::scheduler::{Deliver, HandleEvent};
-use crate::world::event::{EventClass, Notice, Outbox, Payload, Target};
+use crate::handler::HandleEvent;
+use crate::world::event::{Event, EventClass, Notice, Payload, Target};
 use crate::world::observation::Observation;
+use crate::world::outbox::Outbox;
 use crate::world::RobotId;
 
 /// One protocol instance of one robot.
@@ -156,14 +156,9 @@ pub fn route_effects(
     }
 }
 
-impl Actor for LayerActor {
-    type Context = Context<Self>;
-}
-
 impl HandleEvent for LayerActor {
-    fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
-        let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
-        let input = match msg.event.payload {
+    fn handle_event(&mut self, event: Event, out: &mut Outbox) {
+        let input = match event.payload {
             Payload::LayerInput { input, .. } => {
                 if let Input::Indication {
                     from: NET,
@@ -187,14 +182,11 @@ impl HandleEvent for LayerActor {
         if let Some(input) = input {
             match step_layer(&mut self.layer, &self.wiring, &self.ctx, self.ix, input) {
                 Ok(routed) => {
-                    route_effects(self.robot, &self.wiring, routed, &mut self.timers, &mut out)
+                    route_effects(self.robot, &self.wiring, routed, &mut self.timers, out)
                 }
                 // The simulator only carries payloads the stack encoded itself.
                 Err(e) => tracing::error!(robot = self.robot, layer = self.ix, "{e}"),
             }
         }
-        out.into_effects()
     }
 }
-
-crate::scheduler::hosted!(LayerActor);

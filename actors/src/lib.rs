@@ -3,6 +3,8 @@
 //!
 //! - [`world`]: the pure kernel (geometry, motion patterns, exact collision prediction, the
 //!   spatial index, the virtual world), free of actix.
+//! - [`handler`]: what each actor's logic is to the engine (an event in, effects into an
+//!   outbox); [`host`]: how the product hosts handlers in actix actors.
 //! - [`scheduler`]: the virtual-time scheduler actor and its ordering contract; [`kernel`]: the
 //!   same handling code driven without actors (the reference the engine bench compares with).
 //! - [`motion_manager`], [`sensor_manager`], [`robot`], [`sensor`]: the other actors.
@@ -11,6 +13,8 @@
 
 pub mod algorithm;
 pub mod behaviour;
+pub mod handler;
+pub mod host;
 pub mod kernel;
 pub mod layer;
 pub mod motion_manager;
@@ -27,9 +31,8 @@ pub use robot::{Algorithm, AlgorithmFuture, MotionEnd, Received, Robot};
 pub use simulation::{run, run_then_exit, Comms, Fault, SimConfig, SimError};
 
 /// The unit tests' allocator: the system's, counting each thread's allocations, for the tests
-/// that a hot path allocates nothing (issue 17), noting small blocks as the binary's allocator
-/// does ([`crate::world::prefetch::note_small_block`]) and telling whether a block watched
-/// was freed.
+/// that a hot path allocates nothing. A `GlobalAlloc` has no safe form, so this is the crate's
+/// one `unsafe` module, and it exists in test builds only.
 #[cfg(test)]
 #[allow(unsafe_code)]
 pub(crate) mod allocations {
@@ -38,17 +41,10 @@ pub(crate) mod allocations {
 
     thread_local! {
         static COUNT: Cell<u64> = const { Cell::new(0) };
-        /// Of them, blocks of at most 16 bytes.
-        static TINY: Cell<u64> = const { Cell::new(0) };
     }
 
     fn count() {
         let _ = COUNT.try_with(|c| c.set(c.get() + 1));
-    }
-
-    /// Allocations of at most 16 bytes made on this thread so far.
-    pub(crate) fn tiny_on_this_thread() -> u64 {
-        TINY.with(Cell::get)
     }
 
     /// Allocations made on this thread so far.
@@ -56,54 +52,24 @@ pub(crate) mod allocations {
         COUNT.with(Cell::get)
     }
 
-    thread_local! {
-        /// A block whose freeing on this thread is looked for ([`watch`]), and whether it was.
-        static WATCHED: Cell<(usize, bool)> = const { Cell::new((0, false)) };
-    }
-
-    /// Looks for the freeing of the block at `addr` on this thread from now on.
-    pub(crate) fn watch(addr: usize) {
-        WATCHED.with(|w| w.set((addr, false)));
-    }
-
-    /// Whether the block watched was freed on this thread since [`watch`].
-    pub(crate) fn watched_freed() -> bool {
-        WATCHED.with(|w| w.get().1)
-    }
-
     struct Counting;
 
-    // SAFETY: every call goes to the system allocator unchanged; counting, noting and watching
-    // touch thread-local cells only, which allocate nothing and have no destructor.
+    // SAFETY: every call goes to the system allocator unchanged; counting touches a
+    // thread-local cell only, which allocates nothing and has no destructor.
     unsafe impl GlobalAlloc for Counting {
         unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
             count();
-            if layout.size() <= 16 {
-                let _ = TINY.try_with(|c| c.set(c.get() + 1));
-            }
-            let p = unsafe { System.alloc(layout) };
-            crate::world::prefetch::note_small_block(layout.size(), p as usize);
-            p
+            unsafe { System.alloc(layout) }
         }
         unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
             count();
-            if layout.size() <= 16 {
-                let _ = TINY.try_with(|c| c.set(c.get() + 1));
-            }
-            let p = unsafe { System.alloc_zeroed(layout) };
-            crate::world::prefetch::note_small_block(layout.size(), p as usize);
-            p
+            unsafe { System.alloc_zeroed(layout) }
         }
         unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
             count();
             unsafe { System.realloc(ptr, layout, new_size) }
         }
         unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-            let _ = WATCHED.try_with(|w| {
-                if w.get().0 == ptr as usize {
-                    w.set((ptr as usize, true));
-                }
-            });
             unsafe { System.dealloc(ptr, layout) }
         }
     }

@@ -4,10 +4,9 @@
 
 use std::sync::{Arc, Mutex};
 
-use actix::prelude::*;
-
-use crate::scheduler::{Deliver, HandleEvent};
-use crate::world::event::{Effect, Event, Outbox, Payload};
+use crate::handler::HandleEvent;
+use crate::world::event::{Event, Payload};
+use crate::world::outbox::Outbox;
 use crate::world::virtual_world::VirtualWorld;
 
 /// The motion manager.
@@ -23,20 +22,14 @@ impl MotionManager {
     }
 }
 
-impl Actor for MotionManager {
-    type Context = Context<Self>;
-}
-
 impl HandleEvent for MotionManager {
-    fn handle_event(&mut self, msg: Deliver) -> Vec<Effect> {
-        let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
+    fn handle_event(&mut self, event: Event, out: &mut Outbox) {
         // The scheduler has one event in flight at a time, so this lock is never contended.
         let mut world = self.world.lock().expect("world lock");
-        world.handle_motion(msg.event.id, msg.event.payload, &mut out);
-        out.into_effects()
+        world.handle_motion(event.id, event.payload, out);
     }
 
-    fn prefetch(&self, next: Option<&Event>, after: Option<&Event>) {
+    fn look_ahead(&self, next: Option<&Event>, after: Option<&Event>) {
         if let Ok(world) = self.world.try_lock() {
             world.prefetch(next.map(|e| e.concerns), after.map(|e| e.concerns));
             if let Some(Payload::CellCrossing { robot, offset }) = next.map(|e| &e.payload) {
@@ -45,5 +38,3 @@ impl HandleEvent for MotionManager {
         }
     }
 }
-
-crate::scheduler::hosted!(MotionManager);

@@ -4,13 +4,13 @@
 
 use std::sync::{Arc, Mutex};
 
-use actix::prelude::*;
 use nekosim_protocols::{Indication, Input, APP, NET};
 
-use crate::scheduler::{Deliver, HandleEvent};
-use crate::world::event::{EventClass, Notice, Outbox, Payload, Target};
+use crate::handler::HandleEvent;
+use crate::world::event::{Event, EventClass, Notice, Payload, Target};
 use crate::world::network::Network;
 use crate::world::observation::Observation;
+use crate::world::outbox::Outbox;
 use crate::world::virtual_world::VirtualWorld;
 
 /// The simulated network.
@@ -34,24 +34,20 @@ impl NetworkActor {
     }
 }
 
-impl Actor for NetworkActor {
-    type Context = Context<Self>;
-}
-
 impl HandleEvent for NetworkActor {
-    fn handle_event(&mut self, m: Deliver) -> Vec<crate::world::event::Effect> {
-        let mut out = Outbox::reusing(m.now, m.seq, m.effects);
+    fn handle_event(&mut self, event: Event, out: &mut Outbox) {
+        let now = out.now();
         if let Payload::NetSend {
             from,
             layer,
             to,
             msg,
-        } = m.event.payload
+        } = event.payload
         {
             let world = self.world.lock().expect("world lock");
-            let pos = |id| world.state_at(id, m.now).pos;
+            let pos = |id| world.state_at(id, now).pos;
             let blocked = |a, b| world.obstacles().blocks(a, b);
-            let copies = self.net.transmit_among(m.now, from, &to, &pos, &blocked);
+            let copies = self.net.transmit_among(now, from, &to, &pos, &blocked);
             drop(world);
             out.record(Observation::Send {
                 robot: from,
@@ -95,8 +91,5 @@ impl HandleEvent for NetworkActor {
                 }
             }
         }
-        out.into_effects()
     }
 }
-
-crate::scheduler::hosted!(NetworkActor);

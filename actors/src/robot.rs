@@ -22,15 +22,15 @@ use std::pin::Pin;
 use std::rc::Rc;
 use std::task::{Context as TaskContext, Poll, Waker};
 
-use actix::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::scheduler::{Deliver, HandleEvent};
-use crate::world::event::{EventClass, FutureEvent, Notice, Outbox, Payload, Target};
+use crate::handler::HandleEvent;
+use crate::world::event::{Event, EventClass, FutureEvent, Notice, Payload, Target};
 use crate::world::geometry::Point;
 use crate::world::motion::{Kinematics, Motion};
 use crate::world::observation::Observation;
+use crate::world::outbox::Outbox;
 use crate::world::sensor::builtins::{
     self as sensors, ContactQuery, Fix, GpsQuery, ProximityQuery, PushProximityQuery, Seen,
     ViewQuery,
@@ -712,164 +712,6 @@ pub struct RobotActor {
     handle: Robot,
     algorithm: Box<dyn Algorithm>,
     task: Option<AlgorithmFuture>,
-    /// Where the robot tells the scheduler its memory is ([`Whereabouts`]).
-    whereabouts: Option<std::sync::Arc<Whereabouts>>,
-}
-
-/// Where each robot actor's memory is, by robot id, for the scheduler's look-ahead (issue 17):
-/// at a million robots, a robot's mailbox, its actor, its shared state and its algorithm's
-/// future are cold memory on every event it handles. The robot writes the addresses when it
-/// starts and when its algorithm starts; the scheduler only ever prefetches them
-/// ([`crate::world::prefetch::prefetch_at`]), so a stale or missing one changes nothing.
-///
-/// The scheduler also notes, each time it sends a robot an event, where the message's node in
-/// the robot's mailbox is ([`Whereabouts::set_node`]): actix's queue keeps the last node taken
-/// out as its end, so the robot's next message reads that node when it is sent and again when
-/// it is taken out.
-#[derive(Debug)]
-pub struct Whereabouts(Box<[Entry]>);
-
-/// A robot's entry: one cache line.
-#[derive(Debug, Default)]
-#[repr(align(64))]
-struct Entry([std::sync::atomic::AtomicUsize; 6]);
-
-impl std::ops::Index<usize> for Entry {
-    type Output = std::sync::atomic::AtomicUsize;
-    fn index(&self, what: usize) -> &Self::Output {
-        &self.0[what]
-    }
-}
-
-/// What a [`Whereabouts`] entry holds, in order.
-const MAILBOX: usize = 0;
-const ACTOR: usize = 1;
-const SHARED: usize = 2;
-const FUTURE: usize = 3;
-const NODE: usize = 4;
-const PARKED: usize = 5;
-
-/// How far a robot actor lies after the header of the task that runs it [bytes], `0` until
-/// a robot measured it ([`TaskProbe`]): the same for every robot actor, whose tasks are all
-/// of one type.
-static TASK_OFFSET: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-
-/// Measures, once the first robot actor runs, where the header of its task is: what the task's
-/// waker points to, read when an event wakes the robot and cold at a million robots unless
-/// asked for ahead. Every robot's is then derived from where its actor is ([`TASK_OFFSET`]).
-struct TaskProbe;
-
-impl ActorFuture<RobotActor> for TaskProbe {
-    type Output = ();
-
-    fn poll(
-        self: Pin<&mut Self>,
-        actor: &mut RobotActor,
-        _: &mut Context<RobotActor>,
-        task: &mut TaskContext<'_>,
-    ) -> Poll<()> {
-        let header = task.waker().data() as usize;
-        let offset = (actor as *const RobotActor as usize).wrapping_sub(header);
-        TASK_OFFSET.store(offset, std::sync::atomic::Ordering::Relaxed);
-        Poll::Ready(())
-    }
-}
-
-impl Whereabouts {
-    /// Room for `n` robots, none known yet.
-    pub fn new(n: usize) -> Self {
-        Self((0..n).map(|_| Default::default()).collect())
-    }
-
-    fn set(&self, id: RobotId, what: usize, addr: usize) {
-        if let Some(e) = self.0.get(id as usize) {
-            e[what].store(addr, std::sync::atomic::Ordering::Relaxed);
-        }
-    }
-
-    /// Notes where `addr`'s mailbox is. An address hashes as its mailbox's location, which
-    /// is the only way actix shows it.
-    pub fn set_mailbox(&self, id: RobotId, addr: &Addr<RobotActor>) {
-        #[derive(Default)]
-        struct Location(usize);
-        impl std::hash::Hasher for Location {
-            fn finish(&self) -> u64 {
-                self.0 as u64
-            }
-            fn write(&mut self, _: &[u8]) {}
-            fn write_usize(&mut self, n: usize) {
-                self.0 = n;
-            }
-        }
-        let mut at = Location::default();
-        std::hash::Hash::hash(addr, &mut at);
-        self.set(id, MAILBOX, at.0);
-    }
-
-    /// Notes where the node of the message just sent to the robot is: `addr`, the last small
-    /// block allocated ([`crate::world::prefetch::take_small_block`]), or `0` when unknown.
-    pub fn set_node(&self, id: RobotId, addr: usize) {
-        self.set(id, NODE, addr);
-    }
-
-    /// Notes where the end of the robot's mailbox's queue of parked senders is: `addr`, the
-    /// last block of at most 16 bytes allocated while the robot actor was started
-    /// ([`crate::world::prefetch::take_small_block`]), or `0` when unknown.
-    pub fn set_parked(&self, id: RobotId, addr: usize) {
-        self.set(id, PARKED, addr);
-    }
-
-    /// Where the header of the robot's task is: as far before its actor as the first robot
-    /// measured ([`TaskProbe`]), once both are known.
-    fn task_header(&self, id: RobotId) -> Option<usize> {
-        let actor = self.0.get(id as usize)?[ACTOR].load(std::sync::atomic::Ordering::Relaxed);
-        let offset = TASK_OFFSET.load(std::sync::atomic::Ordering::Relaxed);
-        (actor != 0 && offset != 0).then(|| actor.wrapping_sub(offset))
-    }
-
-    /// Stage one of the look-ahead: asks for the robot's entry.
-    pub fn prefetch_entry(&self, id: RobotId) {
-        if let Some(e) = self.0.get(id as usize) {
-            crate::world::prefetch::prefetch(e);
-        }
-    }
-
-    /// Stage two: asks for the memory the entry names (read, it was asked for an event ago).
-    pub fn prefetch_memory(&self, id: RobotId) {
-        use crate::world::prefetch::prefetch_at;
-        use std::sync::atomic::Ordering::Relaxed;
-        let Some(e) = self.0.get(id as usize) else {
-            return;
-        };
-        let at = |w: usize| e[w].load(Relaxed);
-        // The mailbox: its shared counters and the queue's ends (112 bytes, after the
-        // reference counts).
-        if at(MAILBOX) != 0 {
-            prefetch_at(at(MAILBOX).wrapping_sub(16), 128);
-        }
-        // The actor, in its task among actix's context, as much before it as after.
-        if at(ACTOR) != 0 {
-            prefetch_at(at(ACTOR).wrapping_sub(256), 512);
-        }
-        if at(SHARED) != 0 {
-            prefetch_at(at(SHARED), 192);
-        }
-        if at(FUTURE) != 0 {
-            prefetch_at(at(FUTURE), 256);
-        }
-        // The mailbox's ends: the node of the last message sent to the robot, and that of
-        // the queue of parked senders.
-        if at(NODE) != 0 {
-            prefetch_at(at(NODE), 24);
-        }
-        if at(PARKED) != 0 {
-            prefetch_at(at(PARKED), 16);
-        }
-        // The header of the robot's task, which the event's sending wakes.
-        if let Some(header) = self.task_header(id) {
-            prefetch_at(header, 64);
-        }
-    }
 }
 
 impl fmt::Debug for RobotActor {
@@ -906,54 +748,22 @@ impl RobotActor {
             },
             algorithm,
             task: None,
-            whereabouts: None,
-        }
-    }
-
-    /// The robot, telling `w` where its memory is once it runs.
-    pub fn telling(mut self, w: std::sync::Arc<Whereabouts>) -> Self {
-        self.whereabouts = Some(w);
-        self
-    }
-
-    fn tell(&self, what: usize, addr: usize) {
-        if let Some(w) = &self.whereabouts {
-            w.set(self.handle.shared.info.id, what, addr);
-        }
-    }
-}
-
-impl Actor for RobotActor {
-    type Context = Context<Self>;
-
-    fn started(&mut self, ctx: &mut Self::Context) {
-        // Started: the actor does not move any more.
-        self.tell(ACTOR, self as *const Self as usize);
-        self.tell(SHARED, Rc::as_ptr(&self.handle.shared) as usize);
-        if self.whereabouts.is_some() && TASK_OFFSET.load(std::sync::atomic::Ordering::Relaxed) == 0
-        {
-            ctx.spawn(TaskProbe);
         }
     }
 }
 
 impl HandleEvent for RobotActor {
-    fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
-        let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
+    fn handle_event(&mut self, event: Event, out: &mut Outbox) {
+        let now = out.now();
         let id = self.handle.shared.info.id;
         {
             let mut io = self.handle.shared.io.borrow_mut();
-            io.now = msg.now;
+            io.now = now;
             Spare::lend(&mut io);
         }
-        match msg.event.payload {
+        match event.payload {
             Payload::Notice(n) if matches!(*n, Notice::Start) => {
-                let task = self.algorithm.run(self.handle.clone());
-                self.tell(
-                    FUTURE,
-                    &*task as *const dyn Future<Output = ()> as *const () as usize,
-                );
-                self.task = Some(task);
+                self.task = Some(self.algorithm.run(self.handle.clone()));
             }
             Payload::Notice(n) => {
                 let n = *n;
@@ -995,7 +805,7 @@ impl HandleEvent for RobotActor {
         for r in requests.drain(..) {
             match r {
                 Request::Motion { ticket, motion } => out.schedule(
-                    msg.now,
+                    now,
                     Target::MotionManager,
                     EventClass::Eventual,
                     me,
@@ -1006,7 +816,7 @@ impl HandleEvent for RobotActor {
                     },
                 ),
                 Request::Sensor { ticket, query } => out.schedule(
-                    msg.now,
+                    now,
                     Target::SensorManager,
                     EventClass::Eventual,
                     me,
@@ -1024,7 +834,7 @@ impl HandleEvent for RobotActor {
                     Payload::Timer { robot: id, ticket },
                 ),
                 Request::Net { to, msg: wire } => out.schedule(
-                    msg.now,
+                    now,
                     Target::Network,
                     EventClass::Eventual,
                     me,
@@ -1049,7 +859,7 @@ impl HandleEvent for RobotActor {
                         msg: wire,
                     });
                     out.schedule(
-                        msg.now,
+                        now,
                         Target::Layer(id, ix),
                         EventClass::Eventual,
                         me,
@@ -1061,7 +871,7 @@ impl HandleEvent for RobotActor {
                     )
                 }
                 Request::ListEvents { of, ticket } => out.schedule(
-                    msg.now,
+                    now,
                     Target::EventManager,
                     EventClass::Eventual,
                     me,
@@ -1081,11 +891,8 @@ impl HandleEvent for RobotActor {
         // notices once a notice came) grew to 155 MB in a 1M x 40 s run when each robot kept
         // its own.
         Spare::take_back(&mut self.handle.shared.io.borrow_mut().inbox, requests);
-        out.into_effects()
     }
 }
-
-crate::scheduler::hosted!(RobotActor);
 
 #[cfg(test)]
 mod tests {
@@ -1123,15 +930,7 @@ mod tests {
             concerns: [0, NO_ROBOT],
             payload,
         };
-        actor.handle_event(Deliver {
-            now,
-            seq,
-            event,
-            effects: Vec::new(),
-            reply: None,
-            then: Default::default(),
-            look_ahead: false,
-        })
+        crate::handler::handle_one(actor, now, seq, event, Vec::new())
     }
 
     /// The tickets of the timers a handling asks for.
@@ -1273,17 +1072,10 @@ mod tests {
                     concerns: [id as RobotId, NO_ROBOT],
                     payload,
                 };
-                let deliver = Deliver {
-                    now: f64::from(round),
-                    seq,
-                    event,
-                    effects: Vec::with_capacity(8),
-                    reply: None,
-                    then: Default::default(),
-                    look_ahead: false,
-                };
+                let effects = Vec::with_capacity(8);
                 let before = crate::allocations::on_this_thread();
-                let effects = actor.handle_event(deliver);
+                let effects =
+                    crate::handler::handle_one(actor, f64::from(round), seq, event, effects);
                 let made = crate::allocations::on_this_thread() - before;
                 // The first handlings start the algorithm (its future) and fill the spares.
                 if round >= 2 {
@@ -1332,241 +1124,6 @@ mod tests {
                 })
                 .collect();
             assert_eq!(drawn[k], expected, "stream {k}");
-        }
-    }
-
-    /// What the scheduler's note of a robot's mailbox node rests on ([`Whereabouts::set_node`]):
-    /// the last small block allocated while a message is sent to an actor is the mailbox's
-    /// node of that message, which stays allocated while the actor handles it and is freed
-    /// when the actor's next message is taken out.
-    #[test]
-    fn the_block_noted_at_a_send_is_freed_by_the_next_message() {
-        use crate::world::prefetch::take_small_block;
-        struct Sink(Rc<std::cell::Cell<u64>>);
-        impl Actor for Sink {
-            type Context = Context<Self>;
-        }
-        struct Ping;
-        impl Message for Ping {
-            type Result = ();
-        }
-        impl Handler<Ping> for Sink {
-            type Result = ();
-            fn handle(&mut self, _: Ping, _: &mut Context<Self>) {
-                self.0.set(self.0.get() + 1);
-            }
-        }
-        let handled = Rc::new(std::cell::Cell::new(0));
-        let seen = handled.clone();
-        System::new().block_on(async move {
-            let sink = Sink(seen).start();
-            let settle = || async {
-                for _ in 0..8 {
-                    tokio::task::yield_now().await;
-                }
-            };
-            settle().await;
-            let mut last = 0;
-            for round in 1..=4 {
-                take_small_block(32);
-                sink.do_send(Ping);
-                let node = take_small_block(32);
-                assert_ne!(node, 0, "round {round}: no block noted");
-                if round > 1 {
-                    assert!(
-                        !crate::allocations::watched_freed(),
-                        "round {round}: freed early"
-                    );
-                }
-                settle().await;
-                assert_eq!(
-                    handled.get(),
-                    round,
-                    "round {round}: the message was handled"
-                );
-                if round > 1 {
-                    assert!(
-                        crate::allocations::watched_freed(),
-                        "round {round}: the last message's node was not freed"
-                    );
-                }
-                assert_ne!(node, last);
-                crate::allocations::watch(node);
-                last = node;
-                assert!(!crate::allocations::watched_freed());
-                settle().await;
-                assert!(
-                    !crate::allocations::watched_freed(),
-                    "round {round}: freed with no message after it"
-                );
-            }
-        });
-    }
-
-    /// A started robot tells where its actor, shared state, algorithm future and mailbox are:
-    /// the addresses of the very objects, one mailbox for an address and its clones, another
-    /// for another robot.
-    #[test]
-    fn a_robot_tells_where_its_memory_is() {
-        use std::sync::atomic::Ordering::Relaxed;
-        let w = std::sync::Arc::new(Whereabouts::new(2));
-        let info = |id| RobotInfo {
-            id,
-            count: 2,
-            radius: 5.0,
-            world: WorldSize::Infinite,
-        };
-        let at = |id: usize, what: usize| w.0[id][what].load(Relaxed);
-        let sys = System::new();
-        let (seen_tx, seen_rx) = std::sync::mpsc::channel();
-        sys.block_on(async {
-            let a = RobotActor::new(info(0), Box::new(Sleeper), 7, Default::default())
-                .telling(w.clone())
-                .start();
-            let b = RobotActor::new(info(1), Box::new(Sleeper), 7, Default::default())
-                .telling(w.clone())
-                .start();
-            w.set_mailbox(0, &a);
-            let first = at(0, MAILBOX);
-            w.set_mailbox(0, &a.clone());
-            assert_eq!(at(0, MAILBOX), first);
-            w.set_mailbox(1, &b);
-            assert_ne!(at(1, MAILBOX), first);
-            assert_ne!(first, 0);
-            // Started and handed its start notice, the robot reports its own addresses.
-            let tx = seen_tx.clone();
-            let _ = a
-                .send(Probe(Box::new(move |actor: &mut RobotActor| {
-                    let start = Payload::Notice(Box::new(Notice::Start));
-                    handle(actor, 0.0, 1, start);
-                    let task = actor.task.as_ref().expect("running");
-                    tx.send((
-                        actor as *const RobotActor as usize,
-                        Rc::as_ptr(&actor.handle.shared) as usize,
-                        &**task as *const dyn Future<Output = ()> as *const () as usize,
-                    ))
-                    .expect("sent");
-                })))
-                .await;
-        });
-        let (actor, shared, future) = seen_rx.recv().expect("the probe ran");
-        assert_eq!(at(0, ACTOR), actor);
-        assert_eq!(at(0, SHARED), shared);
-        assert_eq!(at(0, FUTURE), future);
-        assert_eq!(at(1, FUTURE), 0, "robot 1 never started its algorithm");
-    }
-
-    /// Runs a closure on a started robot actor, in its handler.
-    /// Asks a robot actor where the header of its task is: what the waker it is polled with
-    /// points to.
-    struct TaskHeader;
-
-    impl Message for TaskHeader {
-        type Result = usize;
-    }
-
-    struct WakerData;
-
-    impl ActorFuture<RobotActor> for WakerData {
-        type Output = usize;
-        fn poll(
-            self: Pin<&mut Self>,
-            _: &mut RobotActor,
-            _: &mut Context<RobotActor>,
-            task: &mut TaskContext<'_>,
-        ) -> Poll<usize> {
-            Poll::Ready(task.waker().data() as usize)
-        }
-    }
-
-    impl Handler<TaskHeader> for RobotActor {
-        type Result = ResponseActFuture<Self, usize>;
-        fn handle(&mut self, _: TaskHeader, _: &mut Context<Self>) -> Self::Result {
-            Box::pin(WakerData)
-        }
-    }
-
-    /// Started robots tell where their tasks' headers are, as their wakers show them (the
-    /// first measured, the others derived from where they are), and where the ends of their
-    /// mailboxes' queues of parked senders are: the one block of at most 16 bytes a start
-    /// allocates, which lives as long as the mailbox, freed when it goes and not while
-    /// messages come and go.
-    #[test]
-    fn robots_tell_where_their_tasks_and_parked_queues_are() {
-        use crate::world::prefetch::take_small_block;
-        use std::sync::atomic::Ordering::Relaxed;
-        const N: usize = 4;
-        let w = std::sync::Arc::new(Whereabouts::new(N));
-        let at = |id: usize, what: usize| w.0[id][what].load(Relaxed);
-        let info = |id| RobotInfo {
-            id,
-            count: N,
-            radius: 5.0,
-            world: WorldSize::Infinite,
-        };
-        let headers = System::new().block_on(async {
-            let settle = || async {
-                for _ in 0..8 {
-                    tokio::task::yield_now().await;
-                }
-            };
-            let mut robots = Vec::new();
-            for id in 0..N {
-                take_small_block(16);
-                let tiny = crate::allocations::tiny_on_this_thread();
-                let a = RobotActor::new(
-                    info(id as RobotId),
-                    Box::new(Sleeper),
-                    7,
-                    Default::default(),
-                )
-                .telling(w.clone())
-                .start();
-                w.set_parked(id as RobotId, take_small_block(16));
-                // The end of the queue of parked senders is the only block this small.
-                let made = crate::allocations::tiny_on_this_thread() - tiny;
-                assert_eq!(made, 1, "robot {id}: {made} blocks of at most 16 bytes");
-                robots.push(a);
-            }
-            let mut headers = Vec::new();
-            for a in &robots {
-                headers.push(a.send(TaskHeader).await.expect("answered"));
-            }
-            crate::allocations::watch(at(0, PARKED));
-            for _ in 0..5 {
-                robots[0].do_send(TaskHeader);
-                settle().await;
-            }
-            assert!(!crate::allocations::watched_freed(), "freed while in use");
-            drop(robots);
-            settle().await;
-            assert!(
-                crate::allocations::watched_freed(),
-                "not freed with the mailbox"
-            );
-            headers
-        });
-        for (id, &header) in headers.iter().enumerate() {
-            assert_ne!(header, 0);
-            assert_eq!(w.task_header(id as RobotId), Some(header), "robot {id}");
-            assert_ne!(at(id, PARKED), 0, "robot {id}");
-            for (other, &before) in headers[..id].iter().enumerate() {
-                assert_ne!(before, header);
-                assert_ne!(at(other, PARKED), at(id, PARKED));
-            }
-        }
-    }
-
-    struct Probe(Box<dyn FnOnce(&mut RobotActor) + Send>);
-
-    impl Message for Probe {
-        type Result = ();
-    }
-
-    impl Handler<Probe> for RobotActor {
-        type Result = ();
-        fn handle(&mut self, p: Probe, _: &mut Context<Self>) {
-            (p.0)(self)
         }
     }
 

@@ -31,95 +31,22 @@ use std::collections::{HashMap, VecDeque};
 
 use actix::prelude::*;
 
-use crate::world::event::{
-    Ahead, Effect, Event, EventId, EventQueue, FutureEvent, Notice, Outbox, Payload, Route, Target,
-};
+use crate::host::{Deliver, Host, Replied, Reply, ReplyTo, RUN};
+use crate::robot::RobotActor;
+use crate::world::event::{Effect, Event, FutureEvent, Notice, Payload, Target};
 use crate::world::observation::{Observation, Record};
-use crate::world::radix::time_key;
+use crate::world::outbox::Outbox;
+use crate::world::queue::{Ahead, EventQueue, Route};
 use crate::world::sensor::SensorKind;
 use crate::world::RobotId;
-
-/// Delivery of one event to the actor that handles it; the reply, the handling's effects,
-/// goes back to the scheduler as a message of its own ([`Replied`]).
-#[derive(Debug, Message)]
-#[rtype(result = "()")]
-pub struct Deliver {
-    /// Virtual time of the event [s].
-    pub now: f64,
-    /// The event's processing number (the `cause` of whatever it creates).
-    pub seq: u64,
-    pub event: Event,
-    /// An empty buffer for the handling's effects ([`Outbox::reusing`]): the scheduler's,
-    /// handed back in the reply and reused, so no handling allocates its effects' vector.
-    pub effects: Vec<Effect>,
-    /// Where the reply goes (none when the kernel-alone reference calls the handling itself).
-    pub reply: Option<ReplyTo>,
-    /// The events that come next for the same actor, taken from the queue with this one (a
-    /// run, at most [`RUN`] events in all). The actor handles each in turn, as numbers
-    /// `seq + 1`, `seq + 2`, ..., for as long as the handlings before it leave it the next
-    /// event ([`handle_run`]), and hands the others back in its [`Reply`]. Issue 17: three
-    /// events in four of a random-movement run are the motion manager's, each following
-    /// another of its own, and each paid a round trip between the scheduler and the manager.
-    pub then: Vec<Event>,
-    /// Whether the scheduler looks ahead (a large queue, [`LOOK_AHEAD_FROM`]): the actor then
-    /// asks, before each handling of the run, for what the next ones will read
-    /// ([`HandleEvent::prefetch`]).
-    pub look_ahead: bool,
-}
-
-/// The most events a delivery carries ([`Deliver::then`] and its own).
-pub const RUN: usize = 8;
-
-/// An actor's reply to a delivery: the effects of the events it handled, in order; where each
-/// handling's effects end (`ends[0]` the delivered event's, `ends[1]` the first of
-/// [`Deliver::then`]'s, and so on); and the events of `then` it did not handle, which go back
-/// to the queue as they were.
-#[derive(Debug, Default)]
-pub struct Reply {
-    pub effects: Vec<Effect>,
-    pub ends: smallvec::SmallVec<[u32; RUN]>,
-    pub then: Vec<Event>,
-}
-
-/// The way back to the scheduler for one delivery's reply. Issue 17: a request with a
-/// one-shot reply channel, awaited by the scheduler, cost a channel, a boxed future and a
-/// message to itself per event; a reply message costs one message. Dropped without a reply
-/// (the actor stopped, or its handling panicked), it tells the scheduler so, and the run ends
-/// with [`RunFailure::NoAnswer`] instead of waiting forever.
-#[derive(Debug)]
-pub struct ReplyTo(Option<std::sync::Arc<Addr<Scheduler>>>);
-
-impl ReplyTo {
-    /// Sends the handling's effects back.
-    pub fn send(mut self, reply: Reply) {
-        if let Some(addr) = self.0.take() {
-            addr.do_send(Replied(Ok(reply)));
-        }
-    }
-}
-
-impl Drop for ReplyTo {
-    fn drop(&mut self) {
-        if let Some(addr) = self.0.take() {
-            addr.do_send(Replied(
-                Err("the actor dropped the event unanswered".into()),
-            ));
-        }
-    }
-}
-
-/// The reply to a delivery: the handling's effects, or why there are none.
-#[derive(Debug, Message)]
-#[rtype(result = "()")]
-pub struct Replied(Result<Reply, String>);
 
 /// Who handles which events.
 pub struct Routes {
     pub motion_manager: Recipient<Deliver>,
     pub sensor_manager: Recipient<Deliver>,
     /// The robot actors' addresses themselves, not boxed recipients: one fewer indirection
-    /// into a million cold robots' memory on every hop (issue 17).
-    pub robots: Vec<Addr<crate::robot::RobotActor>>,
+    /// into a million cold robots' memory on every hop.
+    pub robots: Vec<Addr<Host<RobotActor>>>,
     pub network: Recipient<Deliver>,
     /// Each robot's protocol layers, by stack index.
     pub layers: Vec<Vec<Recipient<Deliver>>>,
@@ -130,8 +57,6 @@ pub struct Routes {
     /// what their handlings read in the world ([`crate::world::VirtualWorld::prefetch`]), so
     /// that it arrives while this event is handled. Only a hint: it changes nothing.
     pub prefetch: Prefetch,
-    /// Where the robot actors' memory is, for the look-ahead.
-    pub whereabouts: std::sync::Arc<crate::robot::Whereabouts>,
 }
 
 /// The look-ahead into the world ([`Routes::prefetch`]): called with what the next event and
@@ -264,8 +189,8 @@ pub(crate) enum Next {
 pub struct Scheduler {
     core: Core,
     routes: Routes,
-    /// Its own address, for the replies ([`ReplyTo`]), once started.
-    me: Option<std::sync::Arc<Addr<Scheduler>>>,
+    /// Where the replies go ([`ReplyTo`]): itself, once started.
+    me: Option<std::sync::Arc<Recipient<Replied>>>,
     /// The target of the delivery in flight.
     in_flight: Option<Target>,
     sensors: HashMap<(RobotId, SensorKind), Recipient<Deliver>>,
@@ -397,35 +322,6 @@ impl Core {
         if then.capacity() <= RUN {
             self.spare_then = then;
         }
-    }
-
-    /// In a large queue (as [`EventQueue::look_ahead`]), the robots of the first two events
-    /// for robot actors that `effects` schedule at the instants of the run they answer. A
-    /// robot's notice is mostly scheduled by the handling just before it, at the same instant,
-    /// and delivered next: the look-ahead, a delivery or two ahead in the queue, never sees
-    /// it, so the scheduler asks for the robot's actor memory from the reply instead, its
-    /// entries before the reply is applied and the memory they name after (issue 17).
-    #[inline]
-    pub(crate) fn notified(&self, effects: &[Effect]) -> [Option<RobotId>; 2] {
-        let mut found = [None; 2];
-        if self.queue.len() < LOOK_AHEAD_FROM {
-            return found;
-        }
-        // The run's events after the first were taken at their own instants, none before.
-        let now = self.run.last().map_or(self.now, |&(t, _)| t.max(self.now));
-        let robots = effects.iter().filter_map(|e| match e {
-            Effect::Schedule(ev) | Effect::ScheduleIn(ev, _) | Effect::AtInstantEnd(ev) => {
-                match ev.target {
-                    Target::Robot(r) if ev.time <= now => Some(r),
-                    _ => None,
-                }
-            }
-            _ => None,
-        });
-        for (slot, r) in found.iter_mut().zip(robots) {
-            *slot = Some(r);
-        }
-        found
     }
 
     /// In a large queue (as [`EventQueue::look_ahead`]), asks for the slots of the events that
@@ -688,6 +584,7 @@ impl Core {
     }
 
     /// The routes of the next two pending events, as seen when the last was taken.
+    #[cfg(test)]
     pub(crate) fn ahead(&self) -> Ahead {
         self.ahead
     }
@@ -762,40 +659,16 @@ impl Scheduler {
         if let Some(world) = self.core.ahead_in_world() {
             (self.routes.prefetch)(&world);
         }
-        let ahead = self.core.ahead();
-        if let Some((Target::Robot(r), _)) = ahead.after {
-            self.prefetch_entries(r);
-        }
-        if let Some((Target::Robot(r), _)) = ahead.next {
-            self.routes.whereabouts.prefetch_memory(r);
-        }
         let me = self
             .me
-            .get_or_insert_with(|| std::sync::Arc::new(ctx.address()));
-        deliver.reply = Some(ReplyTo(Some(me.clone())));
+            .get_or_insert_with(|| std::sync::Arc::new(ctx.address().recipient()));
+        deliver.reply = Some(ReplyTo::new(me.clone()));
         self.in_flight = Some(target);
         // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
         match target {
-            // Where the message's node in the robot's mailbox is, for the look-ahead when it
-            // runs ([`crate::robot::Whereabouts::set_node`]).
-            Target::Robot(r) if deliver.look_ahead => {
-                crate::world::prefetch::take_small_block(32);
-                self.routes.robots[r as usize].do_send(deliver);
-                let node = crate::world::prefetch::take_small_block(32);
-                self.routes.whereabouts.set_node(r, node);
-            }
             Target::Robot(r) => self.routes.robots[r as usize].do_send(deliver),
             _ => self.route(target).do_send(deliver),
         }
-    }
-
-    /// Stage one of the look-ahead into a robot actor: asks for the robot's address, read
-    /// first when an event is sent to it, and for its entry of where its memory is.
-    fn prefetch_entries(&self, r: RobotId) {
-        if let Some(addr) = self.routes.robots.get(r as usize) {
-            crate::world::prefetch::prefetch(addr);
-        }
-        self.routes.whereabouts.prefetch_entry(r);
     }
 
     /// Hands the output over. The actor is not stopped: the run's host drops or leaves the
@@ -839,14 +712,7 @@ impl Handler<Replied> for Scheduler {
             .expect("a reply to the delivery in flight");
         match reply.0 {
             Ok(reply) => {
-                let notified = self.core.notified(&reply.effects);
-                for &r in notified.iter().flatten() {
-                    self.prefetch_entries(r);
-                }
                 self.core.apply_reply(reply);
-                for &r in notified.iter().flatten() {
-                    self.routes.whereabouts.prefetch_memory(r);
-                }
                 self.step(ctx);
             }
             Err(e) => {
@@ -857,128 +723,12 @@ impl Handler<Replied> for Scheduler {
     }
 }
 
-/// One actor's handling of one event, apart from the actor machinery: its reply is the
-/// handling's effects. Every actor the scheduler delivers to implements it, and its
-/// `Handler<Deliver>` ([`hosted!`]) only calls it, so the kernel-alone reference
-/// ([`crate::kernel`]) runs the very same handling code without actors.
-pub trait HandleEvent {
-    /// Handles `msg`; returns the effects (events to schedule or cancel, observations).
-    fn handle_event(&mut self, msg: Deliver) -> Vec<Effect>;
-
-    /// Asks for what the handlings of `next` and of `after`, the run's events after the one
-    /// about to be handled, will read ([`crate::world::prefetch`]): `next`'s whole, whose
-    /// first reads were asked for a handling ago, and `after`'s first reads. Called by
-    /// [`handle_run`] before each handling when the delivery says the scheduler looks ahead:
-    /// the scheduler's own look-ahead sees only the events after the run (issue 17: at a
-    /// million robots, 45 % of the events came as the third to eighth of a run). Only a hint:
-    /// it changes nothing. By default it asks for nothing.
-    fn prefetch(&self, _next: Option<&Event>, _after: Option<&Event>) {}
-}
-
-/// Handles a delivery as its actor does: its event, then each event of its run
-/// ([`Deliver::then`]) in turn for as long as the handlings so far leave that event the next
-/// one to take (the ordering contract): nothing they scheduled comes before it (their events
-/// all come after every pending one at equal times, their cause being newer), they did not
-/// cancel it, and they asked for no instant's end event (which could come between). The
-/// first event that fails this, and those after it, go back unhandled in the [`Reply`].
-pub fn handle_run<A: HandleEvent + ?Sized>(actor: &mut A, mut msg: Deliver) -> Reply {
-    // The run's events in reverse: the next one last.
-    let mut then = std::mem::take(&mut msg.then);
-    then.reverse();
-    let look_ahead = msg.look_ahead;
-    if look_ahead {
-        prefetch_run(actor, &then);
-    }
-    let mut seq = msg.seq;
-    let mut effects = actor.handle_event(msg);
-    let mut ends = smallvec::SmallVec::new();
-    let mut scanned = 0;
-    // The first event scheduled so far, and how many events of `then` may still be handled.
-    let mut first: Option<(u64, EventId)> = None;
-    let mut free = then.len();
-    loop {
-        for e in &effects[scanned..] {
-            match e {
-                Effect::Schedule(ev) | Effect::ScheduleIn(ev, _) => {
-                    let key = (time_key(ev.time), ev.id);
-                    first = Some(first.map_or(key, |f| f.min(key)));
-                }
-                Effect::Cancel(h) => {
-                    if let Some(k) = then.iter().position(|ev| ev.id == h.id) {
-                        free = free.min(then.len() - 1 - k);
-                    }
-                }
-                Effect::AtInstantEnd(_) | Effect::WithdrawAtInstantEnd(_) => free = 0,
-                Effect::Record(_) => {}
-            }
-        }
-        scanned = effects.len();
-        ends.push(u32::try_from(effects.len()).expect("fewer than 2^32 effects"));
-        let Some(next) = then.last() else {
-            break;
-        };
-        if free == 0 || first.is_some_and(|f| f < (time_key(next.time), next.id)) {
-            break;
-        }
-        let event = then.pop().expect("a next event");
-        free -= 1;
-        seq += 1;
-        if look_ahead {
-            prefetch_run(actor, &then);
-        }
-        effects = actor.handle_event(Deliver {
-            now: event.time,
-            seq,
-            event,
-            effects,
-            reply: None,
-            then: Vec::new(),
-            look_ahead: false,
-        });
-    }
-    then.reverse();
-    Reply {
-        effects,
-        ends,
-        then,
-    }
-}
-
-/// [`HandleEvent::prefetch`] of the next two events of a run kept in reverse (the next last).
-fn prefetch_run<A: HandleEvent + ?Sized>(actor: &A, reversed: &[Event]) {
-    let mut rev = reversed.iter().rev();
-    if let Some(next) = rev.next() {
-        actor.prefetch(Some(next), rev.next());
-    }
-}
-
-/// `Handler<Deliver>` for an actor that implements [`HandleEvent`].
-macro_rules! hosted {
-    ($actor:ty) => {
-        impl actix::Handler<$crate::scheduler::Deliver> for $actor {
-            type Result = ();
-
-            fn handle(
-                &mut self,
-                mut msg: $crate::scheduler::Deliver,
-                _: &mut actix::Context<Self>,
-            ) {
-                // Held across the handling: should it panic, dropping it tells the scheduler.
-                let reply = msg.reply.take();
-                let handled = $crate::scheduler::handle_run(self, msg);
-                if let Some(reply) = reply {
-                    reply.send(handled);
-                }
-            }
-        }
-    };
-}
-pub(crate) use hosted;
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::world::event::EventClass;
+    use crate::handler::HandleEvent;
+    use crate::host::handle_run;
+    use crate::world::event::{EventClass, EventId};
 
     fn timer(robot: RobotId) -> Payload {
         Payload::Timer { robot, ticket: 0 }
@@ -1043,35 +793,6 @@ mod tests {
         let route = |r: RobotId| Some((Target::Robot(r), [r, crate::world::event::NO_ROBOT]));
         assert_eq!(large.ahead().next, route(1));
         assert_eq!(large.ahead().after, route(2));
-    }
-
-    /// From a reply's effects, the look-ahead names the robots of the first two robot events
-    /// scheduled at the instant handled, in a large queue only: not a later robot event, not
-    /// a manager's.
-    #[test]
-    fn a_reply_names_the_robots_it_notifies_at_once() {
-        let effects = |now: f64| {
-            let mut out = Outbox::new(now, 1);
-            let at = |out: &mut Outbox, t: f64, target: Target, r: RobotId| {
-                out.schedule(t, target, EventClass::Eventual, [Some(r), None], timer(r))
-            };
-            at(&mut out, now + 1.0, Target::Robot(7), 7);
-            at(&mut out, now, Target::MotionManager, 8);
-            at(&mut out, now, Target::Robot(5), 5);
-            at(&mut out, now, Target::Robot(3), 3);
-            at(&mut out, now, Target::Robot(4), 4);
-            out.into_effects()
-        };
-        let mut large = timers_core(LOOK_AHEAD_FROM + 1);
-        let Next::Deliver(_, d) = large.next() else {
-            panic!("an event to deliver")
-        };
-        assert_eq!(large.notified(&effects(d.now)), [Some(5), Some(3)]);
-        let mut small = timers_core(LOOK_AHEAD_FROM);
-        let Next::Deliver(_, d) = small.next() else {
-            panic!("an event to deliver")
-        };
-        assert_eq!(small.notified(&effects(d.now)), [None, None]);
     }
 
     /// The robot an event stands for here: its timer's, 99 for the end of an instant, 100
@@ -1178,7 +899,7 @@ mod tests {
     struct Scrambler {
         seed: u64,
         robots: RobotId,
-        claims: crate::world::event::Claims,
+        claims: crate::world::queue::Claims,
         handles: Vec<crate::world::event::Handle>,
         closing: Option<EventId>,
         /// `(time, number, robot)` of each handling, in order.
@@ -1199,16 +920,15 @@ mod tests {
     }
 
     impl HandleEvent for Scrambler {
-        fn handle_event(&mut self, msg: Deliver) -> Vec<Effect> {
-            let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
-            let robot = match msg.event.payload {
+        fn handle_event(&mut self, event: Event, out: &mut Outbox) {
+            let robot = match event.payload {
                 Payload::Timer { robot, .. } => robot,
                 _ => 99,
             };
-            self.log.push((msg.now, msg.seq, robot));
+            self.log.push((out.now(), out.cause(), robot));
             // SplitMix64 of the seed, the number and what was handled so far.
             let mut x =
-                self.seed ^ msg.seq.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ self.log.len() as u64;
+                self.seed ^ out.cause().wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ self.log.len() as u64;
             let mut draw = move |n: u64| {
                 x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
                 let mut z = x;
@@ -1262,7 +982,6 @@ mod tests {
             if robot == 99 {
                 self.closing = None;
             }
-            out.into_effects()
         }
     }
 
@@ -1320,7 +1039,7 @@ mod tests {
         // Robot 1's timers at 1, 2, 3, 4 and 5 s; robot 2's at 6 s. The handling at 1 s
         // cancels the one at 4 s; the one at 2 s sets robot 2's timer for 2.5 s.
         let mut setup = Outbox::new(0.0, 0);
-        let mut claims = crate::world::event::Claims::default();
+        let mut claims = crate::world::queue::Claims::default();
         let mut handles = Vec::new();
         for t in [1.0, 2.0, 3.0, 4.0, 5.0] {
             handles.push(setup.schedule_in(
@@ -1341,13 +1060,12 @@ mod tests {
         );
         struct Actor(Vec<(f64, u64)>, crate::world::event::Handle);
         impl HandleEvent for Actor {
-            fn handle_event(&mut self, msg: Deliver) -> Vec<Effect> {
-                let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
-                self.0.push((msg.now, msg.seq));
-                if msg.now == 1.0 {
+            fn handle_event(&mut self, _: Event, out: &mut Outbox) {
+                self.0.push((out.now(), out.cause()));
+                if out.now() == 1.0 {
                     out.cancel(self.1);
                 }
-                if msg.now == 2.0 {
+                if out.now() == 2.0 {
                     out.schedule(
                         2.5,
                         Target::Robot(2),
@@ -1356,7 +1074,6 @@ mod tests {
                         timer(2),
                     );
                 }
-                out.into_effects()
             }
         }
         let mut core = Core::new(10.0, setup, Observers::default());
@@ -1399,11 +1116,10 @@ mod tests {
             asked: std::cell::RefCell<Vec<Ask>>,
         }
         impl HandleEvent for Actor {
-            fn handle_event(&mut self, msg: Deliver) -> Vec<Effect> {
-                self.handled.push(msg.now);
-                Outbox::reusing(msg.now, msg.seq, msg.effects).into_effects()
+            fn handle_event(&mut self, _: Event, out: &mut Outbox) {
+                self.handled.push(out.now());
             }
-            fn prefetch(&self, next: Option<&Event>, after: Option<&Event>) {
+            fn look_ahead(&self, next: Option<&Event>, after: Option<&Event>) {
                 let last = self.handled.last().copied().unwrap_or(0.0);
                 let time = |e: Option<&Event>| e.map(|e| e.time);
                 self.asked
@@ -1456,7 +1172,7 @@ mod tests {
     fn cancellations_asked_for_ahead_still_cancel() {
         let n = LOOK_AHEAD_FROM + 10;
         let mut setup = Outbox::new(0.0, 0);
-        let mut claims = crate::world::event::Claims::default();
+        let mut claims = crate::world::queue::Claims::default();
         let handles: Vec<_> = (0..n)
             .map(|k| {
                 let r = k as RobotId;

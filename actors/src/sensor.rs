@@ -2,13 +2,13 @@
 //! manager hands a sensor the world's exact data; the sensor computes the reply (the seed's
 //! `calReply`, e.g. GPS noise from its own seeded random stream) and answers its robot.
 
-use actix::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::scheduler::{Deliver, HandleEvent};
-use crate::world::event::{Notice, Outbox, Payload, SensorCompute};
+use crate::handler::HandleEvent;
+use crate::world::event::{Event, Notice, Payload, SensorCompute};
 use crate::world::observation::Observation;
+use crate::world::outbox::Outbox;
 use std::sync::Arc;
 
 use crate::world::sensor::{SensorKind, SensorValue, Sensors};
@@ -39,14 +39,9 @@ impl Sensor {
     }
 }
 
-impl Actor for Sensor {
-    type Context = Context<Self>;
-}
-
 impl HandleEvent for Sensor {
-    fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
-        let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
-        if let Payload::SensorCompute(compute) = msg.event.payload {
+    fn handle_event(&mut self, event: Event, out: &mut Outbox) {
+        if let Payload::SensorCompute(compute) = event.payload {
             let SensorCompute {
                 robot,
                 ticket,
@@ -80,8 +75,5 @@ impl HandleEvent for Sensor {
             };
             out.notify(robot, notice);
         }
-        out.into_effects()
     }
 }
-
-crate::scheduler::hosted!(Sensor);

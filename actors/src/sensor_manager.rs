@@ -5,10 +5,9 @@
 
 use std::sync::{Arc, Mutex};
 
-use actix::prelude::*;
-
-use crate::scheduler::{Deliver, HandleEvent};
-use crate::world::event::Outbox;
+use crate::handler::HandleEvent;
+use crate::world::event::Event;
+use crate::world::outbox::Outbox;
 use crate::world::virtual_world::{Sensing, VirtualWorld};
 
 /// The sensor manager.
@@ -25,17 +24,9 @@ impl SensorManager {
     }
 }
 
-impl Actor for SensorManager {
-    type Context = Context<Self>;
-}
-
 impl HandleEvent for SensorManager {
-    fn handle_event(&mut self, msg: Deliver) -> Vec<crate::world::event::Effect> {
-        let mut out = Outbox::reusing(msg.now, msg.seq, msg.effects);
+    fn handle_event(&mut self, event: Event, out: &mut Outbox) {
         let mut world = self.world.lock().expect("world lock");
-        self.sensing.handle(&mut world, msg.event.payload, &mut out);
-        out.into_effects()
+        self.sensing.handle(&mut world, event.payload, out);
     }
 }
-
-crate::scheduler::hosted!(SensorManager);

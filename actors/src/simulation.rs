@@ -6,17 +6,17 @@ use std::sync::{Arc, Mutex};
 
 use actix::prelude::*;
 
+use crate::host::{Deliver, Host};
 use crate::layer::LayerActor;
 use crate::motion_manager::MotionManager;
 use crate::network::NetworkActor;
-use crate::robot::{Algorithm, RobotActor, RobotInfo, Whereabouts};
-use crate::scheduler::{Deliver, Observers, Routes, RunOutput, Scheduler};
+use crate::robot::{Algorithm, RobotActor, RobotInfo};
+use crate::scheduler::{Observers, Routes, RunOutput, Scheduler};
 use crate::sensor::Sensor;
 use crate::sensor_manager::SensorManager;
-use crate::world::event::Outbox;
 use crate::world::event::{EventClass, Payload, Target};
 use crate::world::network::{Network, Networks, Partition};
-use crate::world::prefetch::take_small_block;
+use crate::world::outbox::Outbox;
 use crate::world::sensor::Sensors;
 use crate::world::virtual_world::{RobotSpec, Sensing, VirtualWorld, WorldConfig, WorldError};
 use crate::world::RobotId;
@@ -274,8 +274,8 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
         }
         let world = p.world;
         let wiring = p.wiring;
-        let motion_manager = MotionManager::new(world.clone()).start().recipient();
-        let network = NetworkActor::new(p.network, world.clone(), wiring.clone())
+        let motion_manager = Host(MotionManager::new(world.clone())).start().recipient();
+        let network = Host(NetworkActor::new(p.network, world.clone(), wiring.clone()))
             .start()
             .recipient();
         let prefetch = {
@@ -287,14 +287,15 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                 }
             })
         };
-        let sensor_manager = SensorManager::new(world, p.sensing).start().recipient();
+        let sensor_manager = Host(SensorManager::new(world, p.sensing))
+            .start()
+            .recipient();
         let arbiter_of = {
             let handles = handles.clone();
             move |id: RobotId| handles[id as usize % handles.len()].clone()
         };
         let layer_ids = p.layer_ids;
-        let whereabouts = Arc::new(Whereabouts::new(count));
-        let mut robots: Vec<Addr<RobotActor>> = p
+        let mut robots: Vec<Addr<Host<RobotActor>>> = p
             .robots
             .into_iter()
             .zip(robot_info)
@@ -306,22 +307,14 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                     }
                 }
                 let ids = layer_ids.clone();
-                let w = whereabouts.clone();
                 if info.id as usize % p.arbiters == 0 {
                     // This thread's arbiter: started in place, without a closure sent over the
                     // arbiter's queue and a task to run it (at 1M robots, both held until the
                     // system ran).
-                    // The end of the mailbox's queue of parked senders is its last block
-                    // of at most 16 bytes ([`Whereabouts::set_parked`]).
-                    take_small_block(16);
-                    let addr = RobotActor::new(info, algorithm, seed, ids)
-                        .telling(w.clone())
-                        .start();
-                    w.set_parked(info.id, take_small_block(16));
-                    addr
+                    Host(RobotActor::new(info, algorithm, seed, ids)).start()
                 } else {
-                    RobotActor::start_in_arbiter(&arbiter_of(info.id), move |_| {
-                        RobotActor::new(info, algorithm, seed, ids).telling(w)
+                    Host::start_in_arbiter(&arbiter_of(info.id), move |_| {
+                        Host(RobotActor::new(info, algorithm, seed, ids))
                     })
                 }
             })
@@ -329,9 +322,6 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
         // Collected in place from the robots' settings (48 bytes each): 32 MB at a million
         // robots that the routes do not need.
         robots.shrink_to_fit();
-        for (id, addr) in robots.iter().enumerate() {
-            whereabouts.set_mailbox(id as crate::world::RobotId, addr);
-        }
         if let Some(f) = startup.as_mut() {
             f(count, count);
         }
@@ -346,14 +336,14 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                     .enumerate()
                     .map(|(l, layer)| {
                         let wiring = wiring.clone();
-                        LayerActor::start_in_arbiter(&arbiter_of(r), move |_| {
-                            LayerActor::new(
+                        Host::start_in_arbiter(&arbiter_of(r), move |_| {
+                            Host(LayerActor::new(
                                 r,
                                 l as nekosim_protocols::LayerIx,
                                 layer,
                                 wiring,
                                 count as u32,
-                            )
+                            ))
                         })
                         .recipient()
                     })
@@ -362,7 +352,6 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
             .collect();
         let sensors = p.sensors;
         let routes = Routes {
-            whereabouts,
             motion_manager,
             sensor_manager,
             robots,
@@ -370,8 +359,8 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
             layers,
             spawn_sensor: Box::new(move |robot, kind| {
                 let sensors = sensors.clone();
-                Sensor::start_in_arbiter(&arbiter_of(robot), move |_| {
-                    Sensor::new(robot, kind, seed, sensors)
+                Host::start_in_arbiter(&arbiter_of(robot), move |_| {
+                    Host(Sensor::new(robot, kind, seed, sensors))
                 })
                 .recipient()
             }),

@@ -22,12 +22,14 @@ use super::collision::{
     cell_walk, predict_contact_from, predict_entry, predict_reentry, predict_wall, Track,
     CONTACT_TOLERANCE,
 };
-use super::event::{Claims, EventClass, EventId, Handle, Notice, Outbox, Payload, Target};
+use super::event::{EventClass, EventId, Handle, Notice, Payload, Target};
 use super::geometry::Point;
 use super::grid::{blocks, blocks_beyond, next_to, Cell, Grid, Span, SpanCells, SPAN};
 use super::motion::{Kinematics, Motion, Path, Piece, Pose};
 use super::observation::Observation;
 use super::obstacle::{predict_obstacle, ObstacleIndex, Shape, ShapeError};
+use super::outbox::Outbox;
+use super::queue::Claims;
 use super::sensor::{Datum, SensorKind, SensorQuery, SensorValue, Sensors, Trigger, WorldView};
 use super::{MotionOutcome, Obstacle, RobotId};
 use smallvec::SmallVec;
@@ -414,7 +416,7 @@ impl VirtualWorld {
     }
 
     /// Asks for what the handlings of the next two events read in the world to be brought
-    /// into cache ([`super::prefetch`]), in two stages ([`crate::world::event::EventQueue::look_ahead`]):
+    /// into cache ([`super::prefetch`]), in two stages ([`crate::world::queue::EventQueue::look_ahead`]):
     /// the state of the robots that the event `after` the next concerns, and the grid's cells
     /// around those of the `next` event, which needs their state, asked for one event ago
     /// (ids out of range are ignored).

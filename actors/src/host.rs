@@ -1,0 +1,186 @@
+//! How the product hosts handlers in actix actors: deliveries, runs of events, replies and
+//! the look-ahead (the ordering contract's points 3 and 5 in [`crate::scheduler`]).
+//!
+//! The scheduler actor sends each event to the actor that hosts its handler as a [`Deliver`]
+//! and waits for the [`Replied`] message with the handling's effects before it takes the next
+//! event. A delivery may carry a run: the events that come next for the same actor, which the
+//! host hands to its handler in turn for as long as the handlings before leave each the next
+//! event to take ([`handle_run`]), so a run saves round trips between the scheduler and a
+//! manager without changing which events are taken or their order. Everything here is about
+//! hosting; the handlers ([`HandleEvent`]) know none of it.
+
+use std::sync::Arc;
+
+use actix::prelude::*;
+
+use crate::handler::{handle_one, HandleEvent};
+use crate::world::event::{Effect, Event, EventId};
+use crate::world::radix::time_key;
+
+/// Delivery of one event to the actor that handles it; the reply, the handling's effects,
+/// goes back to the scheduler as a message of its own ([`Replied`]).
+#[derive(Debug, Message)]
+#[rtype(result = "()")]
+pub struct Deliver {
+    /// Virtual time of the event [s].
+    pub now: f64,
+    /// The event's processing number (the `cause` of whatever it creates).
+    pub seq: u64,
+    pub event: Event,
+    /// An empty buffer for the handling's effects: the scheduler's, handed back in the reply
+    /// and reused, so no handling allocates its effects' vector.
+    pub effects: Vec<Effect>,
+    /// Where the reply goes (none when the handling is called directly).
+    pub reply: Option<ReplyTo>,
+    /// The events that come next for the same actor, taken from the queue with this one (a
+    /// run, at most [`RUN`] events in all). The actor handles each in turn, as numbers
+    /// `seq + 1`, `seq + 2`, ..., for as long as the handlings before it leave it the next
+    /// event ([`handle_run`]), and hands the others back in its [`Reply`]. Most events of a
+    /// random-movement run are the motion manager's and follow another of its own, and each
+    /// would otherwise pay a round trip between the scheduler and the manager.
+    pub then: Vec<Event>,
+    /// Whether the scheduler looks ahead (a large queue): the host then asks the handler,
+    /// before each handling of the run, for what the next ones will read
+    /// ([`HandleEvent::look_ahead`]).
+    pub look_ahead: bool,
+}
+
+/// The most events a delivery carries ([`Deliver::then`] and its own).
+pub const RUN: usize = 8;
+
+/// An actor's reply to a delivery: the effects of the events it handled, in order; where each
+/// handling's effects end (`ends[0]` the delivered event's, `ends[1]` the first of
+/// [`Deliver::then`]'s, and so on); and the events of `then` it did not handle, which go back
+/// to the queue as they were.
+#[derive(Debug, Default)]
+pub struct Reply {
+    pub effects: Vec<Effect>,
+    pub ends: smallvec::SmallVec<[u32; RUN]>,
+    pub then: Vec<Event>,
+}
+
+/// The way back to the scheduler for one delivery's reply: one message, no channel. Dropped
+/// without a reply (the actor stopped, or its handling panicked), it tells the scheduler so,
+/// and the run ends with a failure instead of waiting forever.
+#[derive(Debug)]
+pub struct ReplyTo(Option<Arc<Recipient<Replied>>>);
+
+impl ReplyTo {
+    /// Replies go to `to`.
+    pub fn new(to: Arc<Recipient<Replied>>) -> Self {
+        Self(Some(to))
+    }
+
+    /// Sends the handling's effects back.
+    pub fn send(mut self, reply: Reply) {
+        if let Some(to) = self.0.take() {
+            to.do_send(Replied(Ok(reply)));
+        }
+    }
+}
+
+impl Drop for ReplyTo {
+    fn drop(&mut self) {
+        if let Some(to) = self.0.take() {
+            to.do_send(Replied(
+                Err("the actor dropped the event unanswered".into()),
+            ));
+        }
+    }
+}
+
+/// The reply to a delivery: the handling's effects, or why there are none.
+#[derive(Debug, Message)]
+#[rtype(result = "()")]
+pub struct Replied(pub Result<Reply, String>);
+
+/// Handles a delivery as its actor does: its event, then each event of its run
+/// ([`Deliver::then`]) in turn for as long as the handlings so far leave that event the next
+/// one to take (the ordering contract): nothing they scheduled comes before it (their events
+/// all come after every pending one at equal times, their cause being newer), they did not
+/// cancel it, and they asked for no instant's end event (which could come between). The
+/// first event that fails this, and those after it, go back unhandled in the [`Reply`].
+pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) -> Reply {
+    // The run's events in reverse: the next one last.
+    let mut then = std::mem::take(&mut msg.then);
+    then.reverse();
+    let look_ahead = msg.look_ahead;
+    if look_ahead {
+        look_ahead_in_run(handler, &then);
+    }
+    let mut seq = msg.seq;
+    let mut effects = handle_one(handler, msg.now, msg.seq, msg.event, msg.effects);
+    let mut ends = smallvec::SmallVec::new();
+    let mut scanned = 0;
+    // The first event scheduled so far, and how many events of `then` may still be handled.
+    let mut first: Option<(u64, EventId)> = None;
+    let mut free = then.len();
+    loop {
+        for e in &effects[scanned..] {
+            match e {
+                Effect::Schedule(ev) | Effect::ScheduleIn(ev, _) => {
+                    let key = (time_key(ev.time), ev.id);
+                    first = Some(first.map_or(key, |f| f.min(key)));
+                }
+                Effect::Cancel(h) => {
+                    if let Some(k) = then.iter().position(|ev| ev.id == h.id) {
+                        free = free.min(then.len() - 1 - k);
+                    }
+                }
+                Effect::AtInstantEnd(_) | Effect::WithdrawAtInstantEnd(_) => free = 0,
+                Effect::Record(_) => {}
+            }
+        }
+        scanned = effects.len();
+        ends.push(u32::try_from(effects.len()).expect("fewer than 2^32 effects"));
+        let Some(next) = then.last() else {
+            break;
+        };
+        if free == 0 || first.is_some_and(|f| f < (time_key(next.time), next.id)) {
+            break;
+        }
+        let event = then.pop().expect("a next event");
+        free -= 1;
+        seq += 1;
+        if look_ahead {
+            look_ahead_in_run(handler, &then);
+        }
+        effects = handle_one(handler, event.time, seq, event, effects);
+    }
+    then.reverse();
+    Reply {
+        effects,
+        ends,
+        then,
+    }
+}
+
+/// [`HandleEvent::look_ahead`] for the next two events of a run kept in reverse (the next
+/// last). The scheduler's own look-ahead sees only the events after the run.
+fn look_ahead_in_run<H: HandleEvent + ?Sized>(handler: &H, reversed: &[Event]) {
+    let mut rev = reversed.iter().rev();
+    if let Some(next) = rev.next() {
+        handler.look_ahead(Some(next), rev.next());
+    }
+}
+
+/// The actor that hosts a handler: it takes [`Deliver`]s and replies with their effects.
+#[derive(Debug)]
+pub struct Host<H>(pub H);
+
+impl<H: HandleEvent + Unpin + 'static> Actor for Host<H> {
+    type Context = Context<Self>;
+}
+
+impl<H: HandleEvent + Unpin + 'static> Handler<Deliver> for Host<H> {
+    type Result = ();
+
+    fn handle(&mut self, mut msg: Deliver, _: &mut Context<Self>) {
+        // Held across the handling: should it panic, dropping it tells the scheduler.
+        let reply = msg.reply.take();
+        let handled = handle_run(&mut self.0, msg);
+        if let Some(reply) = reply {
+            reply.send(handled);
+        }
+    }
+}
