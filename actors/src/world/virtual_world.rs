@@ -35,8 +35,10 @@ use super::{MotionOutcome, Obstacle, RobotId};
 use smallvec::SmallVec;
 
 mod motion_logic;
+mod robot_state;
 mod sensing;
 
+use robot_state::{OwnEvents, PairEvents, Pairs, RobotState, PARTNER_BYTES};
 pub use sensing::Sensing;
 
 /// The world's extent (seed 3.2).
@@ -131,146 +133,8 @@ pub struct RobotSpec {
     pub pose: Pose,
 }
 
-/// A robot's state in the world, laid out by hand (`repr(C)`), a cache line apart from the
-/// next: what predicting a partner against the robot reads (its motion, rest pose, radius and
-/// push sensors) comes first, in its first three lines ([`PARTNER_BYTES`]), then its partner
-/// table, then what only its own events read. At a million robots a prediction asks for the
-/// partner's first three lines only, and cancelling a pair for the partner table's lines
-/// alone, where each asked for the whole state, seven lines (issue 17).
-#[derive(Debug)]
-#[repr(C, align(64))]
-struct RobotState {
-    /// The motion in progress; its step events are asked of it (`events`) when needed
-    /// rather than kept beside it (issue 17: 128 bytes a robot).
-    motion: Option<Path>,
-    /// Radius [units].
-    radius: f64,
-    /// Pose when there is no motion in progress.
-    rest: Pose,
-    /// What the world shows of the robot's armed push sensors, once it arms one.
-    listening: Option<Box<Listening>>,
-    /// Partner -> pair events predicted under the current motions of both.
-    pairs: Pairs,
-    /// Own conditional events: motion steps, cell crossings, boundary contact.
-    own: OwnEvents,
-    /// The first cell the robot is registered in: its cell when it was registered.
-    cell: Cell,
-    ticket: u64,
-    /// Index of the next step event of the current motion.
-    next_step: u32,
-    /// The cells after `cell` it is registered in, along its path.
-    span: Span,
-    /// The first obstacle contact predicted against the obstacles around the robot's cell
-    /// (predicted again whenever it changes cell).
-    obstacle: Option<Handle>,
-    crashed: bool,
-    /// Stopped at this instant and not predicted for at rest yet ([`VirtualWorld::settle_all`]).
-    unsettled: bool,
-}
-
-/// The bytes of a [`RobotState`] that predicting a partner against it reads: those before its
-/// partner table.
-const PARTNER_BYTES: usize = std::mem::offset_of!(RobotState, pairs);
-
-/// What the world shows of a robot's armed push sensors (the sensor manager owns the rest),
-/// kept apart from the robot's state: most robots never arm one (issue 17: 48 bytes a robot).
-#[derive(Debug, Default)]
-struct Listening {
-    /// The free distance at which another robot's entry triggers each entry sensor, so that
-    /// entries are predicted and invalidated with the other pair events,
-    entry: Vec<(SensorKind, f64)>,
-    /// and the sensors a contact triggers.
-    contact: Vec<SensorKind>,
-}
-
-impl RobotState {
-    /// The robot's entry-triggered push sensors and their ranges.
-    fn entry(&self) -> &[(SensorKind, f64)] {
-        self.listening.as_deref().map_or(&[], |l| &l.entry)
-    }
-
-    /// The robot's contact-triggered push sensors.
-    fn contact(&self) -> &[SensorKind] {
-        self.listening.as_deref().map_or(&[], |l| &l.contact)
-    }
-
-    fn listening_mut(&mut self) -> &mut Listening {
-        self.listening.get_or_insert_with(Default::default)
-    }
-}
-
-/// A robot's partners (the robots it has pair events predicted with, under the current paths
-/// of both: a pair predicted without any is not kept) and those events, sorted by partner, so
-/// they are visited in partner order as a `BTreeMap` would: a robot has a handful of
-/// partners, and a B-tree's first node alone took about 280 bytes (issue 17). The first three
-/// are inline, in the robot's state, which the look-ahead brings into cache before the robot's
-/// events: most robots have two partners at most (100k robots at 40 s: 62 %), and a table of
-/// their own was a cache miss of its own at a million robots (a fifth of `predict_around`'s
-/// samples) and an allocation when it grew. Three rather than two (32 bytes more a robot)
-/// made a million robots' events 2.3 % faster; four was 1.9 % slower than three
-/// (docs/performance.md, twenty-seventh session).
-#[derive(Debug, Default)]
-struct Pairs(SmallVec<[(RobotId, PairEvents); INLINE_PARTNERS]>);
-
-/// Partners kept inline in a robot's state ([`Pairs`]).
-const INLINE_PARTNERS: usize = 3;
-
 /// The robots a robot is to be predicted against, found around its cells.
 type Fresh = SmallVec<[RobotId; 8]>;
-
-/// A robot's own conditional events, inline up to six (a motion's four steps, a wall contact,
-/// a cell crossing): a firing step looks its handle up without a second cache miss.
-type OwnEvents = smallvec::SmallVec<[Handle; 6]>;
-
-/// The events predicted for a pair of robots: mostly none or one collision, kept inline (a
-/// vector was an allocation per prediction, in each of the two robots' tables).
-type PairEvents = smallvec::SmallVec<[Handle; 1]>;
-
-impl Pairs {
-    fn find(&self, partner: RobotId) -> Result<usize, usize> {
-        self.0.binary_search_by_key(&partner, |(p, _)| *p)
-    }
-
-    fn contains_key(&self, partner: &RobotId) -> bool {
-        self.find(*partner).is_ok()
-    }
-
-    /// Sets the pair events with `partner`, replacing any.
-    fn insert(&mut self, partner: RobotId, ids: PairEvents) {
-        match self.find(partner) {
-            Ok(i) => self.0[i].1 = ids,
-            Err(i) => self.0.insert(i, (partner, ids)),
-        }
-    }
-
-    /// Takes the pair events with `partner` out. A table that fits inline again goes back
-    /// inline: kept on the heap, it was a cache miss of its own at every look at a million
-    /// robots, and more robots' tables had spilled the longer a run went (issue 17).
-    fn remove(&mut self, partner: &RobotId) -> Option<PairEvents> {
-        let i = self.find(*partner).ok()?;
-        let ids = self.0.remove(i).1;
-        if self.0.spilled() && self.0.len() <= self.0.inline_size() {
-            self.0.shrink_to_fit();
-        }
-        Some(ids)
-    }
-
-    /// Takes every partner's events out, in partner order, keeping the table's room: a robot
-    /// whose path changes soon has as many partners again (issue 17: freeing the table and
-    /// growing it anew was an allocation or more per change of path).
-    fn drain(&mut self) -> smallvec::Drain<'_, [(RobotId, PairEvents); INLINE_PARTNERS]> {
-        self.0.drain(..)
-    }
-
-    /// The pair events with `partner`, made empty if there were none.
-    fn events_mut(&mut self, partner: RobotId) -> &mut PairEvents {
-        let i = self.find(partner).unwrap_or_else(|i| {
-            self.0.insert(i, (partner, PairEvents::new()));
-            i
-        });
-        &mut self.0[i].1
-    }
-}
 
 /// The virtual world: all robots' states and the spatial index.
 #[derive(Debug)]
@@ -1004,55 +868,4 @@ fn schedule_contact(
             at: contact,
         },
     )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// What predicting a partner reads of its state lies in the state's first three cache
-    /// lines, the only ones such a prediction asks for ahead, and each state starts a line.
-    #[test]
-    fn a_partners_prediction_reads_its_first_three_lines() {
-        use std::mem::{align_of, offset_of, size_of};
-        assert_eq!(align_of::<RobotState>(), 64);
-        const { assert!(PARTNER_BYTES <= 3 * 64) };
-        let ends = [
-            offset_of!(RobotState, motion) + size_of::<Option<Path>>(),
-            offset_of!(RobotState, radius) + size_of::<f64>(),
-            offset_of!(RobotState, rest) + size_of::<Pose>(),
-            offset_of!(RobotState, listening) + size_of::<Option<Box<Listening>>>(),
-        ];
-        assert!(ends.iter().all(|&e| e <= PARTNER_BYTES), "{ends:?}");
-    }
-
-    /// A robot's partner table that spilled to the heap goes back inline once it fits again,
-    /// its partners still in order with their events.
-    #[test]
-    fn a_spilled_partner_table_goes_back_inline_when_it_fits() {
-        let h = |k: RobotId| Handle {
-            id: EventId {
-                cause: u64::from(k),
-                index: 0,
-            },
-            slot: k,
-        };
-        let mut pairs = Pairs::default();
-        for partner in [7, 3, 9, 5, 11] {
-            pairs.insert(partner, smallvec::smallvec![h(partner)]);
-        }
-        assert!(pairs.0.spilled());
-        let listed = |p: &Pairs| -> Vec<(RobotId, u32)> {
-            p.0.iter().map(|(r, ids)| (*r, ids[0].slot)).collect()
-        };
-        assert_eq!(listed(&pairs), [(3, 3), (5, 5), (7, 7), (9, 9), (11, 11)]);
-        assert_eq!(pairs.remove(&3).map(|ids| ids[0].slot), Some(3));
-        assert!(pairs.0.spilled(), "four do not fit inline");
-        assert!(pairs.remove(&4).is_none());
-        assert_eq!(pairs.remove(&9).map(|ids| ids[0].slot), Some(9));
-        assert!(!pairs.0.spilled(), "three fit inline");
-        assert_eq!(listed(&pairs), [(5, 5), (7, 7), (11, 11)]);
-        pairs.insert(6, smallvec::smallvec![h(6)]);
-        assert_eq!(listed(&pairs), [(5, 5), (6, 6), (7, 7), (11, 11)]);
-    }
 }

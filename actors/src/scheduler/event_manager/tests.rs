@@ -1,0 +1,474 @@
+//! The event manager's ordering, runs and look-ahead, against brute-force orders.
+use super::*;
+use crate::handler::HandleEvent;
+use crate::host::handle_run;
+use crate::world::event::{EventClass, EventId};
+
+fn timer(robot: RobotId) -> Payload {
+    Payload::Timer { robot, ticket: 0 }
+}
+
+/// Runs a core from timers `(time, robot)` set at the setup, with `handle` as every
+/// actor's handling (given the robot of the event, see `robot_of`); returns the events
+/// taken as `(time, robot)`, in order.
+fn run_timers(
+    timers: &[(f64, RobotId)],
+    mut handle: impl FnMut(RobotId, &mut Outbox),
+) -> Vec<(f64, RobotId)> {
+    let mut setup = Outbox::new(0.0, 0);
+    for &(t, r) in timers {
+        setup.schedule(
+            t,
+            Target::Robot(r),
+            EventClass::Eventual,
+            [Some(r), None],
+            timer(r),
+        );
+    }
+    let mut core = Core::new(10.0, setup, Observers::default());
+    let mut order = Vec::new();
+    while let Next::Deliver(_, d) = core.next() {
+        let r = robot_of(&d.event.payload);
+        order.push((d.now, r));
+        let mut out = Outbox::new(d.now, d.seq);
+        handle(r, &mut out);
+        core.apply(out.into_effects());
+    }
+    order
+}
+
+/// A core with timers for robots `0..n` at 1, 2, ... s.
+fn timers_core(n: usize) -> Core {
+    let mut setup = Outbox::new(0.0, 0);
+    for k in 0..n {
+        let r = k as RobotId;
+        setup.schedule(
+            1.0 + k as f64,
+            Target::Robot(r),
+            EventClass::Eventual,
+            [Some(r), None],
+            timer(r),
+        );
+    }
+    Core::new(1e9, setup, Observers::default())
+}
+
+/// The core looks ahead only while the queue holds [`LOOK_AHEAD_FROM`] events or more,
+/// and then sees the routes of the next two events and tells the actor to look ahead in
+/// its run ([`Deliver::look_ahead`]).
+#[test]
+fn the_core_looks_ahead_only_in_a_large_queue() {
+    // One event taken leaves LOOK_AHEAD_FROM - 1 pending: no look.
+    let mut small = timers_core(LOOK_AHEAD_FROM);
+    assert!(matches!(small.next(), Next::Deliver(Target::Robot(0), d) if !d.look_ahead));
+    assert_eq!(small.ahead(), Ahead::default());
+    let mut large = timers_core(LOOK_AHEAD_FROM + 1);
+    assert!(matches!(large.next(), Next::Deliver(Target::Robot(0), d) if d.look_ahead));
+    let route = |r: RobotId| Some((Target::Robot(r), [r, crate::world::event::NO_ROBOT]));
+    assert_eq!(large.ahead().next, route(1));
+    assert_eq!(large.ahead().after, route(2));
+}
+
+/// The robot an event stands for here: its timer's, 99 for the end of an instant, 100
+/// for a listing's notice.
+fn robot_of(p: &Payload) -> RobotId {
+    match p {
+        Payload::Timer { robot, .. } => *robot,
+        Payload::Notice(_) => 100,
+        Payload::Settle => 99,
+        other => panic!("unexpected {other:?}"),
+    }
+}
+
+/// Sets robot `r`'s timer now.
+fn wake(out: &mut Outbox, r: RobotId) {
+    out.schedule(
+        out.now(),
+        Target::Robot(r),
+        EventClass::Eventual,
+        [None, None],
+        timer(r),
+    );
+}
+
+/// An instant's end event comes after every other event of its instant, those caused after
+/// it was scheduled included, and before the next instant; its own events at the instant
+/// follow it. A listing of events taken while one is pending waits for it.
+#[test]
+fn an_instants_end_event_comes_after_the_instant_and_before_the_next() {
+    let order = run_timers(&[(1.0, 1), (1.0, 2), (2.0, 3)], |r, out| match r {
+        // Robot 1 asks for the end of the instant, then causes robot 4's timer now and a
+        // listing now.
+        1 => {
+            out.at_instant_end(Target::MotionManager, [None, None], Payload::Settle);
+            wake(out, 4);
+            out.schedule(
+                out.now(),
+                Target::EventManager,
+                EventClass::Eventual,
+                [Some(1), None],
+                Payload::ListEvents {
+                    robot: 1,
+                    of: 1,
+                    ticket: 0,
+                },
+            );
+        }
+        // Robot 4 causes robot 5's timer now.
+        4 => wake(out, 5),
+        // The end of the instant causes robot 6's timer now.
+        99 => wake(out, 6),
+        _ => {}
+    });
+    // 100: the listing's notice, sent after the end of the instant.
+    assert_eq!(
+        order,
+        [
+            (1.0, 1),
+            (1.0, 2),
+            (1.0, 4),
+            (1.0, 5),
+            (1.0, 99),
+            (1.0, 6),
+            (1.0, 100),
+            (2.0, 3)
+        ]
+    );
+}
+
+/// An instant's end event withdrawn before it is taken never comes; withdrawing one that
+/// was taken changes nothing.
+#[test]
+fn an_instants_end_event_withdrawn_never_comes() {
+    let mut pending = None;
+    let order = run_timers(
+        &[(1.0, 1), (1.0, 2), (2.0, 3), (2.0, 4)],
+        |r, out| match r {
+            // Robots 1 and 3 ask for the end of their instant; robot 2 withdraws it at
+            // instant 1; at instant 2 the end comes and causes robot 5's timer, which
+            // withdraws it after it was taken.
+            1 | 3 => {
+                pending =
+                    Some(out.at_instant_end(Target::MotionManager, [None, None], Payload::Settle));
+            }
+            2 | 5 => out.withdraw_at_instant_end(pending.expect("asked for")),
+            99 => wake(out, 5),
+            _ => {}
+        },
+    );
+    assert_eq!(
+        order,
+        [(1.0, 1), (1.0, 2), (2.0, 3), (2.0, 4), (2.0, 99), (2.0, 5)]
+    );
+}
+
+/// A handler for every actor of a test run, whose handlings make pseudo-random effects
+/// from the run's seed and the event's number: timers for a few robots, now or later,
+/// some cancellable and some of those cancelled later, an instant's end event now and
+/// then, withdrawn now and then. One state for all targets, as the managers share the
+/// world, so that a handling's effects depend on every handling before it.
+struct Scrambler {
+    seed: u64,
+    robots: RobotId,
+    claims: crate::world::queue::Claims,
+    handles: Vec<crate::world::event::Handle>,
+    closing: Option<EventId>,
+    /// `(time, number, robot)` of each handling, in order.
+    log: Vec<(f64, u64, RobotId)>,
+}
+
+impl Scrambler {
+    fn new(seed: u64, robots: RobotId) -> Self {
+        Self {
+            seed,
+            robots,
+            claims: Default::default(),
+            handles: Vec::new(),
+            closing: None,
+            log: Vec::new(),
+        }
+    }
+}
+
+impl HandleEvent for Scrambler {
+    fn handle_event(&mut self, event: Event, out: &mut Outbox) {
+        let robot = match event.payload {
+            Payload::Timer { robot, .. } => robot,
+            _ => 99,
+        };
+        self.log.push((out.now(), out.cause(), robot));
+        // SplitMix64 of the seed, the number and what was handled so far.
+        let mut x =
+            self.seed ^ out.cause().wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ self.log.len() as u64;
+        let mut draw = move |n: u64| {
+            x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = x;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            (z ^ (z >> 31)) % n
+        };
+        let now = out.now();
+        for _ in 0..draw(3) {
+            let r = draw(u64::from(self.robots)) as RobotId;
+            let at = now + [0.0, 0.0, 0.25, 0.5, 1.0][draw(5) as usize];
+            let robots = [Some(r), None];
+            let payload = Payload::Timer {
+                robot: r,
+                ticket: 0,
+            };
+            let target = Target::Robot(r);
+            if draw(2) == 0 {
+                out.schedule(at, target, EventClass::Eventual, robots, payload);
+            } else {
+                let h = out.schedule_in(
+                    &mut self.claims,
+                    at,
+                    target,
+                    EventClass::Eventual,
+                    robots,
+                    payload,
+                );
+                self.handles.push(h);
+            }
+        }
+        if !self.handles.is_empty() && draw(3) == 0 {
+            let h = self
+                .handles
+                .swap_remove(draw(self.handles.len() as u64) as usize);
+            out.cancel(h);
+            self.claims.release(h);
+        }
+        match draw(12) {
+            0 if self.closing.is_none() => {
+                let id = out.at_instant_end(Target::Robot(99), [None, None], Payload::Settle);
+                self.closing = Some(id);
+            }
+            1 => {
+                if let Some(id) = self.closing.take() {
+                    out.withdraw_at_instant_end(id);
+                }
+            }
+            _ => {}
+        }
+        if robot == 99 {
+            self.closing = None;
+        }
+    }
+}
+
+/// Runs a core over a [`Scrambler`], deliveries carrying runs or not; returns the
+/// handlings, the events taken, those cancelled, and how many deliveries there were.
+fn scrambled(seed: u64, robots: RobotId, runs: bool) -> (Vec<(f64, u64, RobotId)>, u64, u64, u64) {
+    let mut setup = Outbox::new(0.0, 0);
+    for r in 0..robots {
+        setup.schedule(
+            0.1 * f64::from(r),
+            Target::Robot(r),
+            EventClass::Eventual,
+            [Some(r), None],
+            timer(r),
+        );
+    }
+    let mut core = Core::new(6.0, setup, Observers::default());
+    core.set_instant_limit(10_000);
+    core.runs = runs;
+    let mut actor = Scrambler::new(seed, robots);
+    let mut deliveries = 0;
+    while let Next::Deliver(_, d) = core.next() {
+        deliveries += 1;
+        let reply = handle_run(&mut actor, d);
+        core.apply_reply(reply);
+    }
+    let out = core.finish();
+    (actor.log, out.stats.events, out.stats.cancelled, deliveries)
+}
+
+proptest::proptest! {
+    /// Deliveries that carry runs take the same events in the same order, with the same
+    /// numbers, as deliveries of one event each, whatever the handlings schedule, cancel
+    /// or leave to the end of an instant; and they need fewer deliveries.
+    #[test]
+    fn runs_take_the_events_of_one_by_one_delivery(seed in proptest::prelude::any::<u64>(), robots in 1u32..4) {
+        let (one, events, cancelled, singles) = scrambled(seed, robots, false);
+        let (run, run_events, run_cancelled, deliveries) = scrambled(seed, robots, true);
+        proptest::prop_assert_eq!(&run, &one);
+        proptest::prop_assert_eq!((run_events, run_cancelled), (events, cancelled));
+        proptest::prop_assert_eq!(singles, events);
+        proptest::prop_assert!(deliveries <= singles);
+    }
+}
+
+/// A run stops at the first of its events that the handlings before it cancelled, or that
+/// something they scheduled comes before; the rest go back to the queue and are taken
+/// after.
+#[test]
+fn a_run_stops_where_its_next_event_is_no_longer_next() {
+    // Robot 1's timers at 1, 2, 3, 4 and 5 s; robot 2's at 6 s. The handling at 1 s
+    // cancels the one at 4 s; the one at 2 s sets robot 2's timer for 2.5 s.
+    let mut setup = Outbox::new(0.0, 0);
+    let mut claims = crate::world::queue::Claims::default();
+    let mut handles = Vec::new();
+    for t in [1.0, 2.0, 3.0, 4.0, 5.0] {
+        handles.push(setup.schedule_in(
+            &mut claims,
+            t,
+            Target::Robot(1),
+            EventClass::Eventual,
+            [Some(1), None],
+            timer(1),
+        ));
+    }
+    setup.schedule(
+        6.0,
+        Target::Robot(2),
+        EventClass::Eventual,
+        [Some(2), None],
+        timer(2),
+    );
+    struct Actor(Vec<(f64, u64)>, crate::world::event::Handle);
+    impl HandleEvent for Actor {
+        fn handle_event(&mut self, _: Event, out: &mut Outbox) {
+            self.0.push((out.now(), out.cause()));
+            if out.now() == 1.0 {
+                out.cancel(self.1);
+            }
+            if out.now() == 2.0 {
+                out.schedule(
+                    2.5,
+                    Target::Robot(2),
+                    EventClass::Eventual,
+                    [Some(2), None],
+                    timer(2),
+                );
+            }
+        }
+    }
+    let mut core = Core::new(10.0, setup, Observers::default());
+    core.runs = true;
+    let mut actor = Actor(Vec::new(), handles[3]);
+    let mut handled = Vec::new();
+    while let Next::Deliver(_, d) = core.next() {
+        let then: Vec<f64> = d.then.iter().map(|e| e.time).collect();
+        let want: &[f64] = match d.now {
+            1.0 => &[2.0, 3.0, 4.0, 5.0],
+            3.0 => &[5.0],
+            _ => &[],
+        };
+        assert_eq!(then, want, "the run from {}", d.now);
+        let reply = handle_run(&mut actor, d);
+        handled.push(reply.ends.len());
+        core.apply_reply(reply);
+    }
+    // The run from 1 s handles 1 and 2 s and stops at 3 s, which robot 2's timer at 2.5
+    // s now comes before; 3, 4 and 5 s go back. The run from 3 s no longer holds 4 s,
+    // which was cancelled.
+    assert_eq!(handled, [2, 1, 2, 1]);
+    assert_eq!(
+        actor.0,
+        [(1.0, 1), (2.0, 2), (2.5, 3), (3.0, 4), (5.0, 5), (6.0, 6)]
+    );
+    assert_eq!(core.finish().stats.cancelled, 1);
+}
+
+/// A delivery that says the scheduler looks ahead has its actor asked, before each
+/// handling of its run, for what the run's next two events will read; one that does not,
+/// never. What is handled is the same either way.
+#[test]
+fn a_run_asks_ahead_for_its_next_two_events_when_told_to() {
+    /// An ask: the last time handled before it, the next event's and the one after's.
+    type Ask = (f64, Option<f64>, Option<f64>);
+    #[derive(Default)]
+    struct Actor {
+        handled: Vec<f64>,
+        asked: std::cell::RefCell<Vec<Ask>>,
+    }
+    impl HandleEvent for Actor {
+        fn handle_event(&mut self, _: Event, out: &mut Outbox) {
+            self.handled.push(out.now());
+        }
+        fn look_ahead(&self, next: Option<&Event>, after: Option<&Event>) {
+            let last = self.handled.last().copied().unwrap_or(0.0);
+            let time = |e: Option<&Event>| e.map(|e| e.time);
+            self.asked
+                .borrow_mut()
+                .push((last, time(next), time(after)));
+        }
+    }
+    let run = |look_ahead: bool| {
+        let mut setup = Outbox::new(0.0, 0);
+        for t in [1.0, 2.0, 3.0, 4.0] {
+            setup.schedule(
+                t,
+                Target::Robot(1),
+                EventClass::Eventual,
+                [Some(1), None],
+                timer(1),
+            );
+        }
+        let mut core = Core::new(10.0, setup, Observers::default());
+        core.runs = true;
+        let Next::Deliver(_, mut d) = core.next() else {
+            panic!("a delivery");
+        };
+        assert_eq!(d.then.len(), 3, "the run of 1 s holds 2, 3 and 4 s");
+        d.look_ahead = look_ahead;
+        let mut actor = Actor::default();
+        let reply = handle_run(&mut actor, d);
+        assert_eq!(reply.ends.len(), 4);
+        (actor.handled, actor.asked.into_inner())
+    };
+    let (handled, asked) = run(true);
+    assert_eq!(handled, [1.0, 2.0, 3.0, 4.0]);
+    // (the last time handled before the ask, next, after)
+    assert_eq!(
+        asked,
+        [
+            (0.0, Some(2.0), Some(3.0)),
+            (1.0, Some(3.0), Some(4.0)),
+            (2.0, Some(4.0), None)
+        ]
+    );
+    let (handled, asked) = run(false);
+    assert_eq!(handled, [1.0, 2.0, 3.0, 4.0]);
+    assert!(asked.is_empty());
+}
+
+/// In a queue large enough for the look-ahead, where a reply's cancellations are asked
+/// for before they are applied, cancelled events still never fire and are counted.
+#[test]
+fn cancellations_asked_for_ahead_still_cancel() {
+    let n = LOOK_AHEAD_FROM + 10;
+    let mut setup = Outbox::new(0.0, 0);
+    let mut claims = crate::world::queue::Claims::default();
+    let handles: Vec<_> = (0..n)
+        .map(|k| {
+            let r = k as RobotId;
+            setup.schedule_in(
+                &mut claims,
+                1.0 + k as f64,
+                Target::Robot(r),
+                EventClass::Eventual,
+                [Some(r), None],
+                timer(r),
+            )
+        })
+        .collect();
+    // The first handling cancels the events of robots 5, 7, ..., 13.
+    let cancelled: Vec<RobotId> = (5..15).step_by(2).collect();
+    let mut core = Core::new(1e9, setup, Observers::default());
+    let mut fired = Vec::new();
+    while let Next::Deliver(_, d) = core.next() {
+        let r = robot_of(&d.event.payload);
+        fired.push(r);
+        let mut out = Outbox::reusing(d.now, d.seq, d.effects);
+        if r == 0 {
+            for &c in &cancelled {
+                out.cancel(handles[c as usize]);
+            }
+        }
+        core.apply(out.into_effects());
+    }
+    assert_eq!(fired.len(), n - cancelled.len());
+    assert!(fired.iter().all(|r| !cancelled.contains(r)));
+    assert_eq!(core.finish().stats.cancelled, cancelled.len() as u64);
+}
