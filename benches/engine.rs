@@ -4,7 +4,7 @@
 //! - `placement/*`: placing a million robots at the seed's density (random born points);
 //! - `random_movement/*`: the seed's random movement with collisions at 1k and 10k robots
 //!   (events/s; wall time per simulated second = time per iteration / horizon);
-//! - `scale`: issue 17's series at 1k, 100k and 1M robots (the seed's density, two simulated
+//! - `scale`: the scale series at 1k, 100k and 1M robots (the seed's density, two simulated
 //!   spans each): events/s, the steady-state cost of an event (the difference of the two
 //!   spans' wall times over the difference of their events) and its ratio to 1k's, the
 //!   real-time factor, the wall time to simulated second 1 (placement included) and peak RSS,
@@ -194,7 +194,7 @@ fn random_config(n: usize, until: f64) -> SimConfig {
 }
 
 /// Placing a million robots at the seed's density (`random_born_points`, the rejection
-/// sampling behind every random born point): part of a large run's start-up (issue 17).
+/// sampling behind every random born point): part of a large run's start-up.
 fn placement(c: &mut Criterion) {
     let mut g = c.benchmark_group("placement");
     g.sample_size(10);
@@ -431,7 +431,7 @@ fn hosts_wanted(series: &str, wanted: &dyn Fn(&str) -> bool) -> Vec<Host> {
         .collect()
 }
 
-/// Issue 17's scale series, each run in a process of its own ([`timed_from`]), so the peak
+/// The scale series, each run in a process of its own ([`timed_from`]), so the peak
 /// RSS printed is the larger of the two spans' own. `scale_actors` or `scale_kernel` as the
 /// filter runs one host only. Skipped when the bench is filtered to something else.
 fn scale(_: &mut Criterion) {
@@ -509,11 +509,10 @@ fn scale(_: &mut Criterion) {
 /// to 11 say little about that phase.
 ///
 /// The 1k window stops at second 60 because the workload does not stay the same: every
-/// destination is drawn over the whole world, so the robots crowd towards its middle. Of a 1k
-/// run's collisions between robots, 31 % were in the central quarter of the world in seconds
-/// 30-60, 73 % in 270-300 and 97-98 % after second 1,500 (25 % if the robots stayed spread
-/// evenly), with more events per robot and dearer ones (docs/performance.md, twenty-fifth
-/// session). The drift's pace follows the world's side, 31.6 times longer at 1M, so the
+/// destination is drawn over the whole world, so the robots crowd towards its middle: the
+/// share of a 1k run's collisions between robots in the central quarter of the world grows
+/// from seconds 30-60 on, with more events per robot and dearer ones (docs/performance.md
+/// lists the shares). The drift's pace follows the world's side, 31.6 times longer at 1M, so the
 /// robots of the 1M window are crowded no more than 1k's in seconds 30-60. `scale_late` as
 /// the filter runs only this; least of fifteen runs at 1k, two at 100k, one at 1M.
 fn late(wanted: &dyn Fn(&str) -> bool) {
@@ -566,7 +565,7 @@ fn late(wanted: &dyn Fn(&str) -> bool) {
     }
 }
 
-/// `memory`: what this machine's memory costs an event, apart from the engine (issue 17). Each
+/// `memory`: what this machine's memory costs an event, apart from the engine. Each
 /// of 400,000 "events" reads `reads` bytes at random 64-byte lines of one heap, then runs a
 /// chain of 1,000 dependent multiply-rotate steps (about a handling's length here), the reads
 /// either asked for two events ahead ([`prefetch_at`](nekosim::world::prefetch::prefetch_at),

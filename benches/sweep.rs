@@ -1,4 +1,4 @@
-//! The cost of a sweep around its runs (issue 14): 1,000 short runs of random movement
+//! The cost of a sweep around its runs: 1,000 short runs of random movement
 //! (the seed's 100 robots in 800 x 800, 10 simulated seconds, seeds 1..=1000) as one sweep with `--jobs 1` and
 //! `--jobs 2`, against the sum of the same runs' engine time (each run's own wall time inside
 //! `runner::run`, measured by running them one by one).

@@ -90,12 +90,12 @@ struct RobotIo {
     rng: Stream,
 }
 
-/// A robot's random stream (stream number: the robot's id), small between handlings (issue
-/// 17): at rest it is the run's seed and the words drawn so far (24 bytes with the empty slot
-/// of the live generator, where a `ChaCha8Rng` carries a 256-byte block buffer; a million
-/// robots saved about 300 MB). The
-/// generator is rebuilt at the first draw of a handling ([`Stream::live`]) and folded back
-/// when the handling ends ([`Stream::rest`]); `set_word_pos` resumes the very same stream.
+/// A robot's random stream (stream number: the robot's id), small between handlings: at rest
+/// it is the run's seed and the words drawn so far (24 bytes with the empty slot of the live
+/// generator, where a `ChaCha8Rng` carries a 256-byte block buffer, hundreds of megabytes
+/// at a million robots). The generator is rebuilt at the first draw of a handling
+/// ([`Stream::live`]) and folded back when the handling ends ([`Stream::rest`]);
+/// `set_word_pos` resumes the very same stream.
 #[derive(Debug)]
 struct Stream {
     seed: u64,
@@ -143,8 +143,8 @@ impl Stream {
 /// The buffers a robot's handling uses and leaves empty: its inbox, its outbox and its live
 /// generator. A robot keeps none of them between handlings (a million robots' buffers would
 /// take hundreds of megabytes), so each handling borrows them from its thread's spares and
-/// gives them back, empty, when it ends: no allocation in a robot's handling (issue 17: an
-/// inbox, an outbox and a generator were three allocations and three frees a notice).
+/// gives them back, empty, when it ends: no allocation in a robot's handling (an inbox, an
+/// outbox and a generator of its own would be three allocations and three frees a notice).
 #[derive(Default)]
 struct Spare {
     inbox: VecDeque<Notice>,
@@ -261,8 +261,8 @@ impl Received {
 }
 
 /// The future of a wait for a notice: the robot's handle and the test that picks the notice,
-/// polled by hand (an `async fn` kept both twice, and a robot's algorithm future holds a wait:
-/// issue 17).
+/// polled by hand (an `async fn` would keep both twice, and a robot's algorithm future holds
+/// a wait).
 struct Take<'a, F> {
     robot: &'a Robot,
     pick: F,
@@ -290,8 +290,8 @@ impl<T, F: Fn(&Notice) -> Option<T> + Unpin> Future for Take<'_, F> {
 }
 
 /// The handle an algorithm uses to move, sense and wait (the seed's interface layer). One
-/// pointer, shared by the robot's actor and its algorithm's future (issue 17: a whole handle
-/// in each took 160 bytes a robot and put the actor's task in a larger size class).
+/// pointer, shared by the robot's actor and its algorithm's future (a whole handle in each
+/// would take 160 bytes a robot and put the actor's task in a larger size class).
 #[derive(Clone)]
 pub struct Robot {
     shared: Rc<Shared>,
@@ -380,7 +380,7 @@ impl Robot {
 
     // `move_to`, `forward` and `turn` are [`Robot::motion`]'s future itself, not a future that
     // awaits it: it starts the motion when first polled all the same, and an algorithm's
-    // future holds the motion once instead of twice (issue 17: 48 bytes a robot).
+    // future holds the motion once instead of twice (48 bytes a robot).
 
     /// MOVETO: turn the shortest way towards `dest`, then move there (seed 6.3.1).
     pub fn move_to(
@@ -887,9 +887,9 @@ impl HandleEvent for RobotActor {
                 }
             };
         }
-        // Issue 17: an inbox is nearly always empty between handlings. Its buffer (four 80-byte
-        // notices once a notice came) grew to 155 MB in a 1M x 40 s run when each robot kept
-        // its own.
+        // An inbox is nearly always empty between handlings, and its buffer (four 80-byte
+        // notices once a notice came) kept by each robot would take over a hundred megabytes
+        // in a long run at a million robots.
         Spare::take_back(&mut self.handle.shared.io.borrow_mut().inbox, requests);
     }
 }

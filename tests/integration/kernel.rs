@@ -1,4 +1,4 @@
-//! The kernel-alone reference (`nekosim::kernel::run`, issue 17) drives the same handling code
+//! The kernel-alone reference (`nekosim::kernel::run`) drives the same handling code
 //! as the actor-hosted run without actors: it must take the same events in the same order, so
 //! both traces are the same, observation for observation, on every example scenario (motion
 //! and collisions, sensors, networks, protocol stacks, crashes, partitions, obstacles).

@@ -49,8 +49,8 @@ fn timers(effects: &[Effect]) -> Vec<u64> {
         .collect()
 }
 
-/// Issue 17: an inbox that a handling leaves empty keeps no buffer (320 bytes a robot, 320
-/// MB at a million robots once each had a notice); a notice nobody took yet stays.
+/// An inbox that a handling leaves empty keeps no buffer (320 bytes a robot, 320 MB at a
+/// million robots once each has had a notice); a notice nobody took yet stays.
 #[test]
 fn an_inbox_left_empty_keeps_no_buffer() {
     let info = RobotInfo {
@@ -131,7 +131,7 @@ impl Algorithm for Drawer {
     }
 }
 
-/// Issue 17: once its thread has spare buffers, a robot's handling of a notice allocates
+/// Once its thread has spare buffers, a robot's handling of a notice allocates
 /// nothing of its own: the inbox, the outbox and the live generator are the thread's,
 /// lent and given back. Two robots take turns, so each handling uses the buffers the other
 /// robot's handling gave back; the numbers drawn are those of each robot's own stream.

@@ -109,10 +109,8 @@ pub(crate) struct Core {
 /// The fewest pending events at which the core looks ahead ([`EventQueue::look_ahead`]) and
 /// the scheduler asks for what the next handlings will read. A world that small (about 2.75
 /// pending events a robot in random movement: some 6,000 robots) is in cache anyway, and the
-/// look-ahead was then only work: `nekosim run` of 1,000 robots for 330 s takes 8 % fewer
-/// instructions without it, while 100,000 robots for 40 s ran faster with it (2.33 against
-/// 2.54 s, the means of five alternate runs; docs/performance.md, issue 17, fourteenth
-/// session).
+/// look-ahead is then only work, while a world of 100,000 robots runs faster with it
+/// (docs/performance.md lists the gain).
 pub(crate) const LOOK_AHEAD_FROM: usize = 1 << 14;
 
 /// The largest effects buffer kept for reuse: the setup's million start notices are not.
@@ -245,7 +243,7 @@ impl Core {
 
     /// In a large queue (as [`EventQueue::look_ahead`]), asks for the slots of the events that
     /// `effects` cancel, all at once before the first is read: at a million robots each is a
-    /// cache miss of its own (issue 17).
+    /// cache miss of its own.
     #[inline]
     fn prefetch_cancelled(&self, effects: &[Effect]) {
         if self.queue.len() < LOOK_AHEAD_FROM {

@@ -94,8 +94,8 @@ pub fn random_born_points_clear(
 }
 
 /// How many candidates ahead of the one checked the placement asks for the cells around it
-/// (issue 17: a million robots' cells are tens of megabytes, and each check was a chain of
-/// cache misses). Only a hint: the same candidates are checked in the same order.
+/// (a million robots' cells are tens of megabytes, and each check would otherwise be a chain
+/// of cache misses). Only a hint: the same candidates are checked in the same order.
 const AHEAD: usize = 16;
 
 /// Discs a cell keeps in itself; more go to a shared list. The cells are about as many as
@@ -110,8 +110,8 @@ const TILE: usize = 1 << TILE_BITS;
 /// (the largest diameter, so overlapping discs are in neighbouring cells) and about as many
 /// as discs. Each cell is one cache line holding its first discs itself, and the cells are
 /// laid out in square tiles of a page, so a check of the 3 × 3 cells around a candidate
-/// mostly reads three runs of three lines on one page (issue 17: a list of disc numbers per
-/// cell sent each check to a disc and a link elsewhere in tens of megabytes). Discs outside
+/// mostly reads three runs of three lines on one page (a list of disc numbers per cell would
+/// send each check to a disc and a link elsewhere in tens of megabytes). Discs outside
 /// the area (an explicit robot may sit anywhere in the world) go to the nearest border cell,
 /// which keeps overlapping discs in neighbouring cells.
 struct Cells {

@@ -19,7 +19,7 @@ use crate::world::motion::Kinematics;
 use nekosim_protocols::{Indication, Input, LayerIx};
 
 /// Identity and tie-break key of an event: `(cause, index)`, see the module doc. Packed to 12
-/// bytes (an event carries one, and a large run holds millions of events: issue 17).
+/// bytes (an event carries one, and a large run holds millions of events).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[repr(C, packed(4))]
 pub struct EventId {
@@ -95,7 +95,7 @@ pub struct FutureEvent {
 
 /// The content of an event. Variants that are rare or large keep their bulk in a box, so that
 /// an event (most are motion steps, collisions and cell crossings) stays small: a large run
-/// holds millions of them (issue 17).
+/// holds millions of them.
 #[derive(Clone, Debug)]
 pub enum Payload {
     /// Robot -> motion manager: start `motion`, replacing the current one.
@@ -106,7 +106,7 @@ pub enum Payload {
     },
     /// The `step`-th to `through`-th events of the robot's current motion, all at this
     /// instant: steps of a motion that happen at the same instant are one event (a MOVETO's
-    /// finish-turn and start-forward: issue 17), and a listing shows each of them.
+    /// finish-turn and start-forward), and a listing shows each of them.
     MotionStep {
         robot: RobotId,
         step: usize,
@@ -222,9 +222,8 @@ impl Payload {
     /// Whether handling this event schedules another at its own instant: a notice to a robot
     /// (a collision, a contact, a crash) or a motion's first step (a motion request). Any
     /// later event then comes after that one, so a delivery's run
-    /// ([`crate::host::Deliver::then`]) takes no event of a later instant after it
-    /// (issue 17: in the bench's 1k run, 38,285 events taken into runs went back to the queue
-    /// unhandled, against 49,221 handled in runs). A hint only: a run holds only events that
+    /// ([`crate::host::Deliver::then`]) takes no event of a later instant after it (many such
+    /// events would go back to the queue unhandled). A hint only: a run holds only events that
     /// come next whatever it says.
     pub fn schedules_at_its_instant(&self) -> bool {
         matches!(
@@ -262,7 +261,7 @@ impl Payload {
     }
 }
 
-/// A scheduled event: 80 bytes (issue 17; a million robots keep about seven million pending).
+/// A scheduled event: 80 bytes (a million robots keep about seven million pending).
 #[derive(Clone, Debug)]
 pub struct Event {
     /// When it fires [s].
@@ -303,9 +302,8 @@ pub enum Effect {
 
 /// A cancellable event's handle: its id and the queue slot it is kept in, which whoever keeps
 /// the handle chose from its [`Claims`] (the world, for its conditional events). Cancelling
-/// through it looks nothing up: the slot is checked for the id (issue 17: a table from ids to
-/// slots was a cache miss per scheduled event at a million robots, about 9 % of the steady
-/// state's samples).
+/// through it looks nothing up: the slot is checked for the id (a table from ids to slots
+/// would be a cache miss per scheduled event at a million robots).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(C, packed(4))]
 pub struct Handle {

@@ -14,8 +14,8 @@ pub type Vector = Vector2<f64>;
 /// `angle.rem_euclid(360.0)`, bit for bit, without the division of `fmod` for the angles a
 /// motion mostly has, within one turn of `[0, 360)`: there the remainder is the angle itself,
 /// or the angle plus or minus 360 (exact when the angle is in `[360, 720)`; rounded as
-/// `rem_euclid` rounds it when in `(-360, 0)`). Issue 17: `fmod` was 0.8 % of an event's
-/// instructions.
+/// `rem_euclid` rounds it when in `(-360, 0)`). `fmod` would be a noticeable share of an
+/// event's instructions.
 pub fn rem_360(angle: f64) -> f64 {
     if (0.0..360.0).contains(&angle) {
         angle

@@ -11,7 +11,7 @@
 //! looked up, never iterated, so its hashing cannot affect the order of anything. A bounded
 //! world whose cells are not many more than its robots also has a dense table of the cells
 //! over its area ([`Grid::for_area`]): a 3×3 look-up reads three short runs of it instead of
-//! hashing nine keys into a table of a million cells (issue 17). A cell's robots are in the
+//! hashing nine keys into a table of a million cells. A cell's robots are in the
 //! same order either way.
 
 use std::collections::hash_map::Entry;
@@ -26,24 +26,24 @@ use super::RobotId;
 pub type Cell = [i64; 2];
 
 /// A cell's robots, inline (24 bytes, as a `Vec`'s header) up to four: most cells hold one
-/// or two, and a separate allocation was a second cache miss at every look and an allocation
-/// at every crossing into an empty cell (issue 17).
+/// or two, and a separate allocation would be a second cache miss at every look and an
+/// allocation at every crossing into an empty cell.
 type Robots = SmallVec<[RobotId; 4]>;
 
 /// Most cells a moving robot is registered in at once: its cell and the next ones on its path.
-/// Issue 17, sixteenth session: six rather than four, once a pair predicted without result
-/// was no longer kept, cost 9 % fewer events a simulated second at a million robots and 7 %
-/// fewer last-level cache misses at 100k; eight was slower at a million robots.
+/// Six rather than four: with a pair predicted without result not kept, six makes fewer
+/// events a simulated second at a million robots and fewer last-level cache misses at 100k,
+/// and eight is slower at a million robots (docs/performance.md lists the gain).
 pub const SPAN: usize = 6;
 
 /// The cells a robot is registered in, after its first one (kept beside it): up to
 /// [`SPAN`] - 1 steps along its path, each to one of the eight neighbouring cells (three bits
 /// of count, then four a step). A moving robot is registered in the cells its centre will
 /// pass through next, and crosses into new cells only when it leaves the last: one crossing
-/// event every [`SPAN`] cells instead of one a cell (issue 17: crossings were 58 % of a
-/// million robots' events once they had turned). A robot near it is in a cell next to one of
-/// them, whenever it is, so the 3×3 blocks around the span's cells still hold every robot it
-/// can touch.
+/// event every [`SPAN`] cells instead of one a cell (with one a cell, crossings would be
+/// most of a million robots' events once they have turned). A robot near it is in a cell
+/// next to one of them, whenever it is, so the 3×3 blocks around the span's cells still hold
+/// every robot it can touch.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Span(u32);
 
@@ -95,8 +95,8 @@ impl Span {
 }
 
 /// A span's cells, in order ([`Span::cell_list`]): a fixed array and a length, filled without
-/// the checks of a growing vector (issue 17: collecting into a `SmallVec` took about 180
-/// instructions).
+/// the checks of a growing vector, which collecting into a `SmallVec` would pay at every
+/// cell.
 #[derive(Clone, Copy, Debug)]
 pub struct SpanCells {
     cells: [Cell; SPAN],
@@ -136,8 +136,8 @@ pub fn blocks(cells: &[Cell]) -> SmallVec<[Cell; 3 * SPAN + 6]> {
 /// the same order: the cells a robot registered in `cells` comes next to when it was in
 /// `skip` before. The cells seen are kept in a bitmap, a row of bits per column of cells,
 /// when all of them fit in 32 x 32 cells (a crossing's spans always do), so that a cell
-/// costs a bit test rather than a comparison with each earlier cell (issue 17: those
-/// comparisons were a quarter of the predictions around a robot's instructions).
+/// costs a bit test rather than a comparison with each earlier cell (those comparisons would
+/// be a large share of the instructions of the predictions around a robot).
 pub fn blocks_beyond(cells: &[Cell], skip: &[Cell], mut visit: impl FnMut(Cell)) {
     const SIDE: i64 = 32;
     let (mut lo, mut hi) = ([i64::MAX; 2], [i64::MIN; 2]);
@@ -203,8 +203,8 @@ pub struct Grid {
 /// The cells of a rectangle of them, in square tiles of [`TILE`] x [`TILE`] cells (8 KB, two
 /// memory pages), tile by tile and row by row within a tile: the 3×3 block around a cell is
 /// then almost always on one page or two, where rows of a million robots' world are 32 KB
-/// apart and each of the block's three rows was a page of its own (a miss in the address
-/// translation's cache, issue 17).
+/// apart and each of the block's three rows would be a page of its own (a miss in the
+/// address translation's cache).
 #[derive(Clone)]
 struct Dense {
     lo: Cell,
@@ -214,9 +214,9 @@ struct Dense {
     tiles: i64,
     /// Per cell (eight bytes a cell: a million robots at the seed's density have 16 million
     /// cells), `[EMPTY, EMPTY]`; or its robots themselves when they are one or two, the second
-    /// [`EMPTY`] when alone (most occupied cells hold one robot or two, and reading a list was
-    /// a second cache miss at every look); or [`LIST`] plus the index of the cell's robots in
-    /// `lists` first.
+    /// [`EMPTY`] when alone (most occupied cells hold one robot or two, and reading a list
+    /// would be a second cache miss at every look); or [`LIST`] plus the index of the cell's
+    /// robots in `lists` first.
     heads: Vec<[u32; 2]>,
     lists: Vec<Robots>,
     /// Indices of empty lists in `lists`.
@@ -440,8 +440,8 @@ impl Grid {
     /// Asks for the dense table's cells of the 3×3 block around cell `c` to be brought into
     /// cache ([`super::prefetch`]), ahead of an event that will look at them. A no-op outside
     /// the dense table. (The caller reads `c` from the robot's state, which its handling
-    /// reads anyway: a table of each robot's cell kept here for this was one more cache miss
-    /// at every registration and every look-ahead, issue 17.)
+    /// reads anyway: a table of each robot's cell kept here for this would be one more cache
+    /// miss at every registration and every look-ahead.)
     pub fn prefetch_around(&self, c: Cell) {
         let Some(d) = &self.dense else {
             return;
@@ -482,7 +482,7 @@ impl Grid {
         // The k-th cell's offset from `c`.
         let offset = |k: usize| (k as i64 / 3 - 1, k as i64 % 3 - 1);
         // Away from its tile's edges, a dense cell's neighbours are at fixed offsets from it:
-        // one index worked out instead of nine (issue 17).
+        // one index worked out instead of nine.
         let interior = self.dense.as_ref().and_then(|d| {
             let i = d.index(c)?;
             let (x, y) = (

@@ -84,7 +84,7 @@ impl Outbox {
     /// they were scheduled. Its own effects at this instant follow as usual. The motion
     /// manager's [`Payload::Settle`]: most robots that a collision stops start their next
     /// motion at the same instant, so what a robot at rest needs is predicted only for those
-    /// still at rest then (issue 17).
+    /// still at rest then.
     pub fn at_instant_end(
         &mut self,
         target: Target,
@@ -99,7 +99,7 @@ impl Outbox {
 
     /// Withdraws the event `id` scheduled for the end of this instant, if not taken yet: the
     /// motion manager's [`Payload::Settle`] once every robot it was for has started a motion
-    /// (issue 17: it was a hop for nothing after most collisions).
+    /// (it would be a hop for nothing after most collisions).
     pub fn withdraw_at_instant_end(&mut self, id: EventId) {
         self.effects.push(Effect::WithdrawAtInstantEnd(id));
     }

@@ -16,7 +16,7 @@ pub const SLOTS_AHEAD: usize = 4;
 /// such an event is scheduled ([`Outbox::schedule_in`]) and released when its handle is
 /// dropped, after cancelling it (a no-op if it already fired). The queue keeps those events
 /// in slots of their own, so the two numberings never meet; a released slot's stale order
-/// entry is skipped by the id check, as a cancelled event's always was.
+/// entry is skipped by the id check, as a cancelled event's is.
 #[derive(Clone, Debug, Default)]
 pub struct Claims {
     /// Released slots, whole events' and motion steps', reused last released first.
@@ -61,9 +61,9 @@ const STALE_FLOOR: usize = if cfg!(test) { 0 } else { 1 << 12 };
 /// Pending events sit in reusable slots ([`Slots`]); the order's entries carry their slot, so
 /// taking the next event looks nothing up. A cancellable event sits in a slot that whoever
 /// keeps its [`Handle`] claimed ([`Claims`]), so cancelling looks nothing up either: the
-/// handle names the slot, whose id says whether the event is still there. Issue 17: a table
-/// from ids to slots, written for every scheduled event and swept of fired ones, was the
-/// largest single cost of a million-robot run's steady state.
+/// handle names the slot, whose id says whether the event is still there. A table from ids to
+/// slots, written for every scheduled event and swept of fired ones, would be the largest
+/// single cost of a million-robot run's steady state.
 #[derive(Debug, Default)]
 pub struct EventQueue {
     /// The order of pending events; cancelled events' entries stay until they come up or a
@@ -74,7 +74,7 @@ pub struct EventQueue {
     live: usize,
     /// Each robot's pending events (id and slot), by dense robot id, for `future_of`: built on
     /// the first listing and kept from then on (a run that never lists pays nothing; at a
-    /// million robots the index was 128 MB). `future_of` sorts on demand.
+    /// million robots the index would take about 128 MB). `future_of` sorts on demand.
     by_robot: Option<Vec<Vec<(EventId, u32)>>>,
 }
 
@@ -151,10 +151,9 @@ impl EventQueue {
 
     /// Drops the entries of cancelled events from the order. Their entries otherwise stay
     /// until their time comes, and a robot that turns cancels the predictions of its path,
-    /// some of them hundreds or thousands of simulated seconds ahead: issue 17, a run's queue
-    /// grew by their entries for the whole of its first thousands of simulated seconds (at
-    /// 10,000 robots 427,000 entries for about 30,000 pending events by second 930; at a
-    /// million robots 1.2 MB more each simulated second). A sweep reads every entry's slot,
+    /// some of them hundreds or thousands of simulated seconds ahead: without sweeps a run's
+    /// queue would grow by their entries for the whole of its first thousands of simulated
+    /// seconds, to many times its pending events. A sweep reads every entry's slot,
     /// asked for some entries ahead ([`RadixQueue::retain`]); it comes after more
     /// cancellations than the entries it keeps, so its cost per cancellation is bounded.
     /// Out of line: cancellations are frequent, sweeps rare.
@@ -285,7 +284,7 @@ impl EventQueue {
     /// be brought into cache ([`super::prefetch`]), and returns the routes of the next two,
     /// whose slots were asked for one and two events ago, so that the caller can ask for what
     /// their handlings will read ([`Ahead`]). At a million robots every slot, every robot's
-    /// state and every cell is a cache miss of its own (issue 17). It takes nothing; the
+    /// state and every cell is a cache miss of its own. It takes nothing; the
     /// queue's order may move on to later instants early, which changes nothing of what it
     /// gives. The scheduler takes a run of several events at once, after which the next two
     /// may never have been third at a look; so the slots of the [`SLOTS_AHEAD`] events from
@@ -301,8 +300,8 @@ impl EventQueue {
             let e = *self.order.peek_nth(n)?;
             self.slots.route_where(e.slot, |_| true)
         };
-        // The next slot is peeked again for its crossing: reading it once for both built
-        // 3 % slower at a million robots (docs/performance.md, twenty-sixth session).
+        // The next slot is peeked again for its crossing: reading it once for both makes a
+        // build that runs slower at a million robots (docs/performance.md lists the gain).
         let (after, next) = (route(1), route(0));
         let crossing = self
             .order
@@ -431,8 +430,8 @@ mod tests {
 
     #[test]
     fn an_event_stays_small() {
-        // A million robots keep about seven million events pending (issue 17): each byte of an
-        // event is 7 MB there. 80 bytes is a size class of the allocator.
+        // A million robots keep about seven million events pending: each byte of an event is
+        // 7 MB there. 80 bytes is a size class of the allocator.
         assert!(std::mem::size_of::<Event>() <= 80);
         assert!(std::mem::size_of::<Payload>() <= 32);
     }

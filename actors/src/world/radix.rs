@@ -9,10 +9,10 @@
 //! Pushing is an append; taking the next entry is a pop from the front of the current
 //! instant's run; each entry moves down a few buckets in its life, by sequential copies.
 //! Digits are of four bits (sixteen values), so an entry moves down about a quarter as many
-//! times as with one bucket per bit (issue 17: redistributing buckets was 8 % of a 1k-robot
-//! run's instructions with binary digits). Its cost does not grow with the number of
-//! pending events as a binary heap's does (at a million robots, five million pending events:
-//! 22 levels of cache misses per pop, 15 % of a 100,000-robot run, issue 17).
+//! times as with one bucket per bit (with binary digits, redistributing buckets would be a
+//! noticeable share of a 1k-robot run's instructions). Its cost does not grow with the
+//! number of pending events as a binary heap's does (at a million robots, five million
+//! pending events: 22 levels of cache misses per pop).
 //!
 //! Ties at one instant are taken in `(cause, index)` order (the ordering contract, docs/
 //! architecture.md). A handling's new events all have a larger causal key than any pending
@@ -23,9 +23,9 @@
 //! A bucket of a few entries is not sorted out digit by digit: its entries are sorted at once
 //! into the run of entries taken next, which then spans several instants, up to the bucket's
 //! largest key (`limit`), and an entry pushed at or before that key is put in its place in
-//! the run. Issue 17: at a thousand robots nearly every event taken emptied the run and the
-//! first bucket held a handful of entries, each moved down a bucket at a time: sorting out
-//! buckets was 7 % of a run's instructions.
+//! the run. At a thousand robots nearly every event taken empties the run and the first
+//! bucket holds a handful of entries: moving each down a bucket at a time would make sorting
+//! out buckets a noticeable share of a run's instructions.
 
 use std::collections::VecDeque;
 
@@ -91,10 +91,10 @@ fn bucket_of(key: u64, last: u64) -> usize {
 
 /// A bucket: its entries in blocks of [`BLOCK`] entries, the last one possibly partly filled.
 /// Blocks come from and go back to the queue's pool, so that sorting a bucket out into the
-/// lower ones reuses the memory it frees as it goes. Issue 17: with one growing vector per
-/// bucket, the copies of reallocation and the first touch of the new memory (a page fault
-/// each 2 MB on this machine) were the kernel's page clearing in 7 % of a million-robot
-/// run's steady-state samples.
+/// lower ones reuses the memory it frees as it goes. With one growing vector per bucket, the
+/// copies of reallocation and the first touch of the new memory (a page fault each 2 MB on
+/// this machine) would keep the kernel clearing pages throughout a million-robot run's
+/// steady state.
 type Bucket = Vec<Vec<Entry>>;
 
 /// The radix queue. Entries that the owner no longer wants (cancelled events) stay until they

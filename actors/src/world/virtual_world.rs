@@ -306,7 +306,7 @@ impl VirtualWorld {
     /// that last cell): the cells it is registered in, which the crossing leaves, and the 3×3
     /// blocks around the middle and the end of its next cells, guessed as the steps of its
     /// present cells again from the cell it enters (a path is straight within a span, mostly).
-    /// At a million robots each of these is a cache miss of its own (issue 17).
+    /// At a million robots each of these is a cache miss of its own.
     pub fn prefetch_crossing(&self, robot: RobotId, offset: [i64; 2]) {
         let Some(state) = self.robots.get(robot as usize) else {
             return;
@@ -454,11 +454,10 @@ impl VirtualWorld {
             ids.push(out.schedule_in(&mut claims, t, target, class, concerns, payload));
         });
         self.claims = claims;
-        // A pair for which nothing is predicted is not kept: most pairs predicted are (1k
-        // robots x 330 s: 74,301 of 104,003), and a kept one is a write into the partner's
-        // state now and again when either path changes, a cache miss each at a million
-        // robots (issue 17). Such a pair may be predicted again when a scan finds it again,
-        // which predicts nothing again.
+        // A pair for which nothing is predicted is not kept: most pairs predicted are, and a
+        // kept one is a write into the partner's state now and again when either path
+        // changes, a cache miss each at a million robots. Such a pair may be predicted again
+        // when a scan finds it again, which predicts nothing again.
         if !ids.is_empty() {
             self.robots[a as usize]
                 .pairs
@@ -624,7 +623,7 @@ impl VirtualWorld {
     /// of the cells next to its new cells that were not next to its old ones. The robots of
     /// the others already have predictions with a moving robot (made when its motion began,
     /// when either came next to the other, or when either's path changed), so a crossing reads
-    /// only the cells ahead (issue 17). Those robots are found, and their states asked for,
+    /// only the cells ahead. Those robots are found, and their states asked for,
     /// before the robot is registered anew, so that the states come in meanwhile: the cells
     /// ahead are none of the cells it leaves nor next to them, and it is not in them yet, so
     /// they hold the same robots in the same order before and after.
@@ -707,9 +706,8 @@ impl VirtualWorld {
         let here = self.grid.cell_of(self.state_at(id, now).pos);
         // Its own cell only (the cells it is in now): a new motion mostly begins with a turn
         // on the spot, and the robots around the cells it would reach after the turn are
-        // mostly gone by then, each a prediction for nothing (1k robots x 330 s: 73,212 pair
-        // predictions against 101,549, for 67,915 events against 65,139, and 10 % fewer
-        // instructions). Its first crossing registers it ahead.
+        // mostly gone by then, each a prediction for nothing (docs/performance.md lists the
+        // gain). Its first crossing registers it ahead.
         let old = self.span_cells(id);
         let exit = self.seat(id, &old, here, now, now);
         self.predict_neighbours(id, out);

@@ -128,7 +128,7 @@ impl<T: Stored> Slots<T> {
 /// A motion step as the queue keeps it (32 bytes, where an [`Event`] takes 80): the motion
 /// manager's `MotionStep` of one robot, its only content the robot and the steps' numbers. A
 /// motion schedules all its steps at once, so a million moving robots keep four million of
-/// them pending (issue 17).
+/// them pending.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct CompactStep {
     time: f64,

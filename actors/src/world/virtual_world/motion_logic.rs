@@ -269,8 +269,8 @@ impl VirtualWorld {
     /// the same instant is a collision too.
     fn collision(&mut self, a: RobotId, b: Obstacle, contact: Option<Point>, out: &mut Outbox) {
         let now = out.now();
-        // Inline: a collision has mostly one contact and stops two robots (issue 17: these
-        // were six allocations a collision).
+        // Inline: a collision has mostly one contact and stops two robots (on the heap, these
+        // would be six allocations a collision).
         let mut contacts: SmallVec<[(RobotId, Obstacle, Option<Point>); 4]> =
             smallvec![(a, b, contact)];
         let mut stopped: SmallVec<[RobotId; 4]> = SmallVec::new();
@@ -364,11 +364,12 @@ impl VirtualWorld {
 /// step, instant)`. A step at the same instant as the one before it is handled with it, in
 /// the same event: the two would be taken one right after the other anyway (scheduled by the
 /// same handling, their causal keys follow each other), so the trace is the same, with one
-/// event fewer (a MOVETO's finish-turn and start-forward: 12 % of a million robots' events
-/// after the turning phase, issue 17). A motion's first step stays alone: it is eventual,
+/// event fewer (a MOVETO's finish-turn and start-forward, a noticeable share of a million
+/// robots' events after the turning phase). A motion's first step stays alone: it is eventual,
 /// the others conditional.
 /// A motion's steps ([`MotionPattern::events`]); the built-in pattern's are asked one by one
-/// ([`MotionPattern::step`]), which allocates nothing (issue 17: a vector a request).
+/// ([`MotionPattern::step`]), which allocates nothing (where a vector would be an allocation
+/// a request).
 fn steps_of(path: &Path) -> SmallVec<[crate::world::motion::MotionStep; 4]> {
     match path {
         Path::Builtin(m) => {

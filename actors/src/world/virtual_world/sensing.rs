@@ -44,7 +44,7 @@ struct Armed {
 pub struct Sensing {
     sensors: std::sync::Arc<Sensors>,
     /// By robot; `None` until the robot arms a push sensor (most robots never do, and three
-    /// empty collections per robot were 72 MB at a million robots).
+    /// empty collections per robot would be 72 MB at a million robots).
     armed: Vec<Option<Box<Armed>>>,
     /// Activations of periodic push sensors so far (tells a stale re-sense apart).
     periodic_generation: u64,
