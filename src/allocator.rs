@@ -4,7 +4,7 @@
 //! A large run allocates and frees many small blocks (actor messages, effects, events) across
 //! a heap of gigabytes; mimalloc's per-thread free lists serve them faster than the system
 //! allocator, and the benches use the same allocator so that their figures are the command's.
-//! The gain is recorded in docs/performance.md.
+//! docs/architecture.md lists the gain.
 
 /// The allocator: `#[global_allocator] static GLOBAL: nekosim::allocator::MiMalloc = nekosim::allocator::MiMalloc;`
 pub use mimalloc::MiMalloc;
