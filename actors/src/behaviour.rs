@@ -46,7 +46,7 @@ use rand::Rng;
 use serde::Deserialize;
 
 use crate::algorithm::{centroid, destination_area};
-use crate::registry::{finite, positive, Configured, Setting};
+use crate::config::{finite, positive, Configured, Setting};
 use crate::robot::{Algorithm, AlgorithmFuture, MotionEnd, MotionTicket, Robot};
 use crate::world::event::Notice;
 use crate::world::geometry::{shortest_turn, vector_heading, Point};
