@@ -13,6 +13,7 @@ pub mod motion;
 pub mod network;
 pub mod observation;
 pub mod obstacle;
+pub mod piece;
 pub mod prefetch;
 pub mod radix;
 pub mod sensor;

@@ -18,6 +18,8 @@ use serde::{Deserialize, Serialize};
 use super::geometry::{
     heading_vector, normalize_deg, rem_360, shortest_turn, vector_heading, Point, Vector,
 };
+use super::piece::{clip_start, Pieces};
+pub use super::piece::{Piece, Shape};
 
 /// Where a robot is and where it faces.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -92,24 +94,6 @@ pub struct MotionStep {
     pub kind: StepKind,
 }
 
-/// Shape of a piece of a path, over `[t0, t1]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Shape {
-    /// `pos(t) = p0 + v (t - t0)` (seed eq. 3.2).
-    Linear { p0: Point, v: Vector },
-    /// Any other curve; positions come from [`MotionPattern::state_at`] and the speed of the
-    /// centre never exceeds `max_speed` [units/s].
-    Curve { max_speed: f64 },
-}
-
-/// A piece of a robot's path between two instants [s].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Piece {
-    pub t0: f64,
-    pub t1: f64,
-    pub shape: Shape,
-}
-
 /// Remaining work of a motion at an instant, as the seed's log shows it (fig. 4.12).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Progress {
@@ -155,13 +139,13 @@ pub trait MotionPattern: fmt::Debug + Send + Sync {
     }
     /// Appends to `out` those of [`MotionPattern::for_each_piece`]'s pieces that last and end
     /// after `now`, each cut to begin at `now` at the earliest
-    /// ([`super::collision::clip_start`]). The engine asks for both robots of every pair it
+    /// ([`super::piece::clip_start`]). The engine asks for both robots of every pair it
     /// predicts; this default goes through `for_each_piece`, the built-in patterns answer
     /// directly (issue 17).
-    fn pieces_after(&self, now: f64, out: &mut super::collision::Pieces) {
+    fn pieces_after(&self, now: f64, out: &mut Pieces) {
         self.for_each_piece(&mut |p| {
             if p.t1 > now && p.t1 > p.t0 {
-                out.push(super::collision::clip_start(p, now));
+                out.push(clip_start(p, now));
             }
         });
     }
@@ -638,12 +622,12 @@ impl MotionPattern for TurnForward {
         f(forward);
     }
 
-    fn pieces_after(&self, now: f64, out: &mut super::collision::Pieces) {
+    fn pieces_after(&self, now: f64, out: &mut Pieces) {
         // `for_each_piece`'s two pieces, kept and cut as the default keeps and cuts them.
         let (turn, forward) = self.two_pieces();
         for p in [turn, forward] {
             if p.t1 > now && p.t1 > p.t0 {
-                out.push(super::collision::clip_start(p, now));
+                out.push(clip_start(p, now));
             }
         }
     }
@@ -892,7 +876,7 @@ mod tests {
             };
             let m = motion.begin(3.0, pose(x, y, a)).unwrap();
             let now = 3.0 + f * (m.end_time() - 3.0);
-            let mut own = super::super::collision::Pieces::new();
+            let mut own = super::super::piece::Pieces::new();
             let mut default = own.clone();
             m.pieces_after(now, &mut own);
             Plain(&*m).pieces_after(now, &mut default);
