@@ -9,6 +9,7 @@ pub mod collision;
 pub mod event;
 pub mod geometry;
 pub mod grid;
+pub mod log_text;
 pub mod motion;
 pub mod network;
 pub mod observation;

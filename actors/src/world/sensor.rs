@@ -521,30 +521,12 @@ pub struct Sensors {
     entries: Named<SensorEntry>,
 }
 
-impl Default for Sensors {
-    fn default() -> Self {
-        Self::with_builtins()
-    }
-}
-
 impl Sensors {
     /// No sensor at all.
     pub fn empty() -> Self {
         Self {
             entries: Named::new("sensor"),
         }
-    }
-
-    /// The built-in sensors.
-    pub fn with_builtins() -> Self {
-        let mut s = Self::empty();
-        builtins::register(&mut s);
-        s
-    }
-
-    /// The built-in sensors (as [`Sensors::with_builtins`]).
-    pub fn new() -> Self {
-        Self::with_builtins()
     }
 
     /// Registers the sensor `S` under `name` (replacing an earlier one).
