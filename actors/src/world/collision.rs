@@ -55,7 +55,7 @@ impl Track<'_> {
     }
 
     /// [`Track::pieces_from`] into `out` (emptied first): a caller's buffer, filled where it
-    /// lies rather than copied out of a return (issue 17).
+    /// lies, so that a prediction copies no pieces out of a return.
     pub fn pieces_into(&self, now: f64, out: &mut Pieces) {
         out.clear();
         let mut rest_from = now;

@@ -141,7 +141,7 @@ pub trait MotionPattern: fmt::Debug + Send + Sync {
     /// after `now`, each cut to begin at `now` at the earliest
     /// ([`super::piece::clip_start`]). The engine asks for both robots of every pair it
     /// predicts; this default goes through `for_each_piece`, the built-in patterns answer
-    /// directly (issue 17).
+    /// directly, without the closure.
     fn pieces_after(&self, now: f64, out: &mut Pieces) {
         self.for_each_piece(&mut |p| {
             if p.t1 > now && p.t1 > p.t0 {
@@ -384,9 +384,9 @@ impl Motion {
     }
 }
 
-/// A motion in progress as the world keeps it: the built-in pattern inline (a million robots'
-/// predictions read their partners' motions: a boxed one was a second cache miss each time,
-/// issue 17), a user's boxed.
+/// A motion in progress as the world keeps it: the built-in pattern inline (every prediction
+/// reads the partner's motion, and a boxed one would cost a second memory access each time),
+/// a user's boxed.
 #[derive(Debug)]
 pub(crate) enum Path {
     Builtin(TurnForward),
@@ -459,8 +459,8 @@ pub struct TurnForward {
     has_forward: bool,
     /// Heading after the turn [deg].
     heading: f64,
-    /// Unit vector of `heading`, worked out once: positions and predictions asked for it
-    /// every time (a sine and a cosine, issue 17: 6 % of a 1k-robot run's instructions).
+    /// Unit vector of `heading`, worked out once rather than as a sine and a cosine at every
+    /// position and prediction, which ask for it on the hot path.
     u: Vector,
     /// Instant the turn ends and the forward part starts [s].
     t_turned: f64,

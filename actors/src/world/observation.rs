@@ -39,9 +39,9 @@ pub enum Observation {
         /// The request's number among the robot's requests (the seed log's "Task ID").
         ticket: u64,
         /// The request itself: the trace shows its pattern's name as `motion` and each of its
-        /// parameters as a field of its own ([`Motion::name`], [`Motion::params`]). Issue 17:
-        /// kept as the request rather than as its name and parameters written out, which took
-        /// six allocations a request, traced or not.
+        /// parameters as a field of its own ([`Motion::name`], [`Motion::params`]). Kept as
+        /// the request itself and written out only when the record is serialized, so that
+        /// recording a request allocates nothing.
         #[serde(flatten, serialize_with = "ser::motion")]
         motion: Motion,
     },

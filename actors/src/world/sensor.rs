@@ -28,7 +28,7 @@ pub mod builtins;
 /// Which sensor of a robot: the name it is registered under (serialized as that name).
 ///
 /// A thin pointer to the interned name (8 bytes, where a `&str` takes 16): events that name
-/// a sensor stay small (issue 17). Compared, ordered and hashed by the name.
+/// a sensor stay small. Compared, ordered and hashed by the name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct SensorKind(&'static &'static str);
 
