@@ -14,8 +14,8 @@
 
 use super::geometry::{cell_exit_linear, first_contact_linear, first_wall_contact, Point, Vector};
 use super::motion::MotionPattern;
-use super::piece::{linear_at, Piece, Shape};
 pub use super::piece::Pieces;
+use super::piece::{linear_at, Piece, Shape};
 
 /// Gap [units] below which conservative advancement reports a contact on a curved piece.
 pub const CONTACT_TOLERANCE: f64 = 1e-10;
