@@ -5,14 +5,9 @@
 
 use std::rc::Rc;
 
-use rand::Rng;
-
 use super::runtime::{Branch, Local, Runtime, Scope};
-use super::travel::draw_speeds;
-use super::tree::{Behaviour, Count, Target};
-use crate::algorithm::{centroid, destination_area};
+use super::tree::{Behaviour, Count};
 use crate::robot::{Algorithm, AlgorithmFuture, Robot};
-use crate::world::geometry::Point;
 
 impl Behaviour {
     /// Runs the behaviour on `robot` until it finishes (see the module doc for how branches
@@ -35,18 +30,8 @@ impl Behaviour {
                     error,
                     retry,
                 } => {
-                    let dest = match *to {
-                        Target::Point(x, y) => Point::new(x, y),
-                        Target::Centroid => {
-                            let all = robot.gps().all_positions(*error).await;
-                            match centroid(all.into_iter().map(|(_, p)| p)) {
-                                Some(c) => c,
-                                None => return robot.sleep(*retry).await,
-                            }
-                        }
-                    };
-                    let (ms, ts) = draw_speeds(robot, *move_speed, *turn_speed);
-                    rt.move_or_wait(&scope, dest, ms, ts, *retry).await;
+                    rt.go_to(&scope, *to, *move_speed, *turn_speed, *error, *retry)
+                        .await
                 }
                 Behaviour::Wander {
                     area,
@@ -54,17 +39,8 @@ impl Behaviour {
                     turn_speed,
                     retry,
                 } => {
-                    let (lo, hi) = match *area {
-                        Some(((x0, y0), (x1, y1))) => (Point::new(x0, y0), Point::new(x1, y1)),
-                        None => destination_area(robot.info().world),
-                    };
-                    let (ms, ts) = draw_speeds(robot, *move_speed, *turn_speed);
-                    let dest = {
-                        let mut rng = robot.rng();
-                        let (u, v): (f64, f64) = (rng.gen(), rng.gen());
-                        Point::new(lo.x + (hi.x - lo.x) * u, lo.y + (hi.y - lo.y) * v)
-                    };
-                    rt.move_or_wait(&scope, dest, ms, ts, *retry).await;
+                    rt.wander(&scope, *area, *move_speed, *turn_speed, *retry)
+                        .await
                 }
                 Behaviour::Wait(t) => robot.sleep(*t).await,
                 Behaviour::WaitFor(c) => rt.condition(&scope, *c).await,
