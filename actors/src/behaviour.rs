@@ -27,13 +27,23 @@
 //!   queued are dropped.
 //!
 //! The robot has one body: when a branch starts a motion while another branch's motion runs, the
-//! newer replaces the older (as [`Robot::start_motion`](crate::robot::Robot::start_motion) does), and the branch whose motion was
+//! newer replaces the older (as [`Robot::start_motion`] does), and the branch whose motion was
 //! replaced waits, doing nothing more, until its combinator ends and cancels it. Losing branches'
 //! pending timers and sensor readings are simply ignored.
 //!
 //! A behaviour that moves and took no virtual time at all (blocked at its very start, or
 //! already there) waits `retry` seconds, as [`crate::algorithm::move_or_wait`] does, so that a
 //! `Repeat(Forever, ..)` never spins at one instant.
+//!
+//! # Where the parts are
+//!
+//! `tree` is the language (the enum a scenario and a Rust program write), `config` reads and
+//! checks it as an algorithm's configuration, `composition` walks a tree on a robot,
+//! `runtime` is what the branches of one running behaviour share (and the race that cancels
+//! the losers), and `travel` (`GoTo`, `Wander`), `neighbours` (`Avoid`, `Follow`) and
+//! `condition` (`WaitFor`, the end of `Until`) run the primitives.
+//!
+//! [`Robot::start_motion`]: crate::robot::Robot::start_motion
 
 mod composition;
 mod condition;

@@ -10,10 +10,10 @@ use super::tree::{Behaviour, Count};
 use crate::robot::{Algorithm, AlgorithmFuture, Robot};
 
 impl Behaviour {
-    /// Runs the behaviour on `robot` until it finishes (see the module doc for how branches
-    /// share the robot). Incoming messages the behaviour takes from the robot while it waits for
-    /// a sensor and does not use (no `Message` condition claims them) are dropped when it
-    /// finishes.
+    /// Runs the behaviour on `robot` until it finishes (see [`crate::behaviour`] for how
+    /// branches share the robot). Incoming messages the behaviour takes from the robot while it
+    /// waits for a sensor and does not use (no `Message` condition claims them) are dropped
+    /// when it finishes.
     pub async fn run(&self, robot: &Robot) {
         let rt = Runtime::new(robot);
         self.exec(&rt, Rc::new(Vec::new())).await;
