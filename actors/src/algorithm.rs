@@ -546,7 +546,7 @@ impl Algorithm for PathReservation {
 // How scenarios configure the built-ins (`algorithm: Name(field: value, ...)`), through the
 // same registry a user's algorithm is registered in (crate::registry).
 
-use crate::registry::{finite, positive, Configured, Setting};
+use crate::config::{finite, positive, Configured, Setting};
 use nekosim_protocols::{FieldError, NoConfig, Service};
 
 impl Configured for Idle {

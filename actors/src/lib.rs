@@ -9,10 +9,13 @@
 //!   same handling code driven without actors (the reference the engine bench compares with).
 //! - [`motion_manager`], [`sensor_manager`], [`robot`], [`sensor`]: the other actors.
 //! - [`algorithm`]: built-in robot algorithms; [`behaviour`]: composable behaviours (seed 7.2);
-//!   [`simulation`]: building and running a run.
+//!   [`config`]: what an algorithm's configuration is; [`registry`]: algorithms by name, and
+//!   [`builtins`]: the built-in ones registered there; [`simulation`]: building and running a run.
 
 pub mod algorithm;
 pub mod behaviour;
+pub mod builtins;
+pub mod config;
 pub mod handler;
 pub mod host;
 pub mod kernel;

@@ -5,38 +5,10 @@
 //! [`Algorithms::algorithm`]).
 
 use nekosim_protocols::registry::Named;
-use nekosim_protocols::{FieldError, Service, Spec, SpecError};
-use serde::de::DeserializeOwned;
+use nekosim_protocols::{Spec, SpecError};
 
+pub use crate::config::{finite, positive, Configured, Setting};
 use crate::robot::Algorithm;
-
-/// What an algorithm's configuration is checked against: the stack its robot runs on.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Setting {
-    /// The stack's layers: id and the service each provides.
-    pub layers: Vec<(String, Service)>,
-}
-
-impl Setting {
-    /// The service layer `id` provides, if the stack has it.
-    pub fn layer(&self, id: &str) -> Option<Service> {
-        self.layers.iter().find(|(l, _)| l == id).map(|(_, s)| *s)
-    }
-}
-
-/// An algorithm a scenario can name: its configuration type and how it is built from it. It
-/// is `Clone`: a group of robots sharing one configuration reads it once and clones the
-/// algorithm for each robot (a sweep builds thousands of runs).
-pub trait Configured: Algorithm + Clone + Sized + 'static {
-    /// What `algorithm: Name(field: value, ...)` is read into (derive `Deserialize` with
-    /// `#[serde(deny_unknown_fields)]`).
-    type Config: DeserializeOwned;
-
-    /// The algorithm, or why the configuration is refused (a [`FieldError::field`] is
-    /// reported at that field in the scenario file; a field path starting with `[` is joined
-    /// without a dot, as in `[0][2].angle` for a tuple's element).
-    fn configure(config: Self::Config, setting: &Setting) -> Result<Self, FieldError>;
-}
 
 /// Reads a spec's configuration once and builds the algorithm for `n` robots.
 type BuildFn = fn(&Spec, &Setting, usize) -> Result<Vec<Box<dyn Algorithm>>, SpecError>;
@@ -59,35 +31,12 @@ pub struct Algorithms {
     entries: Named<BuildFn>,
 }
 
-impl Default for Algorithms {
-    /// [`Algorithms::with_builtins`].
-    fn default() -> Self {
-        Self::with_builtins()
-    }
-}
-
 impl Algorithms {
     /// A registry without any algorithm.
     pub fn empty() -> Self {
         Self {
             entries: Named::new("algorithm"),
         }
-    }
-
-    /// The built-in algorithms of [`crate::algorithm`], under their names.
-    pub fn with_builtins() -> Self {
-        use crate::algorithm::*;
-        let mut r = Self::empty();
-        r.algorithm::<Idle>("Idle")
-            .algorithm::<Script>("Script")
-            .algorithm::<RandomMovement>("RandomMovement")
-            .algorithm::<Gathering>("Gathering")
-            .algorithm::<AskForHelp>("AskForHelp")
-            .algorithm::<BroadcastLoad>("BroadcastLoad")
-            .algorithm::<MeetingPoint>("MeetingPoint")
-            .algorithm::<PathReservation>("PathReservation")
-            .algorithm::<crate::behaviour::Behaviour>("Behaviour");
-        r
     }
 
     /// Registers the algorithm `A` under `name` (replacing an earlier registration).
@@ -119,38 +68,5 @@ impl Algorithms {
         n: usize,
     ) -> Result<Vec<Box<dyn Algorithm>>, SpecError> {
         (self.entries.get(spec)?)(spec, setting, n)
-    }
-}
-
-/// `field`'s value `v` must be a finite number > 0; `what` names it in the message.
-pub fn positive(field: &str, what: &str, v: f64) -> Result<f64, FieldError> {
-    if !v.is_finite() {
-        return Err(FieldError::new(
-            field,
-            format!("{what} is {v}"),
-            "a finite number",
-        ));
-    }
-    if v > 0.0 {
-        Ok(v)
-    } else {
-        Err(FieldError::new(
-            field,
-            format!("{what} is {v}"),
-            "a number > 0",
-        ))
-    }
-}
-
-/// `field`'s value `v` must be a finite number.
-pub fn finite(field: &str, what: &str, v: f64) -> Result<f64, FieldError> {
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(FieldError::new(
-            field,
-            format!("{what} is {v}"),
-            "a finite number",
-        ))
     }
 }

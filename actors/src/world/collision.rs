@@ -13,13 +13,12 @@
 //! larger reach).
 
 use super::geometry::{cell_exit_linear, first_contact_linear, first_wall_contact, Point, Vector};
-use super::motion::{MotionPattern, Piece, Shape};
+use super::motion::MotionPattern;
+pub use super::piece::Pieces;
+use super::piece::{linear_at, Piece, Shape};
 
 /// Gap [units] below which conservative advancement reports a contact on a curved piece.
 pub const CONTACT_TOLERANCE: f64 = 1e-10;
-
-/// A track's pieces ([`Track::pieces_from`]).
-pub type Pieces = smallvec::SmallVec<[Piece; 4]>;
 
 /// The future of one robot's centre: its current motion, if any, then rest.
 #[derive(Clone, Copy, Debug)]
@@ -56,7 +55,7 @@ impl Track<'_> {
     }
 
     /// [`Track::pieces_from`] into `out` (emptied first): a caller's buffer, filled where it
-    /// lies rather than copied out of a return (issue 17).
+    /// lies, so that a prediction copies no pieces out of a return.
     pub fn pieces_into(&self, now: f64, out: &mut Pieces) {
         out.clear();
         let mut rest_from = now;
@@ -88,30 +87,6 @@ impl Track<'_> {
             },
         });
     }
-}
-
-/// The part of `p` from `t` on (a linear piece's origin moves to `t`).
-pub(crate) fn clip_start(p: Piece, t: f64) -> Piece {
-    if p.t0 >= t {
-        return p;
-    }
-    let shape = match p.shape {
-        Shape::Linear { p0, v } => Shape::Linear {
-            p0: linear_at(p0, v, p.t0, t),
-            v,
-        },
-        curve => curve,
-    };
-    Piece {
-        t0: t,
-        t1: p.t1,
-        shape,
-    }
-}
-
-/// Position of a linear piece at `t`.
-fn linear_at(p0: Point, v: Vector, t0: f64, t: f64) -> Point {
-    p0 + v * (t - t0)
 }
 
 fn speed_bound(shape: &Shape) -> f64 {

@@ -18,6 +18,8 @@ use serde::{Deserialize, Serialize};
 use super::geometry::{
     heading_vector, normalize_deg, rem_360, shortest_turn, vector_heading, Point, Vector,
 };
+use super::piece::{clip_start, Pieces};
+pub use super::piece::{Piece, Shape};
 
 /// Where a robot is and where it faces.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -92,24 +94,6 @@ pub struct MotionStep {
     pub kind: StepKind,
 }
 
-/// Shape of a piece of a path, over `[t0, t1]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Shape {
-    /// `pos(t) = p0 + v (t - t0)` (seed eq. 3.2).
-    Linear { p0: Point, v: Vector },
-    /// Any other curve; positions come from [`MotionPattern::state_at`] and the speed of the
-    /// centre never exceeds `max_speed` [units/s].
-    Curve { max_speed: f64 },
-}
-
-/// A piece of a robot's path between two instants [s].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Piece {
-    pub t0: f64,
-    pub t1: f64,
-    pub shape: Shape,
-}
-
 /// Remaining work of a motion at an instant, as the seed's log shows it (fig. 4.12).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Progress {
@@ -155,13 +139,13 @@ pub trait MotionPattern: fmt::Debug + Send + Sync {
     }
     /// Appends to `out` those of [`MotionPattern::for_each_piece`]'s pieces that last and end
     /// after `now`, each cut to begin at `now` at the earliest
-    /// ([`super::collision::clip_start`]). The engine asks for both robots of every pair it
+    /// ([`super::piece::clip_start`]). The engine asks for both robots of every pair it
     /// predicts; this default goes through `for_each_piece`, the built-in patterns answer
-    /// directly (issue 17).
-    fn pieces_after(&self, now: f64, out: &mut super::collision::Pieces) {
+    /// directly, without the closure.
+    fn pieces_after(&self, now: f64, out: &mut Pieces) {
         self.for_each_piece(&mut |p| {
             if p.t1 > now && p.t1 > p.t0 {
-                out.push(super::collision::clip_start(p, now));
+                out.push(clip_start(p, now));
             }
         });
     }
@@ -400,9 +384,9 @@ impl Motion {
     }
 }
 
-/// A motion in progress as the world keeps it: the built-in pattern inline (a million robots'
-/// predictions read their partners' motions: a boxed one was a second cache miss each time,
-/// issue 17), a user's boxed.
+/// A motion in progress as the world keeps it: the built-in pattern inline (every prediction
+/// reads the partner's motion, and a boxed one would cost a second memory access each time),
+/// a user's boxed.
 #[derive(Debug)]
 pub(crate) enum Path {
     Builtin(TurnForward),
@@ -475,8 +459,8 @@ pub struct TurnForward {
     has_forward: bool,
     /// Heading after the turn [deg].
     heading: f64,
-    /// Unit vector of `heading`, worked out once: positions and predictions asked for it
-    /// every time (a sine and a cosine, issue 17: 6 % of a 1k-robot run's instructions).
+    /// Unit vector of `heading`, worked out once rather than as a sine and a cosine at every
+    /// position and prediction, which ask for it on the hot path.
     u: Vector,
     /// Instant the turn ends and the forward part starts [s].
     t_turned: f64,
@@ -638,12 +622,12 @@ impl MotionPattern for TurnForward {
         f(forward);
     }
 
-    fn pieces_after(&self, now: f64, out: &mut super::collision::Pieces) {
+    fn pieces_after(&self, now: f64, out: &mut Pieces) {
         // `for_each_piece`'s two pieces, kept and cut as the default keeps and cuts them.
         let (turn, forward) = self.two_pieces();
         for p in [turn, forward] {
             if p.t1 > now && p.t1 > p.t0 {
-                out.push(super::collision::clip_start(p, now));
+                out.push(clip_start(p, now));
             }
         }
     }
@@ -892,7 +876,7 @@ mod tests {
             };
             let m = motion.begin(3.0, pose(x, y, a)).unwrap();
             let now = 3.0 + f * (m.end_time() - 3.0);
-            let mut own = super::super::collision::Pieces::new();
+            let mut own = super::super::piece::Pieces::new();
             let mut default = own.clone();
             m.pieces_after(now, &mut own);
             Plain(&*m).pieces_after(now, &mut default);

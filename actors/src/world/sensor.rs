@@ -28,7 +28,7 @@ pub mod builtins;
 /// Which sensor of a robot: the name it is registered under (serialized as that name).
 ///
 /// A thin pointer to the interned name (8 bytes, where a `&str` takes 16): events that name
-/// a sensor stay small (issue 17). Compared, ordered and hashed by the name.
+/// a sensor stay small. Compared, ordered and hashed by the name.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct SensorKind(&'static &'static str);
 
@@ -521,30 +521,12 @@ pub struct Sensors {
     entries: Named<SensorEntry>,
 }
 
-impl Default for Sensors {
-    fn default() -> Self {
-        Self::with_builtins()
-    }
-}
-
 impl Sensors {
     /// No sensor at all.
     pub fn empty() -> Self {
         Self {
             entries: Named::new("sensor"),
         }
-    }
-
-    /// The built-in sensors.
-    pub fn with_builtins() -> Self {
-        let mut s = Self::empty();
-        builtins::register(&mut s);
-        s
-    }
-
-    /// The built-in sensors (as [`Sensors::with_builtins`]).
-    pub fn new() -> Self {
-        Self::with_builtins()
     }
 
     /// Registers the sensor `S` under `name` (replacing an earlier one).

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{Reach, SensorModel, Sensors, Trigger, WorldView};
 use crate::world::geometry::Point;
-use crate::world::observation::{num, obstacle_text, point_text};
+use crate::world::log_text::{num, obstacle_text, point_text};
 use crate::world::{Obstacle, RobotId};
 
 /// Registers the built-in sensors under their names.
@@ -29,6 +29,26 @@ pub fn register(s: &mut Sensors) {
         .sensor::<Proximity>("proximity")
         .sensor::<PushProximity>("push_proximity")
         .sensor::<Contact>("contact");
+}
+
+impl Default for Sensors {
+    fn default() -> Self {
+        Self::with_builtins()
+    }
+}
+
+impl Sensors {
+    /// The built-in sensors.
+    pub fn with_builtins() -> Self {
+        let mut s = Self::empty();
+        register(&mut s);
+        s
+    }
+
+    /// The built-in sensors (as [`Sensors::with_builtins`]).
+    pub fn new() -> Self {
+        Self::with_builtins()
+    }
 }
 
 fn nonneg(what: &str, v: f64) -> Result<(), String> {
