@@ -46,7 +46,7 @@ use rand::Rng;
 use serde::Deserialize;
 
 use crate::algorithm::{centroid, destination_area};
-use crate::registry::{finite, positive, Configured, Setting};
+use crate::registry::{finite, positive, speed, Configured, Setting};
 use crate::robot::{Algorithm, AlgorithmFuture, MotionEnd, MotionTicket, Robot};
 use crate::world::event::Notice;
 use crate::world::geometry::{shortest_turn, vector_heading, Point};
@@ -198,10 +198,10 @@ impl Speed {
 
     fn check(self, path: &str, what: &str) -> Result<(), FieldError> {
         match self {
-            Speed::Fixed(v) => positive(path, what, v).map(drop),
+            Speed::Fixed(v) => speed(path, what, v).map(drop),
             Speed::Range(lo, hi) => {
-                positive(&format!("{path}[0]"), what, lo)?;
-                positive(&format!("{path}[1]"), what, hi)?;
+                speed(&format!("{path}[0]"), what, lo)?;
+                speed(&format!("{path}[1]"), what, hi)?;
                 if hi < lo {
                     return Err(FieldError::new(
                         path,
@@ -422,7 +422,7 @@ impl Behaviour {
                 retry,
             } => {
                 nonneg(&at(".range"), "range", *range)?;
-                positive(&at(".turn_speed"), "turn speed", *turn_speed)?;
+                speed(&at(".turn_speed"), "turn speed", *turn_speed)?;
                 if let Some(d) = back_off {
                     nonneg(&at(".back_off"), "back-off distance", *d)?;
                 }
@@ -438,7 +438,7 @@ impl Behaviour {
             } => {
                 nonneg(&at(".distance"), "distance", *distance)?;
                 positive(&at(".move_speed"), "move speed", *move_speed)?;
-                positive(&at(".turn_speed"), "turn speed", *turn_speed)?;
+                speed(&at(".turn_speed"), "turn speed", *turn_speed)?;
                 positive(&at(".period"), "period", *period)?;
             }
             Behaviour::Sequence(v) | Behaviour::Race(v) => {
