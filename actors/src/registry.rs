@@ -169,7 +169,9 @@ pub fn speed(field: &str, what: &str, v: f64) -> Result<f64, FieldError> {
         Err(FieldError::new(
             field,
             format!("{what} is {v:e}"),
-            format!("at most {MAX_SPEED:e} (faster, positions lose the precision exact motion needs)"),
+            format!(
+                "at most {MAX_SPEED:e} (faster, positions lose the precision exact motion needs)"
+            ),
         ))
     }
 }

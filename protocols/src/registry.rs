@@ -311,12 +311,20 @@ pub fn describe_ron(text: &str, e: &ron::error::SpannedError) -> ((usize, usize)
     let at = char_index(text, e.position.line, e.position.col);
     let pos = |i: usize| line_col(&chars, i);
     match &e.code {
-        ron::Error::NoSuchStructField { found, .. } | ron::Error::NoSuchEnumVariant { found, .. } => {
+        ron::Error::NoSuchStructField { found, .. }
+        | ron::Error::NoSuchEnumVariant { found, .. } => {
             // ron reports a name just after it.
             let before: String = chars[..at].iter().collect();
             let trimmed = before.trim_end_matches(|c: char| c.is_whitespace() || c == ':');
-            let start = trimmed.chars().count().saturating_sub(found.chars().count());
-            let i = if trimmed.ends_with(found.as_str()) { start } else { at };
+            let start = trimmed
+                .chars()
+                .count()
+                .saturating_sub(found.chars().count());
+            let i = if trimmed.ends_with(found.as_str()) {
+                start
+            } else {
+                at
+            };
             (pos(i), describe(&e.code))
         }
         ron::Error::MissingStructField { field, outer } => {
@@ -451,17 +459,11 @@ fn field_hint(outer: Option<&str>, field: &str) -> String {
 }
 
 /// For an error about a value's type: where the value starts, its text, and what was expected.
-fn expected_value(
-    code: &ron::Error,
-    chars: &[char],
-    at: usize,
-) -> Option<(usize, String, String)> {
+fn expected_value(code: &ron::Error, chars: &[char], at: usize) -> Option<(usize, String, String)> {
     let start = value_start(chars, at);
     let value = value_text(chars, start);
     let expected: String = match code {
-        ron::Error::ExpectedInteger | ron::Error::InvalidIntegerDigit { .. } => {
-            "an integer".into()
-        }
+        ron::Error::ExpectedInteger | ron::Error::InvalidIntegerDigit { .. } => "an integer".into(),
         // ron reads the integer part of `1.5` and then wants a comma at the point.
         ron::Error::ExpectedComma
             if chars.get(at) == Some(&'.') && at > 0 && chars[at - 1].is_ascii_digit() =>
@@ -469,7 +471,9 @@ fn expected_value(
             "an integer".into()
         }
         ron::Error::IntegerOutOfBounds if value.starts_with('-') => "an integer >= 0".into(),
-        ron::Error::IntegerOutOfBounds => "a smaller integer (the field's type cannot hold it)".into(),
+        ron::Error::IntegerOutOfBounds => {
+            "a smaller integer (the field's type cannot hold it)".into()
+        }
         ron::Error::ExpectedFloat => "a number".into(),
         ron::Error::ExpectedBoolean => "`true` or `false`".into(),
         ron::Error::ExpectedString => "a string in double quotes".into(),

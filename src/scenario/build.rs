@@ -430,23 +430,25 @@ impl Source {
     /// The 2D view: the panel from the world's lower-left corner (centred on the origin in an
     /// infinite world), or the world itself.
     fn view(&self, size: WorldSize) -> Result<Option<(Point, Point)>, ScenarioError> {
-        Ok(match self.scenario.animation.as_ref().and_then(|a| a.panel) {
-            Some((w, h)) => {
-                self.positive("animation.panel[0]", "panel width", w)?;
-                self.positive("animation.panel[1]", "panel height", h)?;
-                self.within("animation.panel[0]", "panel width", w)?;
-                self.within("animation.panel[1]", "panel height", h)?;
-                let lo = match size {
-                    WorldSize::Bounded { min, .. } => min,
-                    WorldSize::Infinite => Point::new(-w / 2.0, -h / 2.0),
-                };
-                Some((lo, Point::new(lo.x + w, lo.y + h)))
-            }
-            None => match size {
-                WorldSize::Bounded { min, max } => Some((min, max)),
-                WorldSize::Infinite => None,
+        Ok(
+            match self.scenario.animation.as_ref().and_then(|a| a.panel) {
+                Some((w, h)) => {
+                    self.positive("animation.panel[0]", "panel width", w)?;
+                    self.positive("animation.panel[1]", "panel height", h)?;
+                    self.within("animation.panel[0]", "panel width", w)?;
+                    self.within("animation.panel[1]", "panel height", h)?;
+                    let lo = match size {
+                        WorldSize::Bounded { min, .. } => min,
+                        WorldSize::Infinite => Point::new(-w / 2.0, -h / 2.0),
+                    };
+                    Some((lo, Point::new(lo.x + w, lo.y + h)))
+                }
+                None => match size {
+                    WorldSize::Bounded { min, max } => Some((min, max)),
+                    WorldSize::Infinite => None,
+                },
             },
-        })
+        )
     }
 
     pub(super) fn finite(&self, path: &str, what: &str, v: f64) -> Result<f64, ScenarioError> {
@@ -476,7 +478,12 @@ impl Source {
     }
 
     /// A point `(x, y)` at `path`: finite coordinates within [`MAX_COORDINATE`].
-    fn point(&self, path: &str, what: (&str, &str), (x, y): (f64, f64)) -> Result<(), ScenarioError> {
+    fn point(
+        &self,
+        path: &str,
+        what: (&str, &str),
+        (x, y): (f64, f64),
+    ) -> Result<(), ScenarioError> {
         let (px, py) = (format!("{path}[0]"), format!("{path}[1]"));
         self.finite(&px, what.0, x)?;
         self.finite(&py, what.1, y)?;
@@ -599,7 +606,10 @@ impl Placement<'_> {
                 .collect();
             let clear = |q: Point| {
                 let q = q + lo.coords;
-                src.scenario.obstacles.iter().all(|o| o.distance(q) >= radius)
+                src.scenario
+                    .obstacles
+                    .iter()
+                    .all(|o| o.distance(q) >= radius)
             };
             let drawn = random_born_points_clear(
                 rest,

@@ -68,7 +68,9 @@ fn numbers(text: &str) -> Vec<std::ops::Range<usize>> {
                 }
                 i += 1;
             }
-            c if c.is_ascii_digit() || (c == b'-' && b.get(i + 1).is_some_and(u8::is_ascii_digit)) => {
+            c if c.is_ascii_digit()
+                || (c == b'-' && b.get(i + 1).is_some_and(u8::is_ascii_digit)) =>
+            {
                 let start = i;
                 i += 1;
                 while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'.' || b[i] == b'_')
@@ -168,11 +170,14 @@ fn located(err: &str, file: &Path) -> bool {
         return false;
     };
     let mut parts = rest.splitn(3, ':');
-    let num = |s: Option<&str>| s.is_some_and(|s| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()));
+    let num =
+        |s: Option<&str>| s.is_some_and(|s| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()));
     err.lines().count() == 1
         && num(parts.next())
         && num(parts.next())
-        && parts.next().is_some_and(|m| m.starts_with(' ') && m.len() > 1)
+        && parts
+            .next()
+            .is_some_and(|m| m.starts_with(' ') && m.len() > 1)
 }
 
 #[test]
@@ -197,7 +202,8 @@ fn mutants_of_the_examples_end_with_exit_0_or_a_located_exit_2() {
         std::fs::write(&file, &text).unwrap();
         let path = file.to_str().unwrap();
         let what = format!("case {case} (seed {SEED:#x}), a mutant of {name}:\n{text}");
-        let (code, err) = run(&["validate", path]).unwrap_or_else(|| panic!("validate hangs: {what}"));
+        let (code, err) =
+            run(&["validate", path]).unwrap_or_else(|| panic!("validate hangs: {what}"));
         assert!(!err.contains("panicked"), "{what}\n{err}");
         match code {
             Some(0) => {}
@@ -215,6 +221,10 @@ fn mutants_of_the_examples_end_with_exit_0_or_a_located_exit_2() {
             .unwrap_or_else(|| panic!("run hangs: {what}"));
         assert_eq!(code, Some(0), "run: {err}\n{what}");
     }
+    eprintln!("{CASES} mutants: {valid} valid and run, {refused} refused at their place");
     // The mutants exercise both sides.
-    assert!(valid >= CASES / 10 && refused >= CASES / 4, "{valid} valid, {refused} refused");
+    assert!(
+        valid >= CASES / 10 && refused >= CASES / 4,
+        "{valid} valid, {refused} refused"
+    );
 }

@@ -21,8 +21,8 @@ use serde::{Deserialize, Serialize};
 use super::collision::{advance, Track};
 use super::geometry::{first_contact_linear, point_segment_distance, Point, Vector};
 use super::grid::{Cell, FixedHash};
-use crate::registry::MAX_COORDINATE;
 use super::motion::Shape as PieceShape;
+use crate::registry::MAX_COORDINATE;
 
 /// An obstacle as a scenario writes it (`obstacles: [Rect(min: (0, 0), max: (10, 5)), ...]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -164,11 +164,7 @@ impl Shape {
                     );
                 }
                 if *radius > MAX_COORDINATE {
-                    return bad(
-                        "radius",
-                        format!("radius is {radius:e}"),
-                        "at most 1e9",
-                    );
+                    return bad("radius", format!("radius is {radius:e}"), "at most 1e9");
                 }
             }
         }
