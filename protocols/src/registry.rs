@@ -499,10 +499,12 @@ fn expected_value(code: &ron::Error, chars: &[char], at: usize) -> Option<(usize
 /// it.
 fn value_start(chars: &[char], at: usize) -> usize {
     let at = at.min(chars.len());
-    if at < chars.len() && !chars[at].is_whitespace() && !",)]".contains(chars[at]) {
-        if at == 0 || !is_scalar_char(chars[at - 1]) || chars[at] == '"' {
-            return at;
-        }
+    if at < chars.len()
+        && !chars[at].is_whitespace()
+        && !",)]".contains(chars[at])
+        && (at == 0 || !is_scalar_char(chars[at - 1]) || chars[at] == '"')
+    {
+        return at;
     }
     let mut i = at;
     if i > 0 && chars[i - 1] == '"' {

@@ -32,6 +32,9 @@ pub const MIN_BYTES_PER_ROBOT: u64 = 1024;
 /// distance test, so this bounds the set-up to about a second.
 pub const MAX_OBSTACLE_CELLS: f64 = (1u64 << 24) as f64;
 
+/// A robot as a run takes it: where it is born and what it runs.
+type Robot = (RobotSpec, Box<dyn Algorithm>);
+
 /// The robots' count and radii, checked before any table of robots is allocated.
 struct Sizes {
     /// Every robot entry's radius, in the scenario's order.
@@ -332,7 +335,7 @@ impl Source {
         seed: u64,
         setting: &Setting,
         registry: &Registry,
-    ) -> Result<Vec<(RobotSpec, Box<dyn Algorithm>)>, ScenarioError> {
+    ) -> Result<Vec<Robot>, ScenarioError> {
         let total = sizes.total;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(0xB0B0);
