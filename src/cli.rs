@@ -545,6 +545,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             })
         }
         Command::Validate { scenario } => {
+            let _ = interruptible();
             let source = Source::load(&scenario).map_err(invalid)?;
             let built = source
                 .build(Overrides::default(), registry)
@@ -610,6 +611,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 s.enable_steady_tick(std::time::Duration::from_millis(200));
                 s
             });
+            let (stop, building) = interruptible();
             let built = source
                 .build(Overrides { seed, until }, registry)
                 .map_err(invalid);
@@ -652,18 +654,9 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                     b.set_message(format!("{t:.1} s, {events} events"));
                 }) as Box<dyn FnMut(f64, u64)>
             });
-            // Ctrl-C (or SIGTERM) ends the run at the virtual time reached and writes the
-            // outputs for the run up to there; a second one ends the process at once.
-            let stop = Arc::new(AtomicBool::new(false));
-            {
-                let stop = stop.clone();
-                // Without a handler (e.g. one already set), an interrupt kills the process.
-                let _ = ctrlc::set_handler(move || {
-                    if stop.swap(true, Ordering::Relaxed) {
-                        std::process::exit(INTERRUPTED);
-                    }
-                });
-            }
+            // From here on, Ctrl-C (or SIGTERM) ends the run at the virtual time reached and
+            // writes the outputs for the run up to there.
+            building.store(false, Ordering::Relaxed);
             let result = runner::run(
                 built,
                 RunOptions {
@@ -727,6 +720,27 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             Ok(0)
         }
     }
+}
+
+/// Sets the Ctrl-C (and SIGTERM) handler of a command that builds a scenario: while the
+/// second flag holds (the scenario is being built, nothing is written yet), an interrupt ends
+/// the process at once; after, it sets the first flag (the run then ends at the virtual time
+/// reached), and a second interrupt ends the process at once.
+fn interruptible() -> (Arc<AtomicBool>, Arc<AtomicBool>) {
+    let stop = Arc::new(AtomicBool::new(false));
+    let building = Arc::new(AtomicBool::new(true));
+    let (s, b) = (stop.clone(), building.clone());
+    // Without a handler (e.g. one already set), an interrupt kills the process.
+    let _ = ctrlc::set_handler(move || {
+        if b.load(Ordering::Relaxed) {
+            eprintln!("interrupted while building the scenario: nothing was written");
+            std::process::exit(INTERRUPTED);
+        }
+        if s.swap(true, Ordering::Relaxed) {
+            std::process::exit(INTERRUPTED);
+        }
+    });
+    (stop, building)
 }
 
 /// Whether `path` holds a cluster file rather than a scenario.

@@ -546,7 +546,7 @@ impl Algorithm for PathReservation {
 // How scenarios configure the built-ins (`algorithm: Name(field: value, ...)`), through the
 // same registry a user's algorithm is registered in (crate::registry).
 
-use crate::config::{finite, positive, Configured, Setting};
+use crate::config::{finite, positive, speed, Configured, Setting};
 use nekosim_protocols::{FieldError, NoConfig, Service};
 
 impl Configured for Idle {
@@ -575,7 +575,7 @@ impl Configured for Script {
             match *step {
                 ScriptStep::Turn { angle, turn_speed } => {
                     finite(&p(".angle"), "turn angle", angle)?;
-                    positive(&p(".turn_speed"), "turn speed", turn_speed)?;
+                    speed(&p(".turn_speed"), "turn speed", turn_speed)?;
                 }
                 ScriptStep::Forward {
                     distance,
@@ -589,7 +589,7 @@ impl Configured for Script {
                             "a number >= 0",
                         ));
                     }
-                    positive(&p(".move_speed"), "move speed", move_speed)?;
+                    speed(&p(".move_speed"), "move speed", move_speed)?;
                 }
                 ScriptStep::MoveTo {
                     x,
@@ -599,8 +599,8 @@ impl Configured for Script {
                 } => {
                     finite(&p(".x"), "x", x)?;
                     finite(&p(".y"), "y", y)?;
-                    positive(&p(".move_speed"), "move speed", move_speed)?;
-                    positive(&p(".turn_speed"), "turn speed", turn_speed)?;
+                    speed(&p(".move_speed"), "move speed", move_speed)?;
+                    speed(&p(".turn_speed"), "turn speed", turn_speed)?;
                 }
                 ScriptStep::Wait(d) => {
                     finite(&p("[0]"), "wait", d)?;
@@ -621,8 +621,8 @@ impl Configured for Script {
 /// A `(min, max)` range read from a scenario, checked and turned into a [`SpeedRange`].
 fn range(field: &str, what: &str, r: Option<(f64, f64)>) -> Result<Option<SpeedRange>, FieldError> {
     let Some((lo, hi)) = r else { return Ok(None) };
-    positive(&format!("{field}[0]"), what, lo)?;
-    positive(&format!("{field}[1]"), what, hi)?;
+    speed(&format!("{field}[0]"), what, lo)?;
+    speed(&format!("{field}[1]"), what, hi)?;
     if hi < lo {
         return Err(FieldError::new(
             field,
@@ -729,8 +729,8 @@ pub struct LayerMoveConfig {
 impl Configured for MeetingPoint {
     type Config = LayerMoveConfig;
     fn configure(c: LayerMoveConfig, setting: &Setting) -> Result<Self, FieldError> {
-        positive("move_speed", "move speed", c.move_speed)?;
-        positive("turn_speed", "turn speed", c.turn_speed)?;
+        speed("move_speed", "move speed", c.move_speed)?;
+        speed("turn_speed", "turn speed", c.turn_speed)?;
         if setting.layer(&c.layer).is_none() {
             return Err(FieldError::new(
                 "layer",
@@ -749,8 +749,8 @@ impl Configured for MeetingPoint {
 impl Configured for PathReservation {
     type Config = LayerMoveConfig;
     fn configure(c: LayerMoveConfig, setting: &Setting) -> Result<Self, FieldError> {
-        positive("move_speed", "move speed", c.move_speed)?;
-        positive("turn_speed", "turn speed", c.turn_speed)?;
+        speed("move_speed", "move speed", c.move_speed)?;
+        speed("turn_speed", "turn speed", c.turn_speed)?;
         if !setting
             .layer(&c.layer)
             .is_some_and(|s| s.serves(Service::TOTAL_ORDER))

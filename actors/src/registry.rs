@@ -7,7 +7,9 @@
 use nekosim_protocols::registry::Named;
 use nekosim_protocols::{Spec, SpecError};
 
-pub use crate::config::{finite, positive, Configured, Setting};
+pub use crate::config::{
+    finite, positive, speed, Configured, Setting, MAX_COORDINATE, MAX_SPEED, MIN_RADIUS,
+};
 use crate::robot::Algorithm;
 
 /// Reads a spec's configuration once and builds the algorithm for `n` robots.

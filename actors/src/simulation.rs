@@ -2,6 +2,7 @@
 //! the scheduler), runs the actix system until the scheduler finishes, and returns what was
 //! recorded.
 
+use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 
 use actix::prelude::*;
@@ -84,10 +85,16 @@ pub enum Fault {
 }
 
 /// Events allowed at one instant of virtual time per robot (at least [`MIN_INSTANT_LIMIT`])
-/// before a run is declared a livelock.
+/// before a run is declared a livelock: room for every robot to hear every other at one
+/// instant in a run of a thousand robots (a broadcast over a network without delay).
 pub const INSTANT_EVENTS_PER_ROBOT: u64 = 1000;
-/// Floor of the livelock limit.
-pub const MIN_INSTANT_LIMIT: u64 = 1_000_000;
+/// Floor of the livelock limit: far above the few events per robot that start a run at t = 0,
+/// and low enough that a small run spinning at one instant is reported within about a second,
+/// even in a debug build.
+pub const MIN_INSTANT_LIMIT: u64 = 100_000;
+
+/// How many robots are spawned between two looks at [`Observers::stop`] while a run starts.
+const STOP_EVERY: usize = 1024;
 
 impl std::fmt::Debug for SimConfig {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -295,11 +302,18 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
             move |id: RobotId| handles[id as usize % handles.len()].clone()
         };
         let layer_ids = p.layer_ids;
+        // A stop while the robots spawn (the user's Ctrl-C) ends the spawning: the scheduler
+        // then finishes before the first event.
+        let stop = p.observers.stop.clone();
+        let stopped = move |i: usize| {
+            i % STOP_EVERY == 0 && stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed))
+        };
         let mut robots: Vec<Addr<Host<RobotActor>>> = p
             .robots
             .into_iter()
             .zip(robot_info)
             .enumerate()
+            .take_while(|(i, _)| !stopped(*i))
             .map(|(i, ((_, algorithm), info))| {
                 if let Some(f) = startup.as_mut() {
                     if i % crate::scheduler::STARTUP_EVERY == 0 && i > 0 {
@@ -329,6 +343,7 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
             .instances
             .into_iter()
             .enumerate()
+            .take_while(|(r, _)| !stopped(*r))
             .map(|(r, stack)| {
                 let r = r as RobotId;
                 stack

@@ -284,11 +284,14 @@ impl PartialEq for Protocols {
 fn read<C: DeserializeOwned>(text: Option<&str>) -> Result<C, SpecError> {
     let opts =
         ron::Options::default().with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME);
-    opts.from_str(text.unwrap_or("()")).map_err(|e| SpecError {
-        // No text: the error is about the thing as named.
-        at: text.map(|t| name_start(t, &e)),
-        field: None,
-        message: describe(&e.code),
+    opts.from_str(text.unwrap_or("()")).map_err(|e| {
+        let (at, message) = describe_ron(text.unwrap_or(""), &e);
+        SpecError {
+            // No text: the error is about the thing as named.
+            at: text.map(|_| at),
+            field: None,
+            message,
+        }
     })
 }
 
@@ -299,37 +302,308 @@ fn build_entry<P: Microprotocol>(spec: &Spec) -> Result<(Shape, Layer), SpecErro
     })
 }
 
-/// Where an error starts: ron reports an unknown field or a bad value just after it; point at
-/// the name or the value itself.
-fn name_start(text: &str, e: &ron::error::SpannedError) -> (usize, usize) {
-    let (line, col) = (e.position.line, e.position.col);
-    let Some(l) = text.lines().nth(line.saturating_sub(1)) else {
-        return (line, col);
-    };
-    let chars: Vec<char> = l.chars().collect();
-    let end = col.saturating_sub(1).min(chars.len());
-    if let ron::Error::NoSuchStructField { found, .. } = &e.code {
-        let before: String = chars[..end].iter().collect();
-        let trimmed = before.trim_end_matches(|c: char| c.is_whitespace() || c == ':');
-        if trimmed.ends_with(found.as_str()) {
-            return (line, trimmed.chars().count() - found.chars().count() + 1);
+/// A ron error in a reader's words, and where it is (1-based line and column in `text`): an
+/// unknown field or variant at its name; a value of the wrong type at the value, as `field is
+/// VALUE; expected WHAT`; a missing field at the structure that lacks it, saying what it
+/// takes. Scenario, sweep and cluster files and every spec's configuration share it.
+pub fn describe_ron(text: &str, e: &ron::error::SpannedError) -> ((usize, usize), String) {
+    let chars = without_comments(text);
+    let at = char_index(text, e.position.line, e.position.col);
+    let pos = |i: usize| line_col(&chars, i);
+    match &e.code {
+        ron::Error::NoSuchStructField { found, .. }
+        | ron::Error::NoSuchEnumVariant { found, .. } => {
+            // ron reports a name just after it.
+            let before: String = chars[..at].iter().collect();
+            let trimmed = before.trim_end_matches(|c: char| c.is_whitespace() || c == ':');
+            let start = trimmed
+                .chars()
+                .count()
+                .saturating_sub(found.chars().count());
+            let i = if trimmed.ends_with(found.as_str()) {
+                start
+            } else {
+                at
+            };
+            (pos(i), describe(&e.code))
         }
-        return (line, col);
+        ron::Error::MissingStructField { field, outer } => {
+            let start = struct_start(&chars, at).unwrap_or(at);
+            let what = outer.as_deref().unwrap_or("the structure");
+            (
+                pos(start),
+                format!(
+                    "{what} is missing the field `{field}`; expected {}",
+                    field_hint(outer.as_deref(), field)
+                ),
+            )
+        }
+        code => match expected_value(code, &chars, at) {
+            Some((start, value, expected)) => {
+                let message = match field_before(&chars, start) {
+                    Some(f) => format!("{f} is {value}; expected {expected}"),
+                    None => format!("found {value}; expected {expected}"),
+                };
+                (pos(start), message)
+            }
+            None => ((e.position.line, e.position.col), describe(code)),
+        },
     }
-    // A scalar that ends right before the position: its first character.
-    let mut i = end;
+}
+
+/// The text's chars with comments blanked out (the same positions), so that no name or
+/// bracket in a comment is taken for the document's.
+fn without_comments(text: &str) -> Vec<char> {
+    let mut chars: Vec<char> = text.chars().collect();
+    let mut i = 0;
+    while i < chars.len() {
+        match (chars[i], chars.get(i + 1)) {
+            ('"', _) => {
+                i += 1;
+                while i < chars.len() && chars[i] != '"' {
+                    i += if chars[i] == '\\' { 2 } else { 1 };
+                }
+                i += 1;
+            }
+            ('/', Some('/')) => {
+                while i < chars.len() && chars[i] != '\n' {
+                    chars[i] = ' ';
+                    i += 1;
+                }
+            }
+            ('/', Some('*')) => {
+                while i < chars.len() && !(chars[i] == '*' && chars.get(i + 1) == Some(&'/')) {
+                    if chars[i] != '\n' {
+                        chars[i] = ' ';
+                    }
+                    i += 1;
+                }
+                for c in chars.iter_mut().skip(i).take(2) {
+                    *c = ' ';
+                }
+                i += 2;
+            }
+            _ => i += 1,
+        }
+    }
+    chars
+}
+
+/// The char index of a 1-based line and column.
+fn char_index(text: &str, line: usize, col: usize) -> usize {
+    let mut i = 0;
+    for (k, l) in text.split('\n').enumerate() {
+        if k + 1 == line {
+            return i + (col.saturating_sub(1)).min(l.chars().count());
+        }
+        i += l.chars().count() + 1;
+    }
+    text.chars().count()
+}
+
+/// The 1-based line and column of a char index.
+fn line_col(chars: &[char], i: usize) -> (usize, usize) {
+    let before = &chars[..i.min(chars.len())];
+    let line = before.iter().filter(|&&c| c == '\n').count() + 1;
+    let col = before.iter().rev().take_while(|&&c| c != '\n').count() + 1;
+    (line, col)
+}
+
+/// Where the structure whose closing parenthesis is at or just before `at` starts: its name,
+/// or its opening parenthesis.
+fn struct_start(chars: &[char], at: usize) -> Option<usize> {
+    let mut i = at.min(chars.len());
+    while i > 0 && chars[i - 1].is_whitespace() {
+        i -= 1;
+    }
+    // ron stops on the `)` or just after it.
+    let close = if chars.get(i) == Some(&')') {
+        i
+    } else if i > 0 && chars[i - 1] == ')' {
+        i - 1
+    } else {
+        return None;
+    };
+    let mut depth = 0;
+    let mut k = close + 1;
+    while k > 0 {
+        k -= 1;
+        match chars[k] {
+            ')' | ']' => depth += 1,
+            '(' | '[' => {
+                depth -= 1;
+                if depth == 0 {
+                    let mut n = k;
+                    while n > 0 && (chars[n - 1].is_alphanumeric() || chars[n - 1] == '_') {
+                        n -= 1;
+                    }
+                    return Some(n);
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
+/// What a field that is missing takes, for the fields whose value is not obvious.
+fn field_hint(outer: Option<&str>, field: &str) -> String {
+    match (outer, field) {
+        (Some("Layer"), "below") => {
+            "`below: \"net\"` or `below: \"ID\"`, the id of the layer this one sits on".into()
+        }
+        (Some("Layer"), "id") => "`id: \"ID\"`, the layer's name in the stack".into(),
+        (Some("Layer"), "protocol") => "`protocol: Name(..)`, a registered protocol".into(),
+        _ => format!("`{field}: VALUE`"),
+    }
+}
+
+/// For an error about a value's type: where the value starts, its text, and what was expected.
+fn expected_value(code: &ron::Error, chars: &[char], at: usize) -> Option<(usize, String, String)> {
+    let start = value_start(chars, at);
+    let value = value_text(chars, start);
+    let expected: String = match code {
+        ron::Error::ExpectedInteger | ron::Error::InvalidIntegerDigit { .. } => "an integer".into(),
+        // ron reads the integer part of `1.5` and then wants a comma at the point.
+        ron::Error::ExpectedComma
+            if chars.get(at) == Some(&'.') && at > 0 && chars[at - 1].is_ascii_digit() =>
+        {
+            "an integer".into()
+        }
+        ron::Error::IntegerOutOfBounds if value.starts_with('-') => "an integer >= 0".into(),
+        ron::Error::IntegerOutOfBounds => {
+            "a smaller integer (the field's type cannot hold it)".into()
+        }
+        ron::Error::ExpectedFloat => "a number".into(),
+        ron::Error::ExpectedBoolean => "`true` or `false`".into(),
+        ron::Error::ExpectedString => "a string in double quotes".into(),
+        ron::Error::ExpectedChar => "a character in single quotes".into(),
+        ron::Error::ExpectedArray => "a list `[..]`".into(),
+        ron::Error::ExpectedMap => "a map `{..}`".into(),
+        ron::Error::ExpectedOption => "`Some(..)` or `None`".into(),
+        ron::Error::ExpectedUnit => "`()`".into(),
+        ron::Error::ExpectedStructLike => "a structure `(..)`".into(),
+        ron::Error::ExpectedNamedStructLike(n) => format!("`{n}(..)`"),
+        ron::Error::ExpectedDifferentStructName { expected, .. } => format!("`{expected}(..)`"),
+        ron::Error::InvalidValueForType { expected, .. } => expected.clone(),
+        ron::Error::ExpectedDifferentLength { expected, .. } => expected.clone(),
+        _ => return None,
+    };
+    if value.is_empty() {
+        return None;
+    }
+    Some((start, value, expected))
+}
+
+/// Where the value the error is about starts: ron reports a scalar at its start or just after
+/// it.
+fn value_start(chars: &[char], at: usize) -> usize {
+    let at = at.min(chars.len());
+    if at < chars.len()
+        && !chars[at].is_whitespace()
+        && !",)]".contains(chars[at])
+        && (at == 0 || !is_scalar_char(chars[at - 1]) || chars[at] == '"')
+    {
+        return at;
+    }
+    let mut i = at;
     if i > 0 && chars[i - 1] == '"' {
         i -= 1;
         while i > 0 && chars[i - 1] != '"' {
             i -= 1;
         }
-        i = i.saturating_sub(1);
+        return i.saturating_sub(1);
+    }
+    while i > 0 && is_scalar_char(chars[i - 1]) {
+        i -= 1;
+    }
+    i
+}
+
+fn is_scalar_char(c: char) -> bool {
+    c.is_alphanumeric() || "._+-".contains(c)
+}
+
+/// The value's text from `start`: a string, a bracketed value or a scalar (shortened when
+/// long).
+fn value_text(chars: &[char], start: usize) -> String {
+    let Some(&first) = chars.get(start) else {
+        return String::new();
+    };
+    let mut end = start + 1;
+    if first == '"' {
+        while end < chars.len() && chars[end] != '"' {
+            end += if chars[end] == '\\' { 2 } else { 1 };
+        }
+        end = (end + 1).min(chars.len());
+    } else if "([{".contains(first) || first.is_alphabetic() {
+        // A name, and what its parentheses hold.
+        end = start;
+        while end < chars.len() && (chars[end].is_alphanumeric() || chars[end] == '_') {
+            end += 1;
+        }
+        if end > start && chars.get(end) != Some(&'(') {
+            return chars[start..end].iter().collect();
+        }
+        let mut depth = 0i32;
+        while end < chars.len() {
+            match chars[end] {
+                '(' | '[' | '{' => depth += 1,
+                ')' | ']' | '}' => {
+                    depth -= 1;
+                    if depth <= 0 {
+                        end += usize::from(depth == 0);
+                        break;
+                    }
+                }
+                ',' if depth == 0 => break,
+                _ => {}
+            }
+            end += 1;
+        }
     } else {
-        while i > 0 && (chars[i - 1].is_alphanumeric() || "._+-".contains(chars[i - 1])) {
-            i -= 1;
+        while end < chars.len() && is_scalar_char(chars[end]) {
+            end += 1;
         }
     }
-    (line, i + 1)
+    let text: String = chars[start..end.min(chars.len())].iter().collect();
+    let text = text.trim().to_string();
+    if text.chars().count() > 40 {
+        format!("{}..", text.chars().take(40).collect::<String>())
+    } else {
+        text
+    }
+}
+
+/// The field whose value starts at `start`, or encloses it (`move_speed` for the second
+/// number of `move_speed: (3.0, 1e999)`).
+fn field_before(chars: &[char], start: usize) -> Option<String> {
+    let mut depth = 0i32;
+    let mut i = start;
+    while i > 0 {
+        i -= 1;
+        match chars[i] {
+            ')' | ']' | '}' => depth += 1,
+            '(' | '[' | '{' => depth -= 1,
+            ':' if depth <= 0 => {
+                let mut j = i;
+                while j > 0 && chars[j - 1].is_whitespace() {
+                    j -= 1;
+                }
+                let end = j;
+                while j > 0 && (chars[j - 1].is_alphanumeric() || chars[j - 1] == '_') {
+                    j -= 1;
+                }
+                return (j < end).then(|| chars[j..end].iter().collect());
+            }
+            _ => {}
+        }
+        if depth < 0 && i > 0 && (chars[i - 1].is_alphanumeric() || chars[i - 1] == '_') {
+            // The opening of a named structure or variant: its name is not a field.
+            return None;
+        }
+    }
+    None
 }
 
 /// A ron error in the words of a scenario error.

@@ -131,14 +131,18 @@ impl Wiring {
                 return Ok(NET);
             }
             index.get(name).map(|&j| j as LayerIx).ok_or_else(|| {
+                // A layer never sits on or uses itself: it is no candidate.
                 let known: Vec<&str> = std::iter::once("net")
-                    .chain(specs.iter().map(|s| s.id.as_str()))
+                    .chain(
+                        (specs.iter().enumerate())
+                            .filter_map(|(j, s)| (j != i).then_some(s.id.as_str())),
+                    )
                     .collect();
                 err(
                     i,
                     field,
                     format!(
-                        "unknown layer {name:?}; expected one of {}",
+                        "unknown layer {name:?} in `{field}`; expected one of {}",
                         known.join(", ")
                     ),
                 )

@@ -47,13 +47,18 @@ fn every_bad_input_exits_2_with_file_line_col_and_leaves_no_output() {
     assert!(bad.len() >= 20);
     for f in bad {
         let text = std::fs::read_to_string(&f).unwrap();
-        let expect = text
-            .lines()
-            .next()
-            .unwrap()
-            .strip_prefix("// expect: ")
-            .expect("expect header")
-            .to_string();
+        // `// expect: ` gives the start of the message, `// expect-all: ` all of it.
+        let header = text.lines().next().unwrap();
+        let (expect, whole) = match header.strip_prefix("// expect-all: ") {
+            Some(all) => (all.to_string(), true),
+            None => (
+                header
+                    .strip_prefix("// expect: ")
+                    .expect("expect header")
+                    .to_string(),
+                false,
+            ),
+        };
         let path = f.to_str().unwrap();
         let out = tempfile::tempdir().unwrap();
         let old_log = out.path().join("kept.log");
@@ -76,7 +81,7 @@ fn every_bad_input_exits_2_with_file_line_col_and_leaves_no_output() {
             assert_eq!(err.lines().count(), 1, "one line: {err}");
             let want = format!("{path}:{expect}");
             assert!(
-                err.starts_with(&want),
+                err.starts_with(&want) && (!whole || err.trim_end() == want),
                 "{args:?}\n got: {err}\nwant: {want}"
             );
             assert!(!err.contains("panicked"));

@@ -5,16 +5,16 @@
 use serde::Deserialize;
 
 use super::tree::{Behaviour, Condition, Count, Speed, Target};
-use crate::config::{finite, positive, Configured, Setting};
+use crate::config::{finite, positive, speed, Configured, Setting};
 use nekosim_protocols::FieldError;
 
 impl Speed {
     fn check(self, path: &str, what: &str) -> Result<(), FieldError> {
         match self {
-            Speed::Fixed(v) => positive(path, what, v).map(drop),
+            Speed::Fixed(v) => speed(path, what, v).map(drop),
             Speed::Range(lo, hi) => {
-                positive(&format!("{path}[0]"), what, lo)?;
-                positive(&format!("{path}[1]"), what, hi)?;
+                speed(&format!("{path}[0]"), what, lo)?;
+                speed(&format!("{path}[1]"), what, hi)?;
                 if hi < lo {
                     return Err(FieldError::new(
                         path,
@@ -95,7 +95,7 @@ impl Behaviour {
                 retry,
             } => {
                 nonneg(&at(".range"), "range", *range)?;
-                positive(&at(".turn_speed"), "turn speed", *turn_speed)?;
+                speed(&at(".turn_speed"), "turn speed", *turn_speed)?;
                 if let Some(d) = back_off {
                     nonneg(&at(".back_off"), "back-off distance", *d)?;
                 }
@@ -111,7 +111,7 @@ impl Behaviour {
             } => {
                 nonneg(&at(".distance"), "distance", *distance)?;
                 positive(&at(".move_speed"), "move speed", *move_speed)?;
-                positive(&at(".turn_speed"), "turn speed", *turn_speed)?;
+                speed(&at(".turn_speed"), "turn speed", *turn_speed)?;
                 positive(&at(".period"), "period", *period)?;
             }
             Behaviour::Sequence(v) | Behaviour::Race(v) => {

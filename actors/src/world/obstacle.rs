@@ -22,6 +22,7 @@ use super::collision::{advance, Track};
 use super::geometry::{first_contact_linear, point_segment_distance, Point, Vector};
 use super::grid::{Cell, FixedHash};
 use super::motion::Shape as PieceShape;
+use crate::registry::MAX_COORDINATE;
 
 /// An obstacle as a scenario writes it (`obstacles: [Rect(min: (0, 0), max: (10, 5)), ...]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -62,15 +63,23 @@ impl Shape {
                 expected: expected.to_string(),
             })
         };
+        // Beyond [`MAX_COORDINATE`] positions lose the precision exact contacts need, and the
+        // obstacle index would walk the cells of an edge spanning astronomically many.
         let finite = |field: &str, v: (f64, f64)| {
-            if v.0.is_finite() && v.1.is_finite() {
-                Ok(())
-            } else {
+            if !(v.0.is_finite() && v.1.is_finite()) {
                 bad(
                     field,
                     format!("({}, {}) is not a point", v.0, v.1),
                     "finite coordinates",
                 )
+            } else if v.0.abs() > MAX_COORDINATE || v.1.abs() > MAX_COORDINATE {
+                bad(
+                    field,
+                    format!("({:e}, {:e}) is too far out", v.0, v.1),
+                    "coordinates at most 1e9 in size (beyond, positions lose the precision exact contacts need)",
+                )
+            } else {
+                Ok(())
             }
         };
         match self {
@@ -154,9 +163,25 @@ impl Shape {
                         "a finite number > 0",
                     );
                 }
+                if *radius > MAX_COORDINATE {
+                    return bad("radius", format!("radius is {radius:e}"), "at most 1e9");
+                }
             }
         }
         Ok(())
+    }
+
+    /// How many cells of a grid `size` wide [`ObstacleIndex`] visits to index the shape: those
+    /// of its primitives' bounding boxes (a scenario bounds it before the index is built).
+    pub fn index_cells(&self, size: f64) -> f64 {
+        self.primitives()
+            .iter()
+            .map(|pr| {
+                let (lo, hi) = pr.bounds();
+                let cells = |a: f64, b: f64| (b / size).floor() - (a / size).floor() + 1.0;
+                cells(lo.x, hi.x) * cells(lo.y, hi.y)
+            })
+            .sum()
     }
 
     /// The shape's primitives: edges (closed for solids) or its circle.
@@ -267,6 +292,17 @@ pub enum Primitive {
 }
 
 impl Primitive {
+    /// The primitive's bounding box `(lower-left, upper-right)`.
+    pub fn bounds(&self) -> (Point, Point) {
+        match *self {
+            Primitive::Segment(a, b) => (
+                Point::new(a.x.min(b.x), a.y.min(b.y)),
+                Point::new(a.x.max(b.x), a.y.max(b.y)),
+            ),
+            Primitive::Circle(c, r) => (c - Vector::new(r, r), c + Vector::new(r, r)),
+        }
+    }
+
     /// Distance from `q` to the primitive (to a circle's rim from outside; 0 inside).
     pub fn distance(&self, q: Point) -> f64 {
         match *self {
@@ -420,13 +456,7 @@ impl ObstacleIndex {
         self.cells.clear();
         let cell = |q: Point| [(q.x / size).floor() as i64, (q.y / size).floor() as i64];
         for (i, (_, prim)) in self.prims.iter().enumerate() {
-            let (lo, hi) = match *prim {
-                Primitive::Segment(a, b) => (
-                    Point::new(a.x.min(b.x), a.y.min(b.y)),
-                    Point::new(a.x.max(b.x), a.y.max(b.y)),
-                ),
-                Primitive::Circle(c, r) => (c - Vector::new(r, r), c + Vector::new(r, r)),
-            };
+            let (lo, hi) = prim.bounds();
             let (c0, c1) = (cell(lo), cell(hi));
             for x in c0[0]..=c1[0] {
                 for y in c0[1]..=c1[1] {
