@@ -2,7 +2,10 @@
 //! the very code the simulator runs, not a re-implementation.
 //!
 //! - [`adapter`]: one process's stack as one stateright actor.
-//! - [`model`]: network semantics, crashes, bounds, and running the checker.
+//! - [`config`]: what one check is made of: its options, network semantics and what its
+//!   properties read.
+//! - [`family`]: the services the checker knows, which decide the properties.
+//! - [`model`]: building a model from a stack (crashes, bounds) and running the checker.
 //! - [`compact`]: the breadth-first search over compact states (collapse compression).
 //! - [`property`]: the properties of each protocol family.
 //! - [`registry`]: the shipped models as Rust targets, for this crate's tests and benches
@@ -15,15 +18,19 @@
 
 pub mod adapter;
 pub mod compact;
+pub mod config;
 pub mod explain;
+pub mod family;
 pub mod model;
 pub mod property;
 pub mod registry;
 pub mod symmetry;
 
+pub use adapter::State;
+pub use config::{CheckModel, NetworkKind, Options};
+pub use family::Family;
 pub use model::{
-    available_memory, build, build_in, resident_memory, run, Budget, CheckModel, Exploration,
-    ModelError, NetworkKind, Options, Outcome, Spent, Strategy, Target, Verdict, SIMULATION_STATES,
+    available_memory, build, build_in, resident_memory, run, Budget, Exploration, ModelError,
+    Outcome, Spent, Strategy, Target, Verdict, SIMULATION_STATES,
 };
-pub use property::Family;
 pub use registry::{find, ModelDef, MODELS};

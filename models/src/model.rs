@@ -5,93 +5,21 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
-use nekosim_protocols::consensus::{ChandraToueg, CtMsg};
-use nekosim_protocols::fifo::{Fifo, FifoMsg};
-use nekosim_protocols::retransmit::{Retransmit, RtMsg};
+#[cfg(doc)]
+use nekosim_protocols::Microprotocol;
 use nekosim_protocols::{
-    AppMsg, Content, LayerSpec, Payload, Pid, Protocols, Rename, Request, Service, Stack,
-    StackProperty, Wiring,
+    AppMsg, Content, Layer, LayerSpec, Payload, Pid, Protocols, Rename, Request, Round, Rounds,
+    Service, Stack, StackProperty, Wiring,
 };
-use stateright::actor::{ActorModel, ActorModelAction, LossyNetwork, Network};
+use stateright::actor::{ActorModel, LossyNetwork, Network};
 use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChooser};
 
-use crate::adapter::{ClientRequest, ModelTimer, NetMsg, ProcessActor, Shared};
+use crate::adapter::{ClientRequest, NetMsg, ProcessActor, Shared, State};
 use crate::compact::{self, CompactBfs};
-use crate::property::{properties, Family, State};
+use crate::config::{Action, CheckModel, Condition, ModelCfg, NetworkKind, Options};
+use crate::family::Family;
+use crate::property::properties;
 use crate::symmetry::Symmetry;
-
-/// A model as stateright checks it.
-pub type CheckModel = ActorModel<ProcessActor, ModelCfg, ()>;
-/// One step of a model.
-pub type Action = ActorModelAction<NetMsg, ModelTimer, ()>;
-
-/// How the network treats messages between processes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum NetworkKind {
-    /// Every message is delivered exactly once, in any order.
-    #[default]
-    Unordered,
-    /// Every message is delivered exactly once, in order per (sender, receiver) pair.
-    Ordered,
-    /// Any message may also be lost (unordered otherwise).
-    Lossy,
-}
-
-impl NetworkKind {
-    /// The names the command accepts.
-    pub const NAMES: [&'static str; 3] = ["unordered", "ordered", "lossy"];
-
-    /// Parses a name of [`NetworkKind::NAMES`].
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "unordered" => Some(Self::Unordered),
-            "ordered" => Some(Self::Ordered),
-            "lossy" => Some(Self::Lossy),
-            _ => None,
-        }
-    }
-}
-
-/// The parameters of one check.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Options {
-    /// Number of processes.
-    pub processes: u32,
-    /// Client requests (broadcasts or proposals), handed out to the processes round-robin.
-    pub requests: u32,
-    /// Processes that may crash (crash-stop).
-    pub crashes: u32,
-    pub network: NetworkKind,
-    /// Protocol timer firings allowed per process.
-    pub timer_budget: u32,
-    /// Last Chandra-Toueg round explored in each instance: states with a message of a later
-    /// round are outside the model. Round 1 is the least that lets round 0 decide, as a
-    /// process that acks round 0 moves on to round 1 in the same step.
-    pub max_round: u64,
-    /// With crashes, a multicast leaves one message at a time, so a crash can cut it short
-    /// (what reliable broadcast must survive). Off, a multicast leaves at once, which keeps
-    /// heartbeat-driven stacks with crashes small enough to explore.
-    pub partial_multicasts: bool,
-    /// Symmetry reduction: explore one state of each class of states equal up to a renaming
-    /// of the processes ([`crate::symmetry`]). Needs every layer to declare symmetry, the
-    /// same stack at every process and multicasts that leave at once; breadth-first only.
-    pub symmetry: bool,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Self {
-            processes: 3,
-            requests: 2,
-            crashes: 0,
-            network: NetworkKind::Unordered,
-            timer_budget: 1,
-            max_round: 1,
-            partial_multicasts: true,
-            symmetry: false,
-        }
-    }
-}
 
 /// A check that cannot be built from its parameters.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -125,46 +53,6 @@ pub enum ModelError {
         service: &'static str,
         what: &'static str,
     },
-}
-
-/// What the properties and the boundary need to know about a model.
-#[derive(Clone, Debug)]
-pub struct ModelCfg {
-    pub family: Family,
-    pub n: u32,
-    /// Every client request in global order: request `g` is issued by process `g mod n`.
-    pub requests: Vec<(Pid, Request)>,
-    pub timer_budget: u32,
-    /// Round bound, when a layer runs Chandra-Toueg.
-    pub max_round: Option<u64>,
-    /// What each layer's messages are, for looking through headers.
-    pub headers: Vec<Header>,
-    /// Set when a budget ran out: from then on no new state is inside the model, so the
-    /// search drains what it holds and ends (see [`Budget`]).
-    pub stop: Arc<AtomicBool>,
-    /// The properties the stack's protocols state themselves ([`Protocols::invariant`],
-    /// [`Protocols::reachable`]).
-    pub stated: Vec<StackProperty>,
-    /// Every property's expectation and condition, in the model's order; the model's own
-    /// conditions are [`FIRST`], which report only the first discovery of each.
-    pub conditions: Vec<(Expectation, Condition)>,
-    /// Whether property `i` has had its discovery (reset by [`run`]).
-    pub found: Arc<Vec<AtomicBool>>,
-    /// The renamings that map the model onto itself, when symmetry reduction is on
-    /// ([`Options::symmetry`]; breadth-first search only).
-    pub symmetry: Option<Arc<Symmetry>>,
-}
-
-/// A property's condition.
-pub type Condition = fn(&CheckModel, &State) -> bool;
-
-/// The layers whose messages the round bound looks into.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Header {
-    ChandraToueg,
-    Fifo,
-    Retransmit,
-    Other,
 }
 
 /// What to check: a stack, the layer the application talks to and what it promises.
@@ -298,22 +186,14 @@ pub fn build_in(
         .ok_or_else(|| ModelError::Stack(format!("no layer {:?}", target.entry)))?;
     // The checked layer is the application's, whatever sits above it.
     wiring.app_hears[entry as usize] = true;
-    let headers: Vec<Header> = stack
+    // The round bound reads the messages of layers that number rounds and looks through the
+    // headers that carry them; a stack without numbered rounds is not bounded.
+    let round_layers: Vec<Option<Layer>> = stack
         .layers
         .iter()
-        .map(|l| {
-            if l.downcast_ref::<ChandraToueg>().is_some() {
-                Header::ChandraToueg
-            } else if l.downcast_ref::<Fifo>().is_some() {
-                Header::Fifo
-            } else if l.downcast_ref::<Retransmit>().is_some() {
-                Header::Retransmit
-            } else {
-                Header::Other
-            }
-        })
+        .map(|l| (l.rounds() != Rounds::None).then(|| l.clone()))
         .collect();
-    let uses_ct = headers.contains(&Header::ChandraToueg);
+    let numbered = stack.layers.iter().any(|l| l.rounds() == Rounds::Numbered);
     let stated: Vec<StackProperty> = protocols
         .properties()
         .iter()
@@ -371,8 +251,8 @@ pub fn build_in(
         n,
         requests,
         timer_budget: opts.timer_budget,
-        max_round: uses_ct.then_some(opts.max_round),
-        headers,
+        max_round: numbered.then_some(opts.max_round),
+        round_layers,
         stop: Arc::new(AtomicBool::new(false)),
         stated,
         conditions: Vec::new(),
@@ -527,21 +407,18 @@ const STATED: [Condition; 8] = [
     stated::<7>,
 ];
 
-/// The Chandra-Toueg round a message belongs to, looking through point-to-point headers.
-fn round_of(headers: &[Header], p: &Payload) -> Option<u64> {
-    match headers.get(p.layer() as usize)? {
-        Header::ChandraToueg => p.decode::<CtMsg>().ok()?.round(),
-        Header::Fifo => round_of(headers, &p.decode::<FifoMsg>().ok()?.payload),
-        Header::Retransmit => match p.decode::<RtMsg>().ok()? {
-            RtMsg::Data { payload, .. } => round_of(headers, &payload),
-            RtMsg::Ack { .. } => None,
-        },
-        Header::Other => None,
+/// The round a message belongs to ([`Microprotocol::round`]), looking through the headers
+/// that carry other layers' payloads.
+fn round_of(layers: &[Option<Layer>], p: &Payload) -> Option<u64> {
+    match layers.get(p.layer() as usize)?.as_ref()?.round(p)? {
+        Round::None => None,
+        Round::At(r) => Some(r),
+        Round::Carries(inner) => round_of(layers, &inner),
     }
 }
 
 /// States inside the model: no recovered process (protocols are crash-stop) and, with
-/// Chandra-Toueg, no message of a round past the bound (in flight or staged).
+/// numbered rounds, no message of a round past the bound (in flight or staged).
 fn within_boundary(cfg: &ModelCfg, s: &State) -> bool {
     if cfg.stop.load(Ordering::Relaxed) || s.actor_states.iter().any(|a| a.zombie) {
         return false;
@@ -549,7 +426,7 @@ fn within_boundary(cfg: &ModelCfg, s: &State) -> bool {
     let Some(max) = cfg.max_round else {
         return true;
     };
-    let early = |p: &Payload| round_of(&cfg.headers, p).is_none_or(|r| r <= max);
+    let early = |p: &Payload| round_of(&cfg.round_layers, p).is_none_or(|r| r <= max);
     all_in_flight(&s.network, |m| early(&m.msg))
         && s.actor_states
             .iter()
