@@ -8,6 +8,7 @@
 //! - [`model`]: building a model from a stack (crashes, bounds) and running the checker.
 //! - [`compact`]: the breadth-first search over compact states (collapse compression).
 //! - [`property`]: the properties of each protocol family.
+//! - [`reason`]: why a counterexample violates its property, in the property's terms.
 //! - [`registry`]: the shipped models as Rust targets, for this crate's tests and benches
 //!   (`nekosim check NAME` reads the same stacks from `examples/check/*.ron`; a test keeps
 //!   the two equal).
@@ -23,6 +24,7 @@ pub mod explain;
 pub mod family;
 pub mod model;
 pub mod property;
+pub mod reason;
 pub mod registry;
 pub mod symmetry;
 
@@ -30,7 +32,8 @@ pub use adapter::State;
 pub use config::{CheckModel, NetworkKind, Options};
 pub use family::Family;
 pub use model::{
-    available_memory, build, build_in, resident_memory, run, Budget, Exploration, ModelError,
-    Outcome, Spent, Strategy, Target, Verdict, SIMULATION_STATES,
+    available_memory, build, build_in, resident_memory, run, run_watched, Budget, Discovery,
+    Exploration, ModelError, Outcome, Progress, Stopped, Strategy, Target, Verdict, Watch,
+    SIMULATION_STATES,
 };
 pub use registry::{find, ModelDef, MODELS};

@@ -461,8 +461,8 @@ pub struct Outcome {
     pub max_depth: usize,
     /// In the model's property order.
     pub verdicts: Vec<Verdict>,
-    /// The budget that ended the search before it was exhaustive, if one did.
-    pub stopped: Option<Spent>,
+    /// What ended the search before it was exhaustive, if anything did.
+    pub stopped: Option<Stopped>,
 }
 
 impl Outcome {
@@ -508,14 +508,64 @@ pub struct Budget {
     pub max_memory: Option<u64>,
 }
 
-/// Which budget ended a search.
+/// What ended a search before it was exhaustive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Spent {
+pub enum Stopped {
     /// The state budget; the unique states (or simulated states) reached.
     States { limit: usize },
     /// The memory budget; the resident bytes seen when it ran out.
     Memory { limit: u64, seen: u64 },
+    /// The watcher asked it to stop ([`Watch::interrupted`]: Ctrl-C).
+    Interrupted,
 }
+
+/// Where a search stands, as a watcher sees it while it runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// States generated.
+    pub states: usize,
+    pub unique_states: usize,
+    /// The deepest level reached (breadth-first: the level being explored).
+    pub max_depth: usize,
+    /// This process's resident memory in bytes, where readable.
+    pub memory: Option<u64>,
+}
+
+/// A property's first discovery, told as soon as the search makes it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Discovery {
+    pub name: &'static str,
+    pub expectation: Expectation,
+    /// The unique states explored when it was seen.
+    pub unique_states: usize,
+}
+
+impl Discovery {
+    /// Whether it is a counterexample (of an `always` or `eventually` property), not a
+    /// witness.
+    pub fn fails(&self) -> bool {
+        self.expectation != Expectation::Sometimes
+    }
+}
+
+/// Who watches a running search: it is told the progress (about every [`PROGRESS_TICKS`]
+/// looks) and each property's first discovery, and may stop the search. The models crate
+/// never reads the wall clock; a watcher times the search itself.
+pub trait Watch {
+    fn progress(&mut self, _at: &Progress) {}
+    fn discovered(&mut self, _d: &Discovery) {}
+    /// Whether the search should stop now, as a budget stops it: no new state enters, and
+    /// what it holds is settled ([`Stopped::Interrupted`]).
+    fn interrupted(&self) -> bool {
+        false
+    }
+}
+
+/// The watcher of [`run`]: nobody.
+impl Watch for () {}
+
+/// Looks at a running search (2 ms apart) between two progress reports: about 0.1 s.
+pub const PROGRESS_TICKS: u32 = 50;
 
 /// How to explore.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -580,6 +630,11 @@ fn kib_field(text: &str, key: &str) -> Option<u64> {
 /// Explores `model` with the strategy, threads, depth and budget of `how`. Breadth-first on
 /// one thread, each counterexample is a shortest one.
 pub fn run(model: CheckModel, how: Exploration) -> Outcome {
+    run_watched(model, how, &mut ())
+}
+
+/// [`run`], telling `watch` how the search goes and letting it stop the search.
+pub fn run_watched(model: CheckModel, how: Exploration, watch: &mut dyn Watch) -> Outcome {
     let props = model.properties();
     for f in model.cfg.found.iter() {
         f.store(false, Ordering::Relaxed);
@@ -597,7 +652,7 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
             images,
             Some(Arc::clone(&stop)),
         );
-        return outcome(supervise(checker, &stop, how.budget), &props);
+        return outcome(supervise(checker, &stop, how.budget, watch), &props);
     }
     let mut builder = model.checker().threads(how.threads.max(1));
     if let Some(d) = how.depth {
@@ -607,8 +662,8 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
         builder = builder.finish_when(HasDiscoveries::AnyFailures);
     }
     match how.strategy {
-        Strategy::Bfs => outcome(supervise(builder.spawn_bfs(), &stop, how.budget), &props),
-        Strategy::Dfs => outcome(supervise(builder.spawn_dfs(), &stop, how.budget), &props),
+        Strategy::Bfs => outcome(supervise(builder.spawn_bfs(), &stop, how.budget, watch), &props),
+        Strategy::Dfs => outcome(supervise(builder.spawn_dfs(), &stop, how.budget, watch), &props),
         Strategy::Simulation { seed } => {
             // A walk ends on its own; the search ends at the state budget, which stateright
             // counts itself (states visited, the same on every run of a seed on one thread).
@@ -620,9 +675,9 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
             let checker = builder
                 .target_state_count(limit)
                 .spawn_simulation(seed, UniformChooser);
-            let (checker, spent) = supervise(checker, &stop, budget);
+            let (checker, spent) = supervise(checker, &stop, budget, watch);
             let spent =
-                spent.or((checker.state_count() >= limit).then_some(Spent::States { limit }));
+                spent.or((checker.state_count() >= limit).then_some(Stopped::States { limit }));
             outcome((checker, spent), &props)
         }
     }
@@ -630,7 +685,7 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
 
 /// The figures and verdicts of a finished checker.
 fn outcome<C: Checker<CheckModel>>(
-    (checker, stopped): (C, Option<Spent>),
+    (checker, stopped): (C, Option<Stopped>),
     props: &[stateright::Property<CheckModel>],
 ) -> Outcome {
     let mut discoveries = checker.discoveries();
@@ -659,36 +714,76 @@ fn outcome<C: Checker<CheckModel>>(
     }
 }
 
-/// Waits for `checker`, watching its budget: when the unique states or this process's
-/// resident memory reach theirs, `stop` closes the model's boundary, so the checker settles
-/// the states it holds without making new ones and ends.
+/// Waits for `checker`, watching its budget and telling `watch`: when the unique states or
+/// this process's resident memory reach theirs, or the watcher interrupts, `stop` closes the
+/// model's boundary, so the checker settles the states it holds without making new ones and
+/// ends.
 fn supervise<C: Checker<CheckModel>>(
     checker: C,
     stop: &AtomicBool,
     budget: Budget,
-) -> (C, Option<Spent>) {
+    watch: &mut dyn Watch,
+) -> (C, Option<Stopped>) {
+    let found = Arc::clone(&checker.model().cfg.found);
+    let expectations: Vec<Expectation> = checker
+        .model()
+        .properties()
+        .iter()
+        .map(|p| p.expectation.clone())
+        .collect();
+    let names: Vec<&'static str> = checker.model().properties().iter().map(|p| p.name).collect();
+    let mut told = vec![false; found.len()];
+    let mut tell = |watch: &mut dyn Watch, unique_states: usize| {
+        for (i, f) in found.iter().enumerate() {
+            if !told[i] && f.load(Ordering::Relaxed) {
+                told[i] = true;
+                watch.discovered(&Discovery {
+                    name: names[i],
+                    expectation: expectations[i].clone(),
+                    unique_states,
+                });
+            }
+        }
+    };
     let mut spent = None;
-    if budget != Budget::default() {
-        while !checker.is_done() {
-            if spent.is_none() {
-                if let Some(limit) = budget.max_states {
-                    if checker.unique_state_count() >= limit {
-                        spent = Some(Spent::States { limit });
-                    }
-                }
-                if let (Some(limit), Some(seen)) = (budget.max_memory, resident_memory()) {
-                    // Stop a little early: memory still grows between two looks and while
-                    // the states in hand are settled, and the peak must stay under the limit.
-                    if seen >= limit - limit / MEMORY_HEADROOM {
-                        spent = Some(Spent::Memory { limit, seen });
-                    }
-                }
-                if spent.is_some() {
-                    stop.store(true, Ordering::Relaxed);
+    let mut ticks = 0u32;
+    while !checker.is_done() {
+        let unique = checker.unique_state_count();
+        tell(watch, unique);
+        let memory = (budget.max_memory.is_some() || ticks % PROGRESS_TICKS == 0)
+            .then(resident_memory)
+            .flatten();
+        if ticks % PROGRESS_TICKS == 0 {
+            watch.progress(&Progress {
+                states: checker.state_count(),
+                unique_states: unique,
+                max_depth: checker.max_depth(),
+                memory,
+            });
+        }
+        if spent.is_none() {
+            if let Some(limit) = budget.max_states {
+                if unique >= limit {
+                    spent = Some(Stopped::States { limit });
                 }
             }
-            std::thread::sleep(Duration::from_millis(2));
+            if let (Some(limit), Some(seen)) = (budget.max_memory, memory) {
+                // Stop a little early: memory still grows between two looks and while the
+                // states in hand are settled, and the peak must stay under the limit.
+                if seen >= limit - limit / MEMORY_HEADROOM {
+                    spent = Some(Stopped::Memory { limit, seen });
+                }
+            }
+            if spent.is_none() && watch.interrupted() {
+                spent = Some(Stopped::Interrupted);
+            }
+            if spent.is_some() {
+                stop.store(true, Ordering::Relaxed);
+            }
         }
+        ticks = ticks.wrapping_add(1);
+        std::thread::sleep(Duration::from_millis(2));
     }
+    tell(watch, checker.unique_state_count());
     (checker.join(), spent)
 }

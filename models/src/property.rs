@@ -118,7 +118,7 @@ pub fn statement(name: &str) -> Option<&'static str> {
     })
 }
 
-fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
+pub(crate) fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
     (0..s.actor_states.len()).filter(|&i| !s.crashed[i])
 }
 
@@ -163,7 +163,7 @@ pub fn at_rest(m: &CheckModel, s: &State) -> bool {
 
 /// The global index of the broadcast `id` (process `p`'s `i`-th request is request
 /// `p + i * n`), if it is one.
-fn request_of(m: &CheckModel, id: MsgId) -> Option<usize> {
+pub(crate) fn request_of(m: &CheckModel, id: MsgId) -> Option<usize> {
     let g = id.origin as usize + id.n as usize * m.cfg.n as usize;
     (id.origin < m.cfg.n && g < m.cfg.requests.len()).then_some(g)
 }
@@ -323,12 +323,12 @@ fn termination_without<const P: usize>(m: &CheckModel, s: &State) -> bool {
 }
 
 /// Whether process `p` has issued its request `g` (its `(g - p) / n`-th).
-fn has_issued(m: &CheckModel, s: &State, p: Pid, g: usize) -> bool {
+pub(crate) fn has_issued(m: &CheckModel, s: &State, p: Pid, g: usize) -> bool {
     s.actor_states[p as usize].issued * m.cfg.n as usize > g - p as usize
 }
 
 /// The request `msg` from `from` to `to` was, if it was issued.
-fn sent(m: &CheckModel, s: &State, from: Pid, to: Pid, msg: &Payload) -> Option<usize> {
+pub(crate) fn sent(m: &CheckModel, s: &State, from: Pid, to: Pid, msg: &Payload) -> Option<usize> {
     m.cfg.requests.iter().enumerate().position(|(g, (p, req))| {
         *p == from
             && matches!(req, Request::Send { to: dst, msg: sent } if sent == msg && dst.contains(&to))
