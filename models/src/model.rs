@@ -662,8 +662,14 @@ pub fn run_watched(model: CheckModel, how: Exploration, watch: &mut dyn Watch) -
         builder = builder.finish_when(HasDiscoveries::AnyFailures);
     }
     match how.strategy {
-        Strategy::Bfs => outcome(supervise(builder.spawn_bfs(), &stop, how.budget, watch), &props),
-        Strategy::Dfs => outcome(supervise(builder.spawn_dfs(), &stop, how.budget, watch), &props),
+        Strategy::Bfs => outcome(
+            supervise(builder.spawn_bfs(), &stop, how.budget, watch),
+            &props,
+        ),
+        Strategy::Dfs => outcome(
+            supervise(builder.spawn_dfs(), &stop, how.budget, watch),
+            &props,
+        ),
         Strategy::Simulation { seed } => {
             // A walk ends on its own; the search ends at the state budget, which stateright
             // counts itself (states visited, the same on every run of a seed on one thread).
@@ -731,7 +737,12 @@ fn supervise<C: Checker<CheckModel>>(
         .iter()
         .map(|p| p.expectation.clone())
         .collect();
-    let names: Vec<&'static str> = checker.model().properties().iter().map(|p| p.name).collect();
+    let names: Vec<&'static str> = checker
+        .model()
+        .properties()
+        .iter()
+        .map(|p| p.name)
+        .collect();
     let mut told = vec![false; found.len()];
     let mut tell = |watch: &mut dyn Watch, unique_states: usize| {
         for (i, f) in found.iter().enumerate() {

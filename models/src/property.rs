@@ -469,7 +469,6 @@ fn common_leader(m: &CheckModel, s: &State) -> bool {
         && (!crashes_allowed || s.crashed.iter().any(|c| *c))
 }
 
-
 /// One termination witness per crash pattern of one process (names are `'static`, as
 /// stateright wants them).
 const TERMINATION_WITHOUT: [(&str, Condition); 8] = [

@@ -19,7 +19,13 @@ use crate::property::{at_rest, has_issued, live, request_of, sent};
 pub fn reason(model: &CheckModel, name: &str, path: &Path<State, Action>) -> Option<String> {
     let states: Vec<State> = path.clone().into_states();
     let codecs = &model.actors.first()?.shared.wiring.codecs;
-    with_codecs(codecs, || Reader { m: model, states: &states }.why(name))
+    with_codecs(codecs, || {
+        Reader {
+            m: model,
+            states: &states,
+        }
+        .why(name)
+    })
 }
 
 struct Reader<'a> {
@@ -37,7 +43,10 @@ impl Reader<'_> {
 
     /// The first step whose state satisfies `f`.
     fn step(&self, f: impl Fn(&State) -> bool) -> usize {
-        self.states.iter().position(f).unwrap_or(self.states.len() - 1)
+        self.states
+            .iter()
+            .position(f)
+            .unwrap_or(self.states.len() - 1)
     }
 
     /// The step at which process `p` delivered `id`.
@@ -79,7 +88,11 @@ impl Reader<'_> {
     fn total_order(&self) -> Option<String> {
         let s = self.last();
         let seq = |p: usize| -> Vec<MsgId> {
-            s.actor_states[p].delivered.iter().map(|(id, _)| *id).collect()
+            s.actor_states[p]
+                .delivered
+                .iter()
+                .map(|(id, _)| *id)
+                .collect()
         };
         let n = s.actor_states.len();
         for a in 0..n {
@@ -312,7 +325,9 @@ impl Reader<'_> {
                     return Some(format!("p{me}'s detector indicates p{me} itself"));
                 }
                 if suspected && !now.insert(p) {
-                    return Some(format!("p{me} suspects p{p} again without trusting it between"));
+                    return Some(format!(
+                        "p{me} suspects p{p} again without trusting it between"
+                    ));
                 }
                 if !suspected && !now.remove(&p) {
                     return Some(format!("p{me} trusts p{p} without having suspected it"));

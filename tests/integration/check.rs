@@ -509,7 +509,14 @@ fn a_counterexample_ends_with_the_reason_read_from_its_last_state() {
         format!("p{missing} never delivered {id} ({content}), which p{by} delivered at step {step}; nothing is left to happen")
     );
     // The reason is the counterexample's last line.
-    assert!(out.trim_end().lines().last().unwrap().starts_with("  so \"agreement\" fails: "), "{out}");
+    assert!(
+        out.trim_end()
+            .lines()
+            .last()
+            .unwrap()
+            .starts_with("  so \"agreement\" fails: "),
+        "{out}"
+    );
 }
 
 #[test]
@@ -523,14 +530,23 @@ fn the_first_counterexample_ends_the_search_and_keep_going_settles_the_others() 
     assert_eq!(o.status.code(), Some(1), "{out}");
     assert!(out.contains("found: \"validity\" fails, after "), "{out}");
     assert!(!out.contains("found: \"uniform agreement\""), "{out}");
-    assert!(out.contains("  FAILS  validity (always): counterexample in 8 steps"), "{out}");
+    assert!(
+        out.contains("  FAILS  validity (always): counterexample in 8 steps"),
+        "{out}"
+    );
     assert!(
         out.contains("  open   uniform agreement (always): not settled (the search stopped at the first counterexample; --keep-going explores on)"),
         "{out}"
     );
     // It is reported when found, before the figures of the search that found it.
-    assert!(out.find("found: \"validity\"").unwrap() < out.find("states: ").unwrap(), "{out}");
-    assert!(!out.contains("counterexample of \"uniform agreement\""), "{out}");
+    assert!(
+        out.find("found: \"validity\"").unwrap() < out.find("states: ").unwrap(),
+        "{out}"
+    );
+    assert!(
+        !out.contains("counterexample of \"uniform agreement\""),
+        "{out}"
+    );
     let stopped_at: usize = figures(&out)
         .split("unique states: ")
         .nth(1)
@@ -554,11 +570,20 @@ fn the_first_counterexample_ends_the_search_and_keep_going_settles_the_others() 
     assert_eq!(o.status.code(), Some(1), "{out}");
     assert!(figures(&out).contains("unique states: 66744,"), "{out}");
     for p in ["uniform agreement", "validity"] {
-        assert!(out.contains(&format!("found: {p:?} fails, after ")), "{p}: {out}");
-        assert!(out.contains(&format!("  FAILS  {p} (always)")), "{p}: {out}");
+        assert!(
+            out.contains(&format!("found: {p:?} fails, after ")),
+            "{p}: {out}"
+        );
+        assert!(
+            out.contains(&format!("  FAILS  {p} (always)")),
+            "{p}: {out}"
+        );
     }
     for p in ["total order", "integrity"] {
-        assert!(out.contains(&format!("  holds  {p} (always)\n")), "{p}: {out}");
+        assert!(
+            out.contains(&format!("  holds  {p} (always)\n")),
+            "{p}: {out}"
+        );
     }
     // The trace is uniform agreement's path (the first property failing): a process delivers
     // and crashes; the live ones never deliver.
@@ -628,7 +653,13 @@ impl nekosim::protocols::Microprotocol for Flood {
             };
             self.count += 1;
             self.relayed.insert(id);
-            out.send(ctx.others(), Flooded { id, msg: msg.clone() });
+            out.send(
+                ctx.others(),
+                Flooded {
+                    id,
+                    msg: msg.clone(),
+                },
+            );
             out.up(Indication::BDeliver { id, msg });
         }
     }
@@ -645,7 +676,10 @@ impl nekosim::protocols::Microprotocol for Flood {
             out.send(to, m.clone());
         }
         // The seeded bug: no check that it was delivered already.
-        out.up(nekosim::protocols::Indication::BDeliver { id: m.id, msg: m.msg });
+        out.up(nekosim::protocols::Indication::BDeliver {
+            id: m.id,
+            msg: m.msg,
+        });
     }
 }
 
@@ -679,15 +713,27 @@ fn a_users_seeded_bug_is_reported_in_the_terms_of_the_broken_property() {
     assert_eq!(c, nekosim::check::Conclusion::Fails, "{out}");
     assert!(out.contains("found: \"integrity\" fails, after "), "{out}");
     // The broadcast, a relay, and the two copies reaching the same process.
-    assert!(out.contains("  FAILS  integrity (always): counterexample in 4 steps"), "{out}");
+    assert!(
+        out.contains("  FAILS  integrity (always): counterexample in 4 steps"),
+        "{out}"
+    );
     // The oracle: the trace's process with two deliveries of one message.
     let delivered = deliveries(&records(&trace));
     let twice: Vec<&(u64, u64, String, String)> = delivered
         .iter()
-        .filter(|d| delivered.iter().filter(|e| (e.0, &e.2) == (d.0, &d.2)).count() == 2)
+        .filter(|d| {
+            delivered
+                .iter()
+                .filter(|e| (e.0, &e.2) == (d.0, &d.2))
+                .count()
+                == 2
+        })
         .collect();
     let (p, _, id, content) = twice.first().unwrap_or_else(|| panic!("{delivered:?}"));
-    assert_eq!(reason(&out, "integrity"), format!("p{p} delivered {id} ({content}) twice"));
+    assert_eq!(
+        reason(&out, "integrity"),
+        format!("p{p} delivered {id} ({content}) twice")
+    );
 }
 
 #[test]
@@ -769,14 +815,22 @@ fn ctrl_c_reports_what_was_found_writes_the_trace_and_exits_130() {
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("{out}"));
     let records = records(&trace);
-    assert_eq!(records.last().unwrap()["seq"].as_u64(), Some(first), "{out}");
+    assert_eq!(
+        records.last().unwrap()["seq"].as_u64(),
+        Some(first),
+        "{out}"
+    );
 }
 
 #[test]
 fn no_progress_is_drawn_when_stderr_is_not_a_terminal() {
     let o = nekosim(&["check", "lamport-abcast"]);
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
-    assert!(o.stderr.is_empty(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     // What a terminal shows: states, depth, rate, memory against its budget.
     let line = nekosim::check::progress_text(
         &nekosim_models::Progress {
@@ -845,9 +899,5 @@ fn a_users_crate_builds_from_the_docs_text() {
         .env("CARGO_TARGET_DIR", target)
         .output()
         .unwrap();
-    assert!(
-        o.status.success(),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
