@@ -901,3 +901,45 @@ fn a_users_crate_builds_from_the_docs_text() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+#[test]
+fn the_docs_check_section_is_read_as_it_says() {
+    // docs/model-checking.md's `check` section, in a scenario, sets each parameter.
+    let root = env!("CARGO_MANIFEST_DIR");
+    let page = std::fs::read_to_string(format!("{root}/docs/model-checking.md")).unwrap();
+    let section = page
+        .split("```ron\n")
+        .nth(1)
+        .and_then(|s| s.split("```").next())
+        .unwrap()
+        .trim();
+    assert!(section.starts_with("check: ("), "{section}");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("s.ron");
+    std::fs::write(
+        &file,
+        format!(
+            "Scenario(\n    world: (size: Infinite),\n    stack: [Layer(id: \"fifo\", protocol: Fifo, below: \"net\"), Layer(id: \"abcast\", protocol: LamportAbcast, below: \"fifo\")],\n    robots: [Group(count: 4, radius: 1.0)],\n    {section}\n)\n"
+        ),
+    )
+    .unwrap();
+    let args = nekosim::check::CheckArgs {
+        model: file.to_str().unwrap().to_string(),
+        threads: 1,
+        ..Default::default()
+    };
+    let r = nekosim::check::resolve(&args, &nekosim::scenario::Registry::with_builtins()).unwrap();
+    assert_eq!(r.target.entry, "abcast");
+    let o = &r.options;
+    assert_eq!(
+        (
+            o.processes,
+            o.requests,
+            o.crashes,
+            o.network,
+            o.timer_budget,
+            o.max_round
+        ),
+        (3, 1, 0, nekosim_models::NetworkKind::Unordered, 0, 1)
+    );
+}
