@@ -1,5 +1,5 @@
 // The `Redundant` protocol of docs/extending.md, section 1 (kept identical to it by a test).
-use nekosim_protocols::{
+use nekosim::protocols::{
     FieldError, Ctx, Indication, LayerIx, Microprotocol, MsgId, Out, Payload, Pid, Request,
     Service, Shape,
 };

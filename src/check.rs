@@ -1,30 +1,36 @@
 //! `nekosim check MODEL|SCENARIO.ron`: model-check a protocol stack with stateright (the
 //! protocol code the simulator runs): a scenario file's own `stack`, built-in and registered
-//! user protocols alike, or one of the shipped scenarios by name. Prints the checker's
-//! figures and each property's verdict, explains every counterexample step by step, and
-//! optionally writes it (or a witness) as a JSONL trace with `seq` as the step number. A
-//! search stopped by its state or memory budget says what it explored (exit 3). Models,
-//! properties and budgets: docs/model-checking.md.
+//! user protocols alike, or one of the shipped scenarios by name. Reports as it goes: progress
+//! on a terminal, each property the moment it fails; by default it stops at the first
+//! counterexample (`--keep-going` explores on for the others). Prints the checker's figures and
+//! each property's verdict, explains every counterexample step by step and ends it with the
+//! reason in the property's terms, and optionally writes it (or a witness) as a JSONL trace
+//! with `seq` as the step number. A search stopped by its state or memory budget, or by
+//! Ctrl-C, says what it explored and writes what it found. Models, properties and budgets:
+//! docs/model-checking.md.
 
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
 
-use nekosim_actors::world::observation::{Observation, Record};
-use nekosim_models::adapter::Happening;
-use nekosim_models::explain::{describe, explain, layer_name, Event, Step};
+use nekosim_models::explain::{describe, explain};
+use nekosim_models::reason::reason;
 use nekosim_models::{
-    available_memory, build_in, run, Budget, CheckModel, Exploration, ModelError, NetworkKind,
-    Options, Outcome, Spent, Strategy, Target,
+    available_memory, build_in, run_watched, Budget, Discovery, Exploration, ModelError,
+    NetworkKind, Options, Progress, Stopped, Strategy, Target, Watch,
 };
-use nekosim_protocols::{Indication, Request};
-use serde_json::{json, Map, Value};
+use nekosim_protocols::Microprotocol;
 use stateright::Expectation;
 
-use crate::log::wire_text;
-use crate::output::AtomicFile;
 use crate::recording::RecordingError;
 use crate::scenario::{CheckNetwork, FaultSpec, Overrides, Registry, ScenarioError, Source};
-use nekosim_protocols::payload::{install, type_word};
+
+mod trace;
+
+pub use trace::{trace_lines, CheckEvent, CheckRecord};
+use trace::{write_recording, write_trace};
 
 /// The models `nekosim check NAME` knows: each is a scenario file shipped under
 /// `examples/check/` (name, file, what it checks), so `check lamport-abcast` and
@@ -92,6 +98,19 @@ pub struct CheckArgs {
     pub max_memory: Option<u64>,
     /// Symmetry reduction (also on when the scenario's `check` section asks for it).
     pub symmetry: bool,
+    /// Explore on after a counterexample, to settle every property; by default the search
+    /// stops at the first.
+    pub keep_going: bool,
+}
+
+/// What a check does beside its report while it runs.
+#[derive(Debug, Default)]
+pub struct Live {
+    /// Set (by Ctrl-C) to stop the search: the check then reports what it found and explored
+    /// so far, writes the requested outputs, and concludes [`Conclusion::Interrupted`].
+    pub interrupt: Option<Arc<AtomicBool>>,
+    /// Draw the search's progress on stderr (a terminal): states, depth, rate, memory.
+    pub progress: bool,
 }
 
 /// How a check ended, as the command's exit code says it.
@@ -103,6 +122,9 @@ pub enum Conclusion {
     Fails,
     /// A budget stopped the search before it was exhaustive and no property failed (exit 3).
     Unsettled,
+    /// Ctrl-C stopped the search; what it found was reported and written (exit 130, as
+    /// shells report SIGINT).
+    Interrupted,
 }
 
 impl Conclusion {
@@ -111,6 +133,7 @@ impl Conclusion {
             Self::Holds => 0,
             Self::Fails => 1,
             Self::Unsettled => 3,
+            Self::Interrupted => 130,
         }
     }
 }
@@ -137,6 +160,33 @@ pub enum CheckError {
     /// The recording could not be made (exit 2 when the user's input is at fault).
     #[error(transparent)]
     Recording(#[from] RecordingError),
+}
+
+/// Properties a protocol states itself, checked alongside its service's whenever it is in
+/// the stack checked: the scenario registry's door to [`nekosim_protocols::Protocols`]'s, so
+/// `registry.protocol::<P>("P").invariant::<P>(..)` reads as one declaration.
+impl Registry {
+    /// An `always` property over `P`'s state at every process (in process order, crashed
+    /// processes included).
+    pub fn invariant<P: Microprotocol>(
+        &mut self,
+        name: &str,
+        holds: impl Fn(&[&P]) -> bool + Send + Sync + 'static,
+    ) -> &mut Self {
+        self.protocols.invariant::<P>(name, holds);
+        self
+    }
+
+    /// A `sometimes` property over `P`'s state at every process: a witness that the
+    /// configuration is reachable at all.
+    pub fn reachable<P: Microprotocol>(
+        &mut self,
+        name: &str,
+        holds: impl Fn(&[&P]) -> bool + Send + Sync + 'static,
+    ) -> &mut Self {
+        self.protocols.reachable::<P>(name, holds);
+        self
+    }
 }
 
 /// The model names, one per line.
@@ -316,6 +366,86 @@ pub fn check(
     registry: &Registry,
     out: &mut dyn Write,
 ) -> Result<Conclusion, CheckError> {
+    check_live(args, registry, out, &Live::default())
+}
+
+/// What a check says while its search runs: the progress line on stderr and each
+/// discovery on the report.
+struct Reporter<'a> {
+    out: &'a mut dyn Write,
+    live: &'a Live,
+    start: Instant,
+    max_memory: Option<u64>,
+    /// A progress line is on stderr.
+    drawn: bool,
+}
+
+impl Reporter<'_> {
+    fn clear(&mut self) {
+        if self.drawn {
+            let mut e = io::stderr().lock();
+            let _ = write!(e, "\r\x1b[K");
+            let _ = e.flush();
+            self.drawn = false;
+        }
+    }
+}
+
+impl Watch for Reporter<'_> {
+    fn progress(&mut self, at: &Progress) {
+        if self.live.progress {
+            let text = progress_text(at, self.start.elapsed().as_secs_f64(), self.max_memory);
+            let mut e = io::stderr().lock();
+            let _ = write!(e, "\r\x1b[K{text}");
+            let _ = e.flush();
+            self.drawn = true;
+        }
+    }
+
+    fn discovered(&mut self, d: &Discovery) {
+        if d.fails() {
+            self.clear();
+            let _ = writeln!(
+                self.out,
+                "found: {:?} fails, after {} unique states",
+                d.name, d.unique_states
+            );
+            let _ = self.out.flush();
+        }
+    }
+
+    fn interrupted(&self) -> bool {
+        self.live
+            .interrupt
+            .as_ref()
+            .is_some_and(|i| i.load(Ordering::Relaxed))
+    }
+}
+
+/// The progress line: states generated and unique, the depth, the rate over `seconds`, and
+/// the memory against its budget.
+pub fn progress_text(at: &Progress, seconds: f64, max_memory: Option<u64>) -> String {
+    let memory = match (at.memory, max_memory) {
+        (Some(m), Some(b)) => format!(", memory {} of {}", size_text(m), size_text(b)),
+        (Some(m), None) => format!(", memory {}", size_text(m)),
+        (None, _) => String::new(),
+    };
+    format!(
+        "checking: {} states, {} unique, depth {}, {:.0} states/s{memory}",
+        at.states,
+        at.unique_states,
+        at.max_depth,
+        at.states as f64 / seconds.max(1e-9)
+    )
+}
+
+/// [`check`], telling the person waiting as it goes ([`Live`]).
+pub fn check_live(
+    args: &CheckArgs,
+    registry: &Registry,
+    out: &mut dyn Write,
+    live: &Live,
+) -> Result<Conclusion, CheckError> {
     let Resolved {
         name,
         target,
@@ -389,17 +519,26 @@ pub fn check(
     );
     let _ = out.flush();
     // The command times the checker; the models crate never reads the wall clock.
-    let start = std::time::Instant::now();
-    let outcome = run(
+    let start = Instant::now();
+    let mut reporter = Reporter {
+        out: &mut *out,
+        live,
+        start,
+        max_memory: budget.max_memory,
+        drawn: false,
+    };
+    let outcome = run_watched(
         model.clone(),
         Exploration {
             threads: args.threads,
             depth: args.depth,
-            first_counterexample: false,
+            first_counterexample: !args.keep_going,
             strategy: args.strategy,
             budget,
         },
+        &mut reporter,
     );
+    reporter.clear();
     let seconds = start.elapsed().as_secs_f64();
     w(
         out,
@@ -414,8 +553,9 @@ pub fn check(
     );
     if let Some(spent) = outcome.stopped {
         let what = match spent {
-            Spent::States { limit } => format!("the state budget ({limit} states)"),
-            Spent::Memory { limit, seen } => format!(
+            Stopped::Interrupted => "Ctrl-C".to_string(),
+            Stopped::States { limit } => format!("the state budget ({limit} states)"),
+            Stopped::Memory { limit, seen } => format!(
                 "the memory budget ({}; resident {})",
                 size_text(limit),
                 size_text(seen)
@@ -430,6 +570,8 @@ pub fn check(
         );
     }
     let stopped = outcome.stopped.is_some();
+    // Stopped at the first counterexample, the search settled no other property.
+    let cut_short = !args.keep_going && outcome.any_fails();
     for v in &outcome.verdicts {
         let how = match v.expectation {
             Expectation::Always => "always",
@@ -440,7 +582,7 @@ pub fn check(
             (Expectation::Sometimes, Some(p)) => {
                 format!(": witness in {} steps", p.clone().into_actions().len())
             }
-            (Expectation::Sometimes, None) if stopped => {
+            (Expectation::Sometimes, None) if stopped || cut_short => {
                 ": not reached in what was explored".to_string()
             }
             (Expectation::Sometimes, None) => ": never reached".to_string(),
@@ -449,9 +591,12 @@ pub fn check(
                 p.clone().into_actions().len()
             ),
             (_, None) if stopped => ": no counterexample in what was explored".to_string(),
+            (_, None) if cut_short => {
+                ": not settled (the search stopped at the first counterexample; --keep-going explores on)".to_string()
+            }
             (_, None) => String::new(),
         };
-        let mark = if v.path.is_none() && stopped {
+        let mark = if v.path.is_none() && (stopped || cut_short) {
             "open  "
         } else if v.holds {
             "holds "
@@ -473,6 +618,9 @@ pub fn check(
                     w(out, format!("  {head} {}", describe(&model, e)));
                 }
             }
+            if let Some(why) = reason(&model, v.name, path) {
+                w(out, format!("  so {:?} fails: {why}", v.name));
+            }
         }
     }
     if let Some(path) = &args.trace {
@@ -484,7 +632,9 @@ pub fn check(
     if let Some(path) = &args.rrd {
         write_recording(&name, &model, &outcome, path)?;
     }
-    Ok(if outcome.any_fails() {
+    Ok(if outcome.stopped == Some(Stopped::Interrupted) {
+        Conclusion::Interrupted
+    } else if outcome.any_fails() {
         Conclusion::Fails
     } else if stopped {
         Conclusion::Unsettled
@@ -493,320 +643,4 @@ pub fn check(
     } else {
         Conclusion::Fails
     })
-}
-
-/// Distance between two process lanes in a counterexample recording.
-#[cfg(feature = "rerun")]
-const LANE: f64 = 10.0;
-/// The radius of a process's marker in a check recording's world view.
-#[cfg(feature = "rerun")]
-const MARKER: f64 = 1.0;
-
-/// Where process `p` of `n` stands in a check recording's world view: on a circle of radius
-/// [`ring_radius`] around the origin, p0 at the top and the others clockwise, so that no
-/// arrow between two processes runs through a third.
-#[cfg(feature = "rerun")]
-fn ring_position(p: u32, n: usize) -> (f64, f64) {
-    let a = std::f64::consts::FRAC_PI_2 - std::f64::consts::TAU * f64::from(p) / n.max(1) as f64;
-    let r = ring_radius(n);
-    (r * a.cos(), r * a.sin())
-}
-
-/// The radius of the circle of [`ring_position`]: `LANE` for up to three processes, growing
-/// with their number so neighbours stay about `LANE` apart.
-#[cfg(feature = "rerun")]
-fn ring_radius(n: usize) -> f64 {
-    LANE * (n as f64 / 3.0).max(1.0)
-}
-
-/// Saves the traced path (see [`traced`]) as a Rerun recording: process `p` stands still at
-/// [`ring_position`]; each step is one simulated second, so a message's arrow goes
-/// from the sender's lane to the receiver's and stays from the step that sent it to the step
-/// that received it; deliveries, decisions, timers, losses and crashes are log lines (a
-/// crashed process turns grey), and the log opens and ends with the verdict. No path, no file.
-#[cfg(feature = "rerun")]
-fn write_recording(
-    name: &str,
-    model: &CheckModel,
-    outcome: &Outcome,
-    path: &Path,
-) -> Result<(), RecordingError> {
-    use crate::recording::rerun_canvas::{Layout, RerunCanvas};
-    use crate::recording::{Canvas, Level, Recorder, Stamp, Target};
-    use nekosim_actors::world::geometry::Point;
-    use nekosim_actors::world::motion::{Kinematics, Pose};
-    use nekosim_actors::world::virtual_world::WorldSize;
-
-    let Some(v) = traced(outcome) else {
-        return Ok(());
-    };
-    let steps = explain(model, v.path.as_ref().expect("traced paths exist"));
-    let _codecs = install(&model.actors[0].shared.wiring.codecs);
-    let n = model.actors.len();
-    let lane = |p: u32| {
-        let (x, y) = ring_position(p, n);
-        Point::new(x, y)
-    };
-    // The ring with a marker's diameter around it.
-    let edge = ring_radius(n) + 2.0 * MARKER;
-    let (min, max) = (Point::new(-edge, -edge), Point::new(edge, edge));
-    let size = WorldSize::Bounded { min, max };
-    let target = Target {
-        rrd: Some(path.to_path_buf()),
-        connect: None,
-    };
-    let title = format!("check {name}");
-    let id = format!("{title} {:?} {} steps", v.name, steps.len());
-    let layout = Layout::check((min, max), n, steps.len(), MARKER);
-    let canvas = RerunCanvas::start(&title, &id, &target, &layout)?;
-    let mut rec = Recorder::new(canvas, &size, 0.0);
-    for p in 0..n as u32 {
-        rec.record(&Record {
-            t: 0.0,
-            seq: 0,
-            obs: Observation::Spawn {
-                robot: p,
-                pos: lane(p),
-                angle: 90.0,
-                radius: MARKER,
-            },
-        });
-    }
-    let verdict = format!(
-        "{} {:?} ({}): {} in {} steps",
-        if v.holds {
-            "witness of"
-        } else {
-            "counterexample of"
-        },
-        v.name,
-        name,
-        if v.holds { "reached" } else { "violated" },
-        steps.len()
-    );
-    let start = Stamp {
-        t: 0.0,
-        seq: Some(0),
-    };
-    let verdict_level = if v.holds { Level::Info } else { Level::Error };
-    // The verdict in full, beside the diagram.
-    let statement = nekosim_models::property::statement(v.name)
-        .map(|s| format!("\n\n> **{}**: {s}", v.name))
-        .unwrap_or_default();
-    rec.canvas_mut().note(&format!("### {verdict}{statement}"));
-    rec.canvas_mut().log(start, verdict_level, &verdict);
-    for item in path_items(model, &steps) {
-        match item {
-            Item::Obs(r) => rec.record(&r),
-            Item::Extra(x) => {
-                let (t, seq) = (
-                    x["t"].as_f64().unwrap_or(0.0),
-                    x["seq"].as_u64().unwrap_or(0),
-                );
-                if x["kind"] == "crash" {
-                    let p = x["robot"].as_u64().unwrap_or(0) as u32;
-                    rec.record(&Record {
-                        t,
-                        seq,
-                        obs: Observation::Crash {
-                            robot: p,
-                            state: Kinematics::at_rest(Pose {
-                                pos: lane(p),
-                                angle: 90.0,
-                            }),
-                        },
-                    });
-                } else {
-                    rec.canvas_mut()
-                        .log(Stamp { t, seq: Some(seq) }, Level::Info, &x.to_string());
-                }
-            }
-        }
-    }
-    let end = steps.len() as f64;
-    rec.finish(end);
-    let last = steps.len() as u64;
-    rec.canvas_mut().log(
-        Stamp {
-            t: end,
-            seq: Some(last),
-        },
-        verdict_level,
-        &verdict,
-    );
-    rec.canvas_mut().finish()
-}
-
-#[cfg(not(feature = "rerun"))]
-fn write_recording(_: &str, _: &CheckModel, _: &Outcome, _: &Path) -> Result<(), RecordingError> {
-    Err(RecordingError::Unsupported)
-}
-
-/// The path the trace shows: the first counterexample, else the first witness.
-fn traced(outcome: &Outcome) -> Option<&nekosim_models::Verdict> {
-    outcome
-        .verdicts
-        .iter()
-        .find(|v| !v.holds && v.path.is_some())
-        .or_else(|| {
-            outcome
-                .verdicts
-                .iter()
-                .find(|v| v.expectation == Expectation::Sometimes && v.path.is_some())
-        })
-}
-
-/// Writes the traced path as JSONL (schema: docs/trace.md); no path, no file.
-fn write_trace(model: &CheckModel, outcome: &Outcome, path: &Path) -> io::Result<()> {
-    let Some(v) = traced(outcome) else {
-        return Ok(());
-    };
-    let steps = explain(model, v.path.as_ref().expect("traced paths exist"));
-    let mut file = AtomicFile::create(path)?;
-    for line in trace_lines(model, &steps) {
-        file.line(&line);
-    }
-    file.commit()
-}
-
-/// One JSON object per event; `t` and `seq` are the step number.
-pub fn trace_lines(model: &CheckModel, steps: &[Step]) -> Vec<String> {
-    let _codecs = install(&model.actors[0].shared.wiring.codecs);
-    path_items(model, steps)
-        .into_iter()
-        .map(|item| match item {
-            Item::Obs(r) => crate::trace::to_line(&r),
-            Item::Extra(v) => v.to_string(),
-        })
-        .collect()
-}
-
-/// An event of a path: a simulator observation, or a kind only model-checking traces have
-/// (`timer`, `drop`, `crash` without a position; docs/trace.md).
-enum Item {
-    Obs(Record),
-    Extra(Value),
-}
-
-/// The events of a path in order; `t` and `seq` are the step number.
-fn path_items(model: &CheckModel, steps: &[Step]) -> Vec<Item> {
-    let wiring = &model.actors[0].shared.wiring;
-    let staged = model.actors[0].shared.staged_sends;
-    let name = |l: u16| layer_name(wiring, l).to_string();
-    let mut lines = Vec::new();
-    for step in steps {
-        let seq = step.index as u64;
-        let t = step.index as f64;
-        let record = |obs: Observation| Item::Obs(Record { t, seq, obs });
-        let custom = |kind: &str, fields: Vec<(&str, Value)>| {
-            let mut m = Map::new();
-            m.insert("t".into(), json!(t));
-            m.insert("seq".into(), json!(seq));
-            m.insert("kind".into(), json!(kind));
-            for (k, v) in fields {
-                m.insert(k.into(), v);
-            }
-            Item::Extra(Value::Object(m))
-        };
-        for e in &step.events {
-            let line = match e {
-                Event::Crash(p) => Some(custom("crash", vec![("robot", json!(p))])),
-                Event::Drop { from, to, msg } => Some(custom(
-                    "drop",
-                    vec![
-                        ("robot", json!(from)),
-                        ("to", json!([to])),
-                        ("layer", json!(name(msg.layer))),
-                        ("msg", json!(wire_text(&msg.msg))),
-                        ("type", json!(type_word(&wire_text(&msg.msg)))),
-                    ],
-                )),
-                Event::At { process: p, what } => match what {
-                    Happening::Request { layer, req } => {
-                        let (op, msg) = match req {
-                            Request::Broadcast { msg } => ("broadcast", msg.clone()),
-                            Request::Propose { value, .. } => ("propose", value.clone()),
-                            Request::Send { msg, .. } => ("send", msg.clone()),
-                            Request::Custom(msg) => ("request", msg.clone()),
-                        };
-                        Some(record(Observation::Request {
-                            robot: *p,
-                            layer: name(*layer),
-                            op: op.into(),
-                            msg,
-                        }))
-                    }
-                    Happening::Skipped { .. } => None,
-                    Happening::Receive { from, layer, msg } => Some(record(Observation::Receive {
-                        robot: *p,
-                        from: *from,
-                        layer: name(*layer),
-                        msg: msg.clone(),
-                    })),
-                    Happening::Timer { layer, timer } => Some(custom(
-                        "timer",
-                        vec![
-                            ("robot", json!(p)),
-                            ("layer", json!(name(*layer))),
-                            ("timer", json!(timer)),
-                        ],
-                    )),
-                    Happening::Send { layer, to, msg } if !staged => {
-                        Some(record(Observation::Send {
-                            robot: *p,
-                            to: to.clone(),
-                            layer: name(*layer),
-                            msg: msg.clone(),
-                            arrive: Vec::new(),
-                        }))
-                    }
-                    Happening::Send { .. } => None,
-                    Happening::Flush { to, msg } => Some(record(Observation::Send {
-                        robot: *p,
-                        to: vec![*to],
-                        layer: name(msg.layer),
-                        msg: msg.msg.clone(),
-                        arrive: Vec::new(),
-                    })),
-                    Happening::App { layer, ind } => {
-                        let layer = name(*layer);
-                        match ind {
-                            Indication::BDeliver { id, msg } => {
-                                Some(record(Observation::Deliver {
-                                    robot: *p,
-                                    layer,
-                                    id: *id,
-                                    msg: msg.clone(),
-                                }))
-                            }
-                            Indication::Decide { k, value } => Some(record(Observation::Decide {
-                                robot: *p,
-                                layer,
-                                k: *k,
-                                value: value.clone(),
-                            })),
-                            Indication::Suspect(q) => Some(record(Observation::Suspect {
-                                robot: *p,
-                                layer,
-                                process: *q,
-                            })),
-                            Indication::Trust(q) => Some(record(Observation::Trust {
-                                robot: *p,
-                                layer,
-                                process: *q,
-                            })),
-                            Indication::Leader(q) => Some(record(Observation::Leader {
-                                robot: *p,
-                                layer,
-                                process: *q,
-                            })),
-                            Indication::Deliver { .. } | Indication::Custom(_) => None,
-                        }
-                    }
-                },
-            };
-            lines.extend(line);
-        }
-    }
-    lines
 }

@@ -14,8 +14,9 @@
 //!
 //! Exit codes: 0 success, 2 invalid input (the message names FILE:LINE:COL where it can),
 //! 1 internal error, or for `check` a counterexample found; 3 a `check` stopped by its state or
-//! memory budget before the search was exhaustive, with no property failed; 130 a run ended by
-//! Ctrl-C or SIGTERM (its outputs hold the run up to the virtual time reached).
+//! memory budget before the search was exhaustive, with no property failed; 130 a run or a
+//! check ended by Ctrl-C or SIGTERM (its outputs hold the run up to the virtual time reached,
+//! or what the check found so far).
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -189,6 +190,13 @@ enum Command {
         /// processes (every layer must declare symmetry; bfs only).
         #[arg(long)]
         symmetry: bool,
+        /// Explore on after a counterexample to settle every property [default: stop at the
+        /// first counterexample].
+        #[arg(long)]
+        keep_going: bool,
+        /// No progress line on the terminal.
+        #[arg(long)]
+        quiet: bool,
     },
 }
 
@@ -334,6 +342,8 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             timers,
             rounds,
             symmetry,
+            keep_going,
+            quiet,
             ..
         } => {
             if rrd.is_some() && !cfg!(feature = "rerun") {
@@ -364,16 +374,35 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 timers,
                 rounds,
                 symmetry,
+                keep_going,
             };
-            let conclusion = check::check(&args, registry, &mut std::io::stdout().lock()).map_err(
-                |e| match e {
-                    check::CheckError::Recording(r) if !r.is_input_error() => Failure {
-                        code: 1,
-                        message: r.to_string(),
+            // Ctrl-C (or SIGTERM) stops the search: the check reports what it found and
+            // explored, writes the outputs asked for, and exits 130; a second one ends the
+            // process at once.
+            let interrupt = Arc::new(AtomicBool::new(false));
+            {
+                let interrupt = interrupt.clone();
+                // Without a handler (e.g. one already set), an interrupt kills the process.
+                let _ = ctrlc::set_handler(move || {
+                    if interrupt.swap(true, Ordering::Relaxed) {
+                        std::process::exit(INTERRUPTED);
+                    }
+                });
+            }
+            let live = check::Live {
+                interrupt: Some(interrupt),
+                progress: !quiet && std::io::stderr().is_terminal(),
+            };
+            let conclusion =
+                check::check_live(&args, registry, &mut std::io::stdout().lock(), &live).map_err(
+                    |e| match e {
+                        check::CheckError::Recording(r) if !r.is_input_error() => Failure {
+                            code: 1,
+                            message: r.to_string(),
+                        },
+                        other => invalid(other),
                     },
-                    other => invalid(other),
-                },
-            )?;
+                )?;
             Ok(conclusion.exit_code())
         }
         Command::Sweep {

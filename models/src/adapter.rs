@@ -21,7 +21,11 @@ use std::sync::Arc;
 use nekosim_protocols::{
     Ctx, Indication, Input, LayerIx, MsgId, Payload, Pid, Request, Routed, Stack, Wiring, APP, NET,
 };
-use stateright::actor::{model_timeout, Actor, Id, Out};
+use stateright::actor::{model_timeout, Actor, ActorModelState, Id, Out};
+
+/// A state of a model: every process's [`ProcessState`], timers and crash flag, and the
+/// messages in flight.
+pub type State = ActorModelState<ProcessActor, ()>;
 
 /// A message between processes: `msg` travels from a layer to the same layer (`layer`) of the
 /// destination.

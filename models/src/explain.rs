@@ -9,9 +9,8 @@ use nekosim_protocols::{Indication, Pid, Request, Wiring};
 use stateright::actor::{ActorModelAction, Id, Out};
 use stateright::Path;
 
-use crate::adapter::{Happening, NetMsg};
-use crate::model::{Action, CheckModel};
-use crate::property::State;
+use crate::adapter::{Happening, NetMsg, State};
+use crate::config::{Action, CheckModel};
 
 /// Something that happened in one step.
 #[derive(Clone, Debug, PartialEq)]

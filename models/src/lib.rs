@@ -2,9 +2,13 @@
 //! the very code the simulator runs, not a re-implementation.
 //!
 //! - [`adapter`]: one process's stack as one stateright actor.
-//! - [`model`]: network semantics, crashes, bounds, and running the checker.
+//! - [`config`]: what one check is made of: its options, network semantics and what its
+//!   properties read.
+//! - [`family`]: the services the checker knows, which decide the properties.
+//! - [`model`]: building a model from a stack (crashes, bounds) and running the checker.
 //! - [`compact`]: the breadth-first search over compact states (collapse compression).
 //! - [`property`]: the properties of each protocol family.
+//! - [`reason`]: why a counterexample violates its property, in the property's terms.
 //! - [`registry`]: the shipped models as Rust targets, for this crate's tests and benches
 //!   (`nekosim check NAME` reads the same stacks from `examples/check/*.ron`; a test keeps
 //!   the two equal).
@@ -15,15 +19,21 @@
 
 pub mod adapter;
 pub mod compact;
+pub mod config;
 pub mod explain;
+pub mod family;
 pub mod model;
 pub mod property;
+pub mod reason;
 pub mod registry;
 pub mod symmetry;
 
+pub use adapter::State;
+pub use config::{CheckModel, NetworkKind, Options};
+pub use family::Family;
 pub use model::{
-    available_memory, build, build_in, resident_memory, run, Budget, CheckModel, Exploration,
-    ModelError, NetworkKind, Options, Outcome, Spent, Strategy, Target, Verdict, SIMULATION_STATES,
+    available_memory, build, build_in, resident_memory, run, run_watched, Budget, Discovery,
+    Exploration, ModelError, Outcome, Progress, Stopped, Strategy, Target, Verdict, Watch,
+    SIMULATION_STATES,
 };
-pub use property::Family;
 pub use registry::{find, ModelDef, MODELS};

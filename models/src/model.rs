@@ -5,93 +5,21 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
-use nekosim_protocols::consensus::{ChandraToueg, CtMsg};
-use nekosim_protocols::fifo::{Fifo, FifoMsg};
-use nekosim_protocols::retransmit::{Retransmit, RtMsg};
+#[cfg(doc)]
+use nekosim_protocols::Microprotocol;
 use nekosim_protocols::{
-    AppMsg, Content, LayerSpec, Payload, Pid, Protocols, Rename, Request, Service, Stack,
-    StackProperty, Wiring,
+    AppMsg, Content, Layer, LayerSpec, Payload, Pid, Protocols, Rename, Request, Round, Rounds,
+    Service, Stack, StackProperty, Wiring,
 };
-use stateright::actor::{ActorModel, ActorModelAction, LossyNetwork, Network};
+use stateright::actor::{ActorModel, LossyNetwork, Network};
 use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChooser};
 
-use crate::adapter::{ClientRequest, ModelTimer, NetMsg, ProcessActor, Shared};
+use crate::adapter::{ClientRequest, NetMsg, ProcessActor, Shared, State};
 use crate::compact::{self, CompactBfs};
-use crate::property::{properties, Family, State};
+use crate::config::{Action, CheckModel, Condition, ModelCfg, NetworkKind, Options};
+use crate::family::Family;
+use crate::property::properties;
 use crate::symmetry::Symmetry;
-
-/// A model as stateright checks it.
-pub type CheckModel = ActorModel<ProcessActor, ModelCfg, ()>;
-/// One step of a model.
-pub type Action = ActorModelAction<NetMsg, ModelTimer, ()>;
-
-/// How the network treats messages between processes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum NetworkKind {
-    /// Every message is delivered exactly once, in any order.
-    #[default]
-    Unordered,
-    /// Every message is delivered exactly once, in order per (sender, receiver) pair.
-    Ordered,
-    /// Any message may also be lost (unordered otherwise).
-    Lossy,
-}
-
-impl NetworkKind {
-    /// The names the command accepts.
-    pub const NAMES: [&'static str; 3] = ["unordered", "ordered", "lossy"];
-
-    /// Parses a name of [`NetworkKind::NAMES`].
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "unordered" => Some(Self::Unordered),
-            "ordered" => Some(Self::Ordered),
-            "lossy" => Some(Self::Lossy),
-            _ => None,
-        }
-    }
-}
-
-/// The parameters of one check.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Options {
-    /// Number of processes.
-    pub processes: u32,
-    /// Client requests (broadcasts or proposals), handed out to the processes round-robin.
-    pub requests: u32,
-    /// Processes that may crash (crash-stop).
-    pub crashes: u32,
-    pub network: NetworkKind,
-    /// Protocol timer firings allowed per process.
-    pub timer_budget: u32,
-    /// Last Chandra-Toueg round explored in each instance: states with a message of a later
-    /// round are outside the model. Round 1 is the least that lets round 0 decide, as a
-    /// process that acks round 0 moves on to round 1 in the same step.
-    pub max_round: u64,
-    /// With crashes, a multicast leaves one message at a time, so a crash can cut it short
-    /// (what reliable broadcast must survive). Off, a multicast leaves at once, which keeps
-    /// heartbeat-driven stacks with crashes small enough to explore.
-    pub partial_multicasts: bool,
-    /// Symmetry reduction: explore one state of each class of states equal up to a renaming
-    /// of the processes ([`crate::symmetry`]). Needs every layer to declare symmetry, the
-    /// same stack at every process and multicasts that leave at once; breadth-first only.
-    pub symmetry: bool,
-}
-
-impl Default for Options {
-    fn default() -> Self {
-        Self {
-            processes: 3,
-            requests: 2,
-            crashes: 0,
-            network: NetworkKind::Unordered,
-            timer_budget: 1,
-            max_round: 1,
-            partial_multicasts: true,
-            symmetry: false,
-        }
-    }
-}
 
 /// A check that cannot be built from its parameters.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -125,46 +53,6 @@ pub enum ModelError {
         service: &'static str,
         what: &'static str,
     },
-}
-
-/// What the properties and the boundary need to know about a model.
-#[derive(Clone, Debug)]
-pub struct ModelCfg {
-    pub family: Family,
-    pub n: u32,
-    /// Every client request in global order: request `g` is issued by process `g mod n`.
-    pub requests: Vec<(Pid, Request)>,
-    pub timer_budget: u32,
-    /// Round bound, when a layer runs Chandra-Toueg.
-    pub max_round: Option<u64>,
-    /// What each layer's messages are, for looking through headers.
-    pub headers: Vec<Header>,
-    /// Set when a budget ran out: from then on no new state is inside the model, so the
-    /// search drains what it holds and ends (see [`Budget`]).
-    pub stop: Arc<AtomicBool>,
-    /// The properties the stack's protocols state themselves ([`Protocols::invariant`],
-    /// [`Protocols::reachable`]).
-    pub stated: Vec<StackProperty>,
-    /// Every property's expectation and condition, in the model's order; the model's own
-    /// conditions are [`FIRST`], which report only the first discovery of each.
-    pub conditions: Vec<(Expectation, Condition)>,
-    /// Whether property `i` has had its discovery (reset by [`run`]).
-    pub found: Arc<Vec<AtomicBool>>,
-    /// The renamings that map the model onto itself, when symmetry reduction is on
-    /// ([`Options::symmetry`]; breadth-first search only).
-    pub symmetry: Option<Arc<Symmetry>>,
-}
-
-/// A property's condition.
-pub type Condition = fn(&CheckModel, &State) -> bool;
-
-/// The layers whose messages the round bound looks into.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Header {
-    ChandraToueg,
-    Fifo,
-    Retransmit,
-    Other,
 }
 
 /// What to check: a stack, the layer the application talks to and what it promises.
@@ -298,22 +186,14 @@ pub fn build_in(
         .ok_or_else(|| ModelError::Stack(format!("no layer {:?}", target.entry)))?;
     // The checked layer is the application's, whatever sits above it.
     wiring.app_hears[entry as usize] = true;
-    let headers: Vec<Header> = stack
+    // The round bound reads the messages of layers that number rounds and looks through the
+    // headers that carry them; a stack without numbered rounds is not bounded.
+    let round_layers: Vec<Option<Layer>> = stack
         .layers
         .iter()
-        .map(|l| {
-            if l.downcast_ref::<ChandraToueg>().is_some() {
-                Header::ChandraToueg
-            } else if l.downcast_ref::<Fifo>().is_some() {
-                Header::Fifo
-            } else if l.downcast_ref::<Retransmit>().is_some() {
-                Header::Retransmit
-            } else {
-                Header::Other
-            }
-        })
+        .map(|l| (l.rounds() != Rounds::None).then(|| l.clone()))
         .collect();
-    let uses_ct = headers.contains(&Header::ChandraToueg);
+    let numbered = stack.layers.iter().any(|l| l.rounds() == Rounds::Numbered);
     let stated: Vec<StackProperty> = protocols
         .properties()
         .iter()
@@ -371,8 +251,8 @@ pub fn build_in(
         n,
         requests,
         timer_budget: opts.timer_budget,
-        max_round: uses_ct.then_some(opts.max_round),
-        headers,
+        max_round: numbered.then_some(opts.max_round),
+        round_layers,
         stop: Arc::new(AtomicBool::new(false)),
         stated,
         conditions: Vec::new(),
@@ -527,21 +407,18 @@ const STATED: [Condition; 8] = [
     stated::<7>,
 ];
 
-/// The Chandra-Toueg round a message belongs to, looking through point-to-point headers.
-fn round_of(headers: &[Header], p: &Payload) -> Option<u64> {
-    match headers.get(p.layer() as usize)? {
-        Header::ChandraToueg => p.decode::<CtMsg>().ok()?.round(),
-        Header::Fifo => round_of(headers, &p.decode::<FifoMsg>().ok()?.payload),
-        Header::Retransmit => match p.decode::<RtMsg>().ok()? {
-            RtMsg::Data { payload, .. } => round_of(headers, &payload),
-            RtMsg::Ack { .. } => None,
-        },
-        Header::Other => None,
+/// The round a message belongs to ([`Microprotocol::round`]), looking through the headers
+/// that carry other layers' payloads.
+fn round_of(layers: &[Option<Layer>], p: &Payload) -> Option<u64> {
+    match layers.get(p.layer() as usize)?.as_ref()?.round(p)? {
+        Round::None => None,
+        Round::At(r) => Some(r),
+        Round::Carries(inner) => round_of(layers, &inner),
     }
 }
 
 /// States inside the model: no recovered process (protocols are crash-stop) and, with
-/// Chandra-Toueg, no message of a round past the bound (in flight or staged).
+/// numbered rounds, no message of a round past the bound (in flight or staged).
 fn within_boundary(cfg: &ModelCfg, s: &State) -> bool {
     if cfg.stop.load(Ordering::Relaxed) || s.actor_states.iter().any(|a| a.zombie) {
         return false;
@@ -549,7 +426,7 @@ fn within_boundary(cfg: &ModelCfg, s: &State) -> bool {
     let Some(max) = cfg.max_round else {
         return true;
     };
-    let early = |p: &Payload| round_of(&cfg.headers, p).is_none_or(|r| r <= max);
+    let early = |p: &Payload| round_of(&cfg.round_layers, p).is_none_or(|r| r <= max);
     all_in_flight(&s.network, |m| early(&m.msg))
         && s.actor_states
             .iter()
@@ -584,8 +461,8 @@ pub struct Outcome {
     pub max_depth: usize,
     /// In the model's property order.
     pub verdicts: Vec<Verdict>,
-    /// The budget that ended the search before it was exhaustive, if one did.
-    pub stopped: Option<Spent>,
+    /// What ended the search before it was exhaustive, if anything did.
+    pub stopped: Option<Stopped>,
 }
 
 impl Outcome {
@@ -631,14 +508,64 @@ pub struct Budget {
     pub max_memory: Option<u64>,
 }
 
-/// Which budget ended a search.
+/// What ended a search before it was exhaustive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Spent {
+pub enum Stopped {
     /// The state budget; the unique states (or simulated states) reached.
     States { limit: usize },
     /// The memory budget; the resident bytes seen when it ran out.
     Memory { limit: u64, seen: u64 },
+    /// The watcher asked it to stop ([`Watch::interrupted`]: Ctrl-C).
+    Interrupted,
 }
+
+/// Where a search stands, as a watcher sees it while it runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// States generated.
+    pub states: usize,
+    pub unique_states: usize,
+    /// The deepest level reached (breadth-first: the level being explored).
+    pub max_depth: usize,
+    /// This process's resident memory in bytes, where readable.
+    pub memory: Option<u64>,
+}
+
+/// A property's first discovery, told as soon as the search makes it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Discovery {
+    pub name: &'static str,
+    pub expectation: Expectation,
+    /// The unique states explored when it was seen.
+    pub unique_states: usize,
+}
+
+impl Discovery {
+    /// Whether it is a counterexample (of an `always` or `eventually` property), not a
+    /// witness.
+    pub fn fails(&self) -> bool {
+        self.expectation != Expectation::Sometimes
+    }
+}
+
+/// Who watches a running search: it is told the progress (about every [`PROGRESS_TICKS`]
+/// looks) and each property's first discovery, and may stop the search. The models crate
+/// never reads the wall clock; a watcher times the search itself.
+pub trait Watch {
+    fn progress(&mut self, _at: &Progress) {}
+    fn discovered(&mut self, _d: &Discovery) {}
+    /// Whether the search should stop now, as a budget stops it: no new state enters, and
+    /// what it holds is settled ([`Stopped::Interrupted`]).
+    fn interrupted(&self) -> bool {
+        false
+    }
+}
+
+/// The watcher of [`run`]: nobody.
+impl Watch for () {}
+
+/// Looks at a running search (2 ms apart) between two progress reports: about 0.1 s.
+pub const PROGRESS_TICKS: u32 = 50;
 
 /// How to explore.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -703,6 +630,11 @@ fn kib_field(text: &str, key: &str) -> Option<u64> {
 /// Explores `model` with the strategy, threads, depth and budget of `how`. Breadth-first on
 /// one thread, each counterexample is a shortest one.
 pub fn run(model: CheckModel, how: Exploration) -> Outcome {
+    run_watched(model, how, &mut ())
+}
+
+/// [`run`], telling `watch` how the search goes and letting it stop the search.
+pub fn run_watched(model: CheckModel, how: Exploration, watch: &mut dyn Watch) -> Outcome {
     let props = model.properties();
     for f in model.cfg.found.iter() {
         f.store(false, Ordering::Relaxed);
@@ -720,7 +652,7 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
             images,
             Some(Arc::clone(&stop)),
         );
-        return outcome(supervise(checker, &stop, how.budget), &props);
+        return outcome(supervise(checker, &stop, how.budget, watch), &props);
     }
     let mut builder = model.checker().threads(how.threads.max(1));
     if let Some(d) = how.depth {
@@ -730,8 +662,14 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
         builder = builder.finish_when(HasDiscoveries::AnyFailures);
     }
     match how.strategy {
-        Strategy::Bfs => outcome(supervise(builder.spawn_bfs(), &stop, how.budget), &props),
-        Strategy::Dfs => outcome(supervise(builder.spawn_dfs(), &stop, how.budget), &props),
+        Strategy::Bfs => outcome(
+            supervise(builder.spawn_bfs(), &stop, how.budget, watch),
+            &props,
+        ),
+        Strategy::Dfs => outcome(
+            supervise(builder.spawn_dfs(), &stop, how.budget, watch),
+            &props,
+        ),
         Strategy::Simulation { seed } => {
             // A walk ends on its own; the search ends at the state budget, which stateright
             // counts itself (states visited, the same on every run of a seed on one thread).
@@ -743,9 +681,9 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
             let checker = builder
                 .target_state_count(limit)
                 .spawn_simulation(seed, UniformChooser);
-            let (checker, spent) = supervise(checker, &stop, budget);
+            let (checker, spent) = supervise(checker, &stop, budget, watch);
             let spent =
-                spent.or((checker.state_count() >= limit).then_some(Spent::States { limit }));
+                spent.or((checker.state_count() >= limit).then_some(Stopped::States { limit }));
             outcome((checker, spent), &props)
         }
     }
@@ -753,7 +691,7 @@ pub fn run(model: CheckModel, how: Exploration) -> Outcome {
 
 /// The figures and verdicts of a finished checker.
 fn outcome<C: Checker<CheckModel>>(
-    (checker, stopped): (C, Option<Spent>),
+    (checker, stopped): (C, Option<Stopped>),
     props: &[stateright::Property<CheckModel>],
 ) -> Outcome {
     let mut discoveries = checker.discoveries();
@@ -782,36 +720,81 @@ fn outcome<C: Checker<CheckModel>>(
     }
 }
 
-/// Waits for `checker`, watching its budget: when the unique states or this process's
-/// resident memory reach theirs, `stop` closes the model's boundary, so the checker settles
-/// the states it holds without making new ones and ends.
+/// Waits for `checker`, watching its budget and telling `watch`: when the unique states or
+/// this process's resident memory reach theirs, or the watcher interrupts, `stop` closes the
+/// model's boundary, so the checker settles the states it holds without making new ones and
+/// ends.
 fn supervise<C: Checker<CheckModel>>(
     checker: C,
     stop: &AtomicBool,
     budget: Budget,
-) -> (C, Option<Spent>) {
+    watch: &mut dyn Watch,
+) -> (C, Option<Stopped>) {
+    let found = Arc::clone(&checker.model().cfg.found);
+    let expectations: Vec<Expectation> = checker
+        .model()
+        .properties()
+        .iter()
+        .map(|p| p.expectation.clone())
+        .collect();
+    let names: Vec<&'static str> = checker
+        .model()
+        .properties()
+        .iter()
+        .map(|p| p.name)
+        .collect();
+    let mut told = vec![false; found.len()];
+    let mut tell = |watch: &mut dyn Watch, unique_states: usize| {
+        for (i, f) in found.iter().enumerate() {
+            if !told[i] && f.load(Ordering::Relaxed) {
+                told[i] = true;
+                watch.discovered(&Discovery {
+                    name: names[i],
+                    expectation: expectations[i].clone(),
+                    unique_states,
+                });
+            }
+        }
+    };
     let mut spent = None;
-    if budget != Budget::default() {
-        while !checker.is_done() {
-            if spent.is_none() {
-                if let Some(limit) = budget.max_states {
-                    if checker.unique_state_count() >= limit {
-                        spent = Some(Spent::States { limit });
-                    }
-                }
-                if let (Some(limit), Some(seen)) = (budget.max_memory, resident_memory()) {
-                    // Stop a little early: memory still grows between two looks and while
-                    // the states in hand are settled, and the peak must stay under the limit.
-                    if seen >= limit - limit / MEMORY_HEADROOM {
-                        spent = Some(Spent::Memory { limit, seen });
-                    }
-                }
-                if spent.is_some() {
-                    stop.store(true, Ordering::Relaxed);
+    let mut ticks = 0u32;
+    while !checker.is_done() {
+        let unique = checker.unique_state_count();
+        tell(watch, unique);
+        let memory = (budget.max_memory.is_some() || ticks % PROGRESS_TICKS == 0)
+            .then(resident_memory)
+            .flatten();
+        if ticks % PROGRESS_TICKS == 0 {
+            watch.progress(&Progress {
+                states: checker.state_count(),
+                unique_states: unique,
+                max_depth: checker.max_depth(),
+                memory,
+            });
+        }
+        if spent.is_none() {
+            if let Some(limit) = budget.max_states {
+                if unique >= limit {
+                    spent = Some(Stopped::States { limit });
                 }
             }
-            std::thread::sleep(Duration::from_millis(2));
+            if let (Some(limit), Some(seen)) = (budget.max_memory, memory) {
+                // Stop a little early: memory still grows between two looks and while the
+                // states in hand are settled, and the peak must stay under the limit.
+                if seen >= limit - limit / MEMORY_HEADROOM {
+                    spent = Some(Stopped::Memory { limit, seen });
+                }
+            }
+            if spent.is_none() && watch.interrupted() {
+                spent = Some(Stopped::Interrupted);
+            }
+            if spent.is_some() {
+                stop.store(true, Ordering::Relaxed);
+            }
         }
+        ticks = ticks.wrapping_add(1);
+        std::thread::sleep(Duration::from_millis(2));
     }
+    tell(watch, checker.unique_state_count());
     (checker.join(), spent)
 }

@@ -11,74 +11,16 @@
 use std::borrow::Cow;
 use std::collections::BTreeSet;
 
-use nekosim_protocols::{MsgId, Payload, Pid, Request, Service};
-use stateright::actor::{ActorModelState, Network, Out};
+use nekosim_protocols::{MsgId, Payload, Pid, Request};
+use stateright::actor::{Network, Out};
 use stateright::Expectation;
 
-use crate::adapter::{ModelTimer, ProcessActor};
-use crate::model::{CheckModel, NetworkKind, Options};
-
-/// A state of a model.
-pub type State = ActorModelState<ProcessActor, ()>;
-
-/// What a protocol promises, which decides the properties checked.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Family {
-    /// Total-order (atomic) broadcast.
-    Abcast,
-    /// Reliable broadcast (no order).
-    Broadcast,
-    /// Consensus.
-    Consensus,
-    /// Point-to-point messages, with per-link FIFO order when `fifo`.
-    P2p { fifo: bool },
-    /// A failure detector (suspicions and trust).
-    FailureDetector,
-    /// Leader election (Omega).
-    Leader,
-}
-
-impl Family {
-    /// The family whose properties a layer providing `service` promises: the most specific
-    /// first (a total-order broadcast is a broadcast, FIFO links are links; a user's service
-    /// that implies one of these is checked as that one).
-    pub fn of(service: Service) -> Option<Self> {
-        [
-            (Service::TOTAL_ORDER, Self::Abcast),
-            (Service::BROADCAST, Self::Broadcast),
-            (Service::CONSENSUS, Self::Consensus),
-            (Service::FIFO_P2P, Self::P2p { fifo: true }),
-            (Service::P2P, Self::P2p { fifo: false }),
-            (Service::FAILURE_DETECTOR, Self::FailureDetector),
-            (Service::LEADER, Self::Leader),
-        ]
-        .into_iter()
-        .find(|(s, _)| service.serves(*s))
-        .map(|(_, f)| f)
-    }
-
-    /// Whether the application issues requests to it (a failure detector and a leader
-    /// election only tell).
-    pub fn takes_requests(self) -> bool {
-        !matches!(self, Self::FailureDetector | Self::Leader)
-    }
-
-    /// The service's name as reports print it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Abcast => "total-order broadcast",
-            Self::Broadcast => "broadcast",
-            Self::Consensus => "consensus",
-            Self::P2p { fifo: true } => "FIFO point-to-point messages",
-            Self::P2p { fifo: false } => "point-to-point messages",
-            Self::FailureDetector => "failure detector",
-            Self::Leader => "leader election",
-        }
-    }
-}
+use crate::adapter::{ModelTimer, State};
+use crate::config::{CheckModel, Condition, NetworkKind, Options};
+use crate::family::Family;
 
 /// A property: how it is checked, its name and its condition.
-pub type Prop = (Expectation, &'static str, fn(&CheckModel, &State) -> bool);
+pub type Prop = (Expectation, &'static str, Condition);
 
 /// The properties of a family for a model with the options `opts` (crashes allowed, the
 /// network, the timer budget) and the given proposers (consensus only).
@@ -176,7 +118,7 @@ pub fn statement(name: &str) -> Option<&'static str> {
     })
 }
 
-fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
+pub(crate) fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
     (0..s.actor_states.len()).filter(|&i| !s.crashed[i])
 }
 
@@ -221,7 +163,7 @@ pub fn at_rest(m: &CheckModel, s: &State) -> bool {
 
 /// The global index of the broadcast `id` (process `p`'s `i`-th request is request
 /// `p + i * n`), if it is one.
-fn request_of(m: &CheckModel, id: MsgId) -> Option<usize> {
+pub(crate) fn request_of(m: &CheckModel, id: MsgId) -> Option<usize> {
     let g = id.origin as usize + id.n as usize * m.cfg.n as usize;
     (id.origin < m.cfg.n && g < m.cfg.requests.len()).then_some(g)
 }
@@ -381,12 +323,12 @@ fn termination_without<const P: usize>(m: &CheckModel, s: &State) -> bool {
 }
 
 /// Whether process `p` has issued its request `g` (its `(g - p) / n`-th).
-fn has_issued(m: &CheckModel, s: &State, p: Pid, g: usize) -> bool {
+pub(crate) fn has_issued(m: &CheckModel, s: &State, p: Pid, g: usize) -> bool {
     s.actor_states[p as usize].issued * m.cfg.n as usize > g - p as usize
 }
 
 /// The request `msg` from `from` to `to` was, if it was issued.
-fn sent(m: &CheckModel, s: &State, from: Pid, to: Pid, msg: &Payload) -> Option<usize> {
+pub(crate) fn sent(m: &CheckModel, s: &State, from: Pid, to: Pid, msg: &Payload) -> Option<usize> {
     m.cfg.requests.iter().enumerate().position(|(g, (p, req))| {
         *p == from
             && matches!(req, Request::Send { to: dst, msg: sent } if sent == msg && dst.contains(&to))
@@ -526,8 +468,6 @@ fn common_leader(m: &CheckModel, s: &State) -> bool {
         && !s.crashed[first as usize]
         && (!crashes_allowed || s.crashed.iter().any(|c| *c))
 }
-
-type Condition = fn(&CheckModel, &State) -> bool;
 
 /// One termination witness per crash pattern of one process (names are `'static`, as
 /// stateright wants them).

@@ -5,8 +5,8 @@
 
 use nekosim_protocols::LayerSpec;
 
+use crate::family::Family;
 use crate::model::Target;
-use crate::property::Family;
 
 /// A named model.
 #[derive(Clone, Copy, Debug)]

@@ -20,8 +20,7 @@ use nekosim_protocols::payload::Codecs;
 use nekosim_protocols::{Payload, Pid, Rename, Request, APP};
 use stateright::actor::{Envelope, Id, Network, Timers};
 
-use crate::adapter::{ModelTimer, NetMsg, ProcessState};
-use crate::property::State;
+use crate::adapter::{ModelTimer, NetMsg, ProcessState, State};
 
 /// The renamings of a model and how to apply them.
 #[derive(Debug)]

@@ -17,7 +17,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::payload::Payload;
-use crate::protocol::{FieldError, Microprotocol, NoConfig, Out};
+use crate::protocol::{FieldError, Microprotocol, NoConfig, Out, Round, Rounds};
 use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
 use crate::wire::Pid;
 
@@ -271,6 +271,12 @@ impl Microprotocol for ChandraToueg {
     type Timer = ();
     type Config = NoConfig;
     const NAME: &'static str = "ConsensusCT";
+    // A process keeps going round until a decision arrives.
+    const ROUNDS: Rounds = Rounds::Numbered;
+
+    fn round(msg: &CtMsg) -> Round {
+        msg.round().map_or(Round::None, Round::At)
+    }
 
     fn shape(_: &NoConfig) -> Shape {
         Shape {

@@ -12,7 +12,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::payload::Payload;
-use crate::protocol::{FieldError, Microprotocol, NoConfig, Out};
+use crate::protocol::{FieldError, Microprotocol, NoConfig, Out, Round, Rounds};
 use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
 use crate::symmetry::Rename;
 use crate::wire::Pid;
@@ -38,6 +38,11 @@ impl Microprotocol for Fifo {
     type Timer = ();
     type Config = NoConfig;
     const NAME: &'static str = "Fifo";
+    const ROUNDS: Rounds = Rounds::Carried;
+
+    fn round(m: &FifoMsg) -> Round {
+        Round::Carries(m.payload.clone())
+    }
 
     fn shape(_: &NoConfig) -> Shape {
         Shape::on_links(Service::FIFO_P2P)

@@ -33,7 +33,9 @@ pub mod symmetry;
 pub mod wire;
 
 pub use payload::{Payload, WireError};
-pub use protocol::{FieldError, Layer, Message, Microprotocol, NoConfig, NoMsg, Out};
+pub use protocol::{
+    FieldError, Layer, Message, Microprotocol, NoConfig, NoMsg, Out, Round, Rounds,
+};
 pub use registry::{ProtocolSpec, Protocols, Spec, SpecError, StackProperty};
 pub use service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, Shape, APP, NET};
 pub use stack::{LayerSpec, Routed, Stack, StackError, Wiring};

@@ -126,6 +126,34 @@ impl FieldError {
     }
 }
 
+/// How a protocol's messages stand to rounds, for a model checker's round bound
+/// ([`Microprotocol::ROUNDS`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rounds {
+    /// Its messages belong to no round.
+    None,
+    /// It runs numbered rounds without end (a rotating coordinator moves on until a decision
+    /// arrives): [`Microprotocol::round`] gives each message's round, and a model checker
+    /// explores a stack holding it only up to a last round (`nekosim check --rounds`), which
+    /// keeps its state space finite.
+    Numbered,
+    /// Its messages are headers around payloads of other layers (links): each belongs to the
+    /// round of the payload it carries, which [`Microprotocol::round`] hands over as
+    /// [`Round::Carries`].
+    Carried,
+}
+
+/// The round one message belongs to ([`Microprotocol::round`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Round {
+    /// None (a decision, an acknowledgement).
+    None,
+    /// Round `r`.
+    At(u64),
+    /// The round of this payload of another layer, which the message carries.
+    Carries(Payload),
+}
+
 /// A microprotocol: one layer of a process's stack.
 ///
 /// Adding one is one file with a type implementing this trait plus one registry line,
@@ -198,6 +226,16 @@ pub trait Microprotocol: Clone + Debug + Eq + Hash + Send + Sync + 'static {
     /// that name no process).
     fn renamed_timer(timer: &Self::Timer, _r: &Rename) -> Option<Self::Timer> {
         Some(timer.clone())
+    }
+
+    /// Rounds: how this protocol's messages stand to rounds ([`Rounds`]), for a model
+    /// checker's round bound; the default, [`Rounds::None`], leaves its messages unbounded.
+    const ROUNDS: Rounds = Rounds::None;
+
+    /// Rounds: the round `msg` belongs to, read only when [`Microprotocol::ROUNDS`] is
+    /// [`Rounds::Numbered`] or [`Rounds::Carried`].
+    fn round(_msg: &Self::Msg) -> Round {
+        Round::None
     }
 }
 
@@ -327,6 +365,8 @@ trait DynProtocol: Debug + Send + Sync {
     fn hash_dyn(&self, state: &mut dyn Hasher);
     fn as_any(&self) -> &dyn Any;
     fn renamed_dyn(&self, r: &Rename) -> Option<Box<dyn DynProtocol>>;
+    fn rounds(&self) -> Rounds;
+    fn round_dyn(&self, msg: &Payload) -> Option<Round>;
 }
 
 impl<P: Microprotocol> DynProtocol for P {
@@ -356,6 +396,14 @@ impl<P: Microprotocol> DynProtocol for P {
 
     fn renamed_dyn(&self, r: &Rename) -> Option<Box<dyn DynProtocol>> {
         Some(Box::new(self.renamed(r)?))
+    }
+
+    fn rounds(&self) -> Rounds {
+        P::ROUNDS
+    }
+
+    fn round_dyn(&self, msg: &Payload) -> Option<Round> {
+        Some(P::round(&msg.decode().ok()?))
     }
 }
 
@@ -394,6 +442,17 @@ impl Layer {
     /// if its protocol is not symmetric.
     pub fn renamed(&self, r: &Rename) -> Option<Self> {
         self.0.renamed_dyn(r).map(Self)
+    }
+
+    /// How its protocol's messages stand to rounds ([`Microprotocol::ROUNDS`]).
+    pub fn rounds(&self) -> Rounds {
+        self.0.rounds()
+    }
+
+    /// The round of `msg`, one of this layer's messages ([`Microprotocol::round`]); `None`
+    /// if it does not decode as one.
+    pub fn round(&self, msg: &Payload) -> Option<Round> {
+        self.0.round_dyn(msg)
     }
 }
 

@@ -10,7 +10,7 @@ use std::fmt;
 use serde::{Deserialize, Serialize};
 
 use crate::payload::Payload;
-use crate::protocol::{FieldError, Microprotocol, Out};
+use crate::protocol::{FieldError, Microprotocol, Out, Round, Rounds};
 use crate::service::{Ctx, Indication, LayerIx, Request, Service, Shape};
 use crate::symmetry::Rename;
 use crate::wire::{Pid, Real};
@@ -72,6 +72,14 @@ impl Microprotocol for Retransmit {
     type Timer = ();
     type Config = RetransmitConfig;
     const NAME: &'static str = "Retransmit";
+    const ROUNDS: Rounds = Rounds::Carried;
+
+    fn round(m: &RtMsg) -> Round {
+        match m {
+            RtMsg::Data { payload, .. } => Round::Carries(payload.clone()),
+            RtMsg::Ack { .. } => Round::None,
+        }
+    }
 
     fn shape(_: &RetransmitConfig) -> Shape {
         Shape::on_links(Service::P2P)

@@ -447,3 +447,499 @@ fn the_shipped_scenario_files_define_the_models_crates_targets() {
         assert_eq!(resolved.options.processes, 3, "{name}");
     }
 }
+
+/// The records of a JSONL trace.
+fn records(trace: &std::path::Path) -> Vec<Value> {
+    std::fs::read_to_string(trace)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+/// The `so "PROPERTY" fails: ...` line ending a counterexample.
+fn reason<'a>(out: &'a str, property: &str) -> &'a str {
+    let head = format!("  so {property:?} fails: ");
+    out.lines()
+        .find_map(|l| l.strip_prefix(&head))
+        .unwrap_or_else(|| panic!("no reason for {property:?} in {out}"))
+}
+
+/// `(robot, seq, msg, content)` of each deliver record.
+fn deliveries(records: &[Value]) -> Vec<(u64, u64, String, String)> {
+    records
+        .iter()
+        .filter(|r| r["kind"] == "deliver")
+        .map(|r| {
+            (
+                r["robot"].as_u64().unwrap(),
+                r["seq"].as_u64().unwrap(),
+                r["msg"].as_str().unwrap().to_string(),
+                r["content"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_counterexample_ends_with_the_reason_read_from_its_last_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("cx.jsonl");
+    let o = nekosim(&[
+        "check",
+        "reliable-broadcast",
+        "--requests",
+        "1",
+        "--network",
+        "lossy",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    // The oracle is the trace of the same path: who delivered what, at which step, and the
+    // first process that never did.
+    let delivered = deliveries(&records(&trace));
+    let [(by, step, id, content)] = &delivered[..] else {
+        panic!("{delivered:?}")
+    };
+    let missing = (0..3).find(|p| p != by).unwrap();
+    assert_eq!(
+        reason(&out, "agreement"),
+        format!("p{missing} never delivered {id} ({content}), which p{by} delivered at step {step}; nothing is left to happen")
+    );
+    // The reason is the counterexample's last line.
+    assert!(
+        out.trim_end()
+            .lines()
+            .last()
+            .unwrap()
+            .starts_with("  so \"agreement\" fails: "),
+        "{out}"
+    );
+}
+
+#[test]
+fn the_first_counterexample_ends_the_search_and_keep_going_settles_the_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("cx.jsonl");
+    // Lamport assumes no crash: with one, the survivors stop delivering. Breadth-first, the
+    // shortest violation is of validity (8 steps), before uniform agreement's (10).
+    let o = nekosim(&["check", "lamport-abcast", "--crashes", "1"]);
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    assert!(out.contains("found: \"validity\" fails, after "), "{out}");
+    assert!(!out.contains("found: \"uniform agreement\""), "{out}");
+    assert!(
+        out.contains("  FAILS  validity (always): counterexample in 8 steps"),
+        "{out}"
+    );
+    assert!(
+        out.contains("  open   uniform agreement (always): not settled (the search stopped at the first counterexample; --keep-going explores on)"),
+        "{out}"
+    );
+    // It is reported when found, before the figures of the search that found it.
+    assert!(
+        out.find("found: \"validity\"").unwrap() < out.find("states: ").unwrap(),
+        "{out}"
+    );
+    assert!(
+        !out.contains("counterexample of \"uniform agreement\""),
+        "{out}"
+    );
+    let stopped_at: usize = figures(&out)
+        .split("unique states: ")
+        .nth(1)
+        .and_then(|s| s.split(',').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap();
+    // The whole space with one crash has 66,744 unique states (stateright's count before
+    // this command stopped early; the exhaustive run below finds it again).
+    assert!(stopped_at < 66_744, "{stopped_at}");
+
+    let o = nekosim(&[
+        "check",
+        "lamport-abcast",
+        "--crashes",
+        "1",
+        "--keep-going",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    assert!(figures(&out).contains("unique states: 66744,"), "{out}");
+    for p in ["uniform agreement", "validity"] {
+        assert!(
+            out.contains(&format!("found: {p:?} fails, after ")),
+            "{p}: {out}"
+        );
+        assert!(
+            out.contains(&format!("  FAILS  {p} (always)")),
+            "{p}: {out}"
+        );
+    }
+    for p in ["total order", "integrity"] {
+        assert!(
+            out.contains(&format!("  holds  {p} (always)\n")),
+            "{p}: {out}"
+        );
+    }
+    // The trace is uniform agreement's path (the first property failing): a process delivers
+    // and crashes; the live ones never deliver.
+    let records = records(&trace);
+    let delivered = deliveries(&records);
+    let [(by, step, id, content)] = &delivered[..] else {
+        panic!("{delivered:?}")
+    };
+    let crashed: Vec<u64> = records
+        .iter()
+        .filter(|r| r["kind"] == "crash")
+        .map(|r| r["robot"].as_u64().unwrap())
+        .collect();
+    assert_eq!(crashed, [*by]);
+    let missing = (0..3).find(|p| p != by).unwrap();
+    assert_eq!(
+        reason(&out, "uniform agreement"),
+        format!("p{missing} never delivered {id} ({content}), which p{by} (crashed) delivered at step {step}; nothing is left to happen")
+    );
+    // Validity's path: p0 broadcasts at step 1 and never delivers its own message.
+    assert_eq!(
+        reason(&out, "validity"),
+        "p0 never delivered its own 0:0, broadcast at step 1; nothing is left to happen"
+    );
+}
+
+/// A flooding broadcast with a seeded bug: it relays each message once but delivers it on
+/// every copy, so a process that hears it from two others delivers it twice.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+struct Flood {
+    count: u64,
+    relayed: std::collections::BTreeSet<nekosim::protocols::MsgId>,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+struct Flooded {
+    id: nekosim::protocols::MsgId,
+    msg: nekosim::protocols::Payload,
+}
+
+impl nekosim::protocols::Microprotocol for Flood {
+    type Msg = Flooded;
+    type Timer = ();
+    type Config = nekosim::protocols::NoConfig;
+    const NAME: &'static str = "Flood";
+
+    fn shape(_: &Self::Config) -> nekosim::protocols::Shape {
+        nekosim::protocols::Shape::on_links(nekosim::protocols::Service::BROADCAST)
+    }
+
+    fn new(_: Self::Config) -> Result<Self, nekosim::protocols::FieldError> {
+        Ok(Self::default())
+    }
+
+    fn on_request(
+        &mut self,
+        ctx: &nekosim::protocols::Ctx,
+        _from: nekosim::protocols::LayerIx,
+        req: nekosim::protocols::Request,
+        out: &mut nekosim::protocols::Out<Self>,
+    ) {
+        use nekosim::protocols::{Indication, MsgId, Request};
+        if let Request::Broadcast { msg } = req {
+            let id = MsgId {
+                origin: ctx.me,
+                n: self.count,
+            };
+            self.count += 1;
+            self.relayed.insert(id);
+            out.send(
+                ctx.others(),
+                Flooded {
+                    id,
+                    msg: msg.clone(),
+                },
+            );
+            out.up(Indication::BDeliver { id, msg });
+        }
+    }
+
+    fn on_message(
+        &mut self,
+        ctx: &nekosim::protocols::Ctx,
+        from: nekosim::protocols::Pid,
+        m: Flooded,
+        out: &mut nekosim::protocols::Out<Self>,
+    ) {
+        if self.relayed.insert(m.id) {
+            let to = ctx.others().into_iter().filter(|&q| q != from).collect();
+            out.send(to, m.clone());
+        }
+        // The seeded bug: no check that it was delivered already.
+        out.up(nekosim::protocols::Indication::BDeliver {
+            id: m.id,
+            msg: m.msg,
+        });
+    }
+}
+
+#[test]
+fn a_users_seeded_bug_is_reported_in_the_terms_of_the_broken_property() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("flood.ron");
+    std::fs::write(
+        &file,
+        r#"Scenario(
+    world: (size: Infinite),
+    network: RandomDelay(lambda: 1.0),
+    stack: [Layer(id: "flood", protocol: Flood, below: "net")],
+    robots: [Group(count: 3, radius: 1.0)],
+)"#,
+    )
+    .unwrap();
+    let trace = dir.path().join("cx.jsonl");
+    let mut registry = nekosim::scenario::Registry::with_builtins();
+    registry.protocol::<Flood>("Flood");
+    let args = nekosim::check::CheckArgs {
+        model: file.to_str().unwrap().to_string(),
+        requests: Some(1),
+        threads: 1,
+        trace: Some(trace.clone()),
+        ..Default::default()
+    };
+    let mut out = Vec::new();
+    let c = nekosim::check::check(&args, &registry, &mut out).unwrap();
+    let out = String::from_utf8(out).unwrap();
+    assert_eq!(c, nekosim::check::Conclusion::Fails, "{out}");
+    assert!(out.contains("found: \"integrity\" fails, after "), "{out}");
+    // The broadcast, a relay, and the two copies reaching the same process.
+    assert!(
+        out.contains("  FAILS  integrity (always): counterexample in 4 steps"),
+        "{out}"
+    );
+    // The oracle: the trace's process with two deliveries of one message.
+    let delivered = deliveries(&records(&trace));
+    let twice: Vec<&(u64, u64, String, String)> = delivered
+        .iter()
+        .filter(|d| {
+            delivered
+                .iter()
+                .filter(|e| (e.0, &e.2) == (d.0, &d.2))
+                .count()
+                == 2
+        })
+        .collect();
+    let (p, _, id, content) = twice.first().unwrap_or_else(|| panic!("{delivered:?}"));
+    assert_eq!(
+        reason(&out, "integrity"),
+        format!("p{p} delivered {id} ({content}) twice")
+    );
+}
+
+#[test]
+fn ctrl_c_reports_what_was_found_writes_the_trace_and_exits_130() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("cx.jsonl");
+    // Three broadcasts and a crash: a counterexample within a second, and a space that takes
+    // far longer than this test waits to explore whole.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .args([
+            "check",
+            "lamport-abcast",
+            "--requests",
+            "3",
+            "--crashes",
+            "1",
+            "--keep-going",
+            "--trace",
+        ])
+        .arg(&trace)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let mut out = String::new();
+    // Reported as soon as it is found, while the search goes on.
+    for line in lines.by_ref() {
+        let line = line.unwrap();
+        out.push_str(&line);
+        out.push('\n');
+        if line.starts_with("found: ") {
+            break;
+        }
+    }
+    assert!(out.contains("found: "), "{out}");
+    let found = out.lines().last().unwrap().to_string();
+    assert!(!trace.exists(), "written before the search ends");
+    // What a terminal's Ctrl-C sends.
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    for line in lines {
+        out.push_str(&line.unwrap());
+        out.push('\n');
+    }
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "{out}");
+    assert!(
+        out.contains("stopped by Ctrl-C before the search was exhaustive: "),
+        "{out}"
+    );
+    // What was found is reported, explained with its reason and written; what was not
+    // settled is open.
+    let property = found
+        .strip_prefix("found: \"")
+        .and_then(|s| s.split('"').next())
+        .unwrap();
+    let verdict = format!("  FAILS  {property} (always): counterexample in ");
+    let steps: u64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix(&verdict))
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{out}"));
+    reason(&out, property);
+    assert!(steps > 0, "{out}");
+    assert!(out.contains("  open   "), "{out}");
+    // The trace is the path of the first property failing, in the report's order.
+    let first: u64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix("  FAILS  "))
+        .and_then(|l| l.rsplit("counterexample in ").next())
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{out}"));
+    let records = records(&trace);
+    assert_eq!(
+        records.last().unwrap()["seq"].as_u64(),
+        Some(first),
+        "{out}"
+    );
+}
+
+#[test]
+fn no_progress_is_drawn_when_stderr_is_not_a_terminal() {
+    let o = nekosim(&["check", "lamport-abcast"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+    assert!(
+        o.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    // What a terminal shows: states, depth, rate, memory against its budget.
+    let line = nekosim::check::progress_text(
+        &nekosim_models::Progress {
+            states: 1000,
+            unique_states: 400,
+            max_depth: 7,
+            memory: Some(3 << 20),
+        },
+        2.0,
+        Some(4 << 30),
+    );
+    assert_eq!(
+        line,
+        "checking: 1000 states, 400 unique, depth 7, 500 states/s, memory 3.0 MiB of 4.0 GiB"
+    );
+}
+
+/// The fenced block of docs/extending.md whose first line is `first`.
+fn docs_block(page: &str, first: &str) -> String {
+    let mut lines = page.lines();
+    while let Some(l) = lines.next() {
+        if l.starts_with("```") && lines.clone().next() == Some(first) {
+            return lines
+                .take_while(|l| !l.starts_with("```"))
+                .map(|l| format!("{l}\n"))
+                .collect();
+        }
+    }
+    panic!("no block starting {first:?} in docs/extending.md")
+}
+
+/// docs/extending.md's user crate, built from the page's own text against this workspace:
+/// offline (no network), with this workspace's target directory so the dependencies already
+/// built are reused.
+#[test]
+fn a_users_crate_builds_from_the_docs_text() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let page = std::fs::read_to_string(format!("{root}/docs/extending.md")).unwrap();
+    let manifest = docs_block(&page, "# Cargo.toml");
+    for line in [
+        "[profile.dev.package.stateright]",
+        "[profile.dev.package.nekosim-protocols]",
+        "[profile.dev.package.nekosim-models]",
+    ] {
+        assert!(manifest.contains(line), "{line}");
+    }
+    let at = r#"nekosim = { path = "../nekosim" }"#;
+    assert!(manifest.contains(at), "{manifest}");
+    let manifest = manifest.replace(at, &format!("nekosim = {{ path = {root:?} }}"));
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("src")).unwrap();
+    std::fs::write(dir.path().join("Cargo.toml"), manifest).unwrap();
+    std::fs::write(
+        dir.path().join("src/main.rs"),
+        docs_block(&page, "// src/main.rs"),
+    )
+    .unwrap();
+    // The workspace's versions, so that what is built is reused and nothing is fetched.
+    std::fs::copy(format!("{root}/Cargo.lock"), dir.path().join("Cargo.lock")).unwrap();
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| format!("{root}/target").into());
+    let o = Command::new(std::env::var_os("CARGO").unwrap_or("cargo".into()))
+        .args(["check", "--offline", "--quiet"])
+        .current_dir(dir.path())
+        .env("CARGO_TARGET_DIR", target)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn the_docs_check_section_is_read_as_it_says() {
+    // docs/model-checking.md's `check` section, in a scenario, sets each parameter.
+    let root = env!("CARGO_MANIFEST_DIR");
+    let page = std::fs::read_to_string(format!("{root}/docs/model-checking.md")).unwrap();
+    let section = page
+        .split("```ron\n")
+        .nth(1)
+        .and_then(|s| s.split("```").next())
+        .unwrap()
+        .trim();
+    assert!(section.starts_with("check: ("), "{section}");
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("s.ron");
+    std::fs::write(
+        &file,
+        format!(
+            "Scenario(\n    world: (size: Infinite),\n    stack: [Layer(id: \"fifo\", protocol: Fifo, below: \"net\"), Layer(id: \"abcast\", protocol: LamportAbcast, below: \"fifo\")],\n    robots: [Group(count: 4, radius: 1.0)],\n    {section}\n)\n"
+        ),
+    )
+    .unwrap();
+    let args = nekosim::check::CheckArgs {
+        model: file.to_str().unwrap().to_string(),
+        threads: 1,
+        ..Default::default()
+    };
+    let r = nekosim::check::resolve(&args, &nekosim::scenario::Registry::with_builtins()).unwrap();
+    assert_eq!(r.target.entry, "abcast");
+    let o = &r.options;
+    assert_eq!(
+        (
+            o.processes,
+            o.requests,
+            o.crashes,
+            o.network,
+            o.timer_budget,
+            o.max_round
+        ),
+        (3, 1, 0, nekosim_models::NetworkKind::Unordered, 0, 1)
+    );
+}

@@ -3,7 +3,7 @@
 //! a layer written here with a seeded bug. The oracle is the counterexample's own last state,
 //! read independently of the property that found it.
 
-use nekosim_models::property::State;
+use nekosim_models::State;
 use nekosim_models::{build_in, run, Exploration, Family, NetworkKind, Options, Outcome, Target};
 use nekosim_protocols::{
     AppMsg, Content, Ctx, FieldError, Indication, LayerIx, LayerSpec, Microprotocol, NoConfig, Out,

@@ -6,7 +6,7 @@
 use std::collections::{BTreeSet, HashSet};
 use std::hash::{DefaultHasher, Hash, Hasher};
 
-use nekosim_models::property::State;
+use nekosim_models::State;
 use nekosim_models::{build, find, run, Exploration, ModelError, NetworkKind, Options};
 use stateright::{Checker, Model, StateRecorder};
 
