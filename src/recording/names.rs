@@ -1,4 +1,4 @@
-//! Robot names drawn in world units (issue 18): Rerun 0.36 draws a label at a fixed screen
+//! Robot names drawn in world units: Rerun 0.36 draws a label at a fixed screen
 //! size, so with the whole world in view a label is several times larger than its robot and
 //! ten labels cover the robots. A name drawn as line strips in world units is smaller than
 //! its robot at every zoom: a faint mark beside each disc with the whole world in view,

@@ -13,7 +13,7 @@
 //! seeded per process. docs/visualization.md says so.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::mpsc::{sync_channel, SyncSender};
 use std::thread::JoinHandle;
 
@@ -150,4 +150,31 @@ impl Drop for RrdFile {
     fn drop(&mut self) {
         let _ = self.finish();
     }
+}
+
+/// Where the .rrd file for `target` is written until it is complete: a hidden name beside it,
+/// so a reader never sees half a recording under the target's name and a rename publishes it.
+pub fn temp_path(target: &Path) -> std::io::Result<PathBuf> {
+    let dir = target
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if target.is_dir() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "is a directory; expected a file name such as run.rrd",
+        ));
+    }
+    let name = target.file_name().ok_or_else(|| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "output path has no file name",
+        )
+    })?;
+    std::fs::create_dir_all(dir)?;
+    Ok(dir.join(format!(
+        ".{}.partial-{}",
+        name.to_string_lossy(),
+        std::process::id()
+    )))
 }

@@ -184,9 +184,52 @@ fn obstacles_are_drawn_where_robots_touch_them() {
 
 /// The number of robot-name strokes verify_rrd.py checked, from its summary line.
 fn name_strokes(summary: &str) -> usize {
-    let end = summary.find(" name strokes").expect("a name-stroke count");
+    count_of(summary, " name strokes")
+}
+
+/// The count verify_rrd.py's summary line gives right before `what`.
+fn count_of(summary: &str, what: &str) -> usize {
+    let end = summary
+        .find(what)
+        .unwrap_or_else(|| panic!("a count of{what}: {summary}"));
     let start = summary[..end].rfind(' ').map_or(0, |i| i + 1);
     summary[start..end].parse().expect("a count")
+}
+
+/// Copies the network drops never count as in flight, and a copy nobody receives (its
+/// receiver crashed) leaves at its arrival: verify_rrd.py counts the copies in flight from
+/// the trace's sends, receives and losses at every sample and compares the figure, each
+/// layer's arrows and the lost marks, over a lossy network, a partition and a crash.
+#[test]
+fn messages_in_flight_match_the_trace_over_losses_partitions_and_crashes() {
+    let py = python();
+    let dir = tempfile::tempdir().unwrap();
+    for (scenario, extra) in [
+        ("examples/scenarios/lossy_abcast.ron", &[][..]),
+        (
+            "examples/scenarios/partition_consensus.ron",
+            &["--until", "60"][..],
+        ),
+        (
+            "examples/scenarios/meeting_point.ron",
+            &["--until", "40"][..],
+        ),
+    ] {
+        let (rrd, trace) = record(scenario, extra, dir.path());
+        let out = verify_rrd(&py, &rrd, &trace, 25);
+        assert!(out.contains("verify_rrd: ok"), "{scenario}: {out}");
+        assert!(
+            count_of(&out, " in-flight samples") > 500,
+            "{scenario}: {out}"
+        );
+        // The lossy links and the cut drop copies; the crash drops none.
+        assert_eq!(
+            count_of(&out, " lost copies") > 0,
+            !scenario.contains("meeting_point"),
+            "{scenario}: {out}"
+        );
+        eprintln!("{scenario}: {}", out.trim());
+    }
 }
 
 #[test]

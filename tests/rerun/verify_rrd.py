@@ -26,7 +26,14 @@ Independently of nekosim's code, it checks that:
   `events_per_second` sample the trace's records in the simulated second before it;
 - robot markers have a static `show_labels: false`; with 20 robots or fewer, each robot's
   name is drawn in world units beside it, smaller than it, on every row of its group;
-- every `send` record has a message-arrow row at its event with at least one arrow per receiver;
+- every `send` record has a message-arrow row at its event with at least one arrow per copy
+  on its way, and a row of lost marks with a stub and a cross per copy the network lost
+  (`arrive` null);
+- counted from the trace's sends, receives and losses alone: at every `messages_in_flight`
+  sample the figure is the number of copies in flight (sent, not lost, and neither received
+  nor past their arrival time), each layer draws that many arrows, and the lost marks are the
+  copies lost in the last 2 s, each a stub from the sender towards the receiver ending in a
+  cross;
 - the text log has one line per trace record (but an arrival right after the step that
   finished its motion, which the seed's log has no line for), at level WARN for collisions and suspicions,
   ERROR for crashes and INFO otherwise;
@@ -58,7 +65,7 @@ import rerun.experimental as rrx
 
 TOLERANCE = 1e-6
 GROUP = 16
-# Runs with more robots than this have no marker labels (src/recording/rerun_canvas.rs).
+# Runs with more robots than this have no marker labels (src/recording/rerun_canvas/layout.rs).
 LABELLED_ROBOTS = 20
 # A robot's name (src/recording/names.rs) ends at most this many radii right of its centre:
 # 1.25 + 0.75 per character after the first + 0.5 for the last, for names up to p99.
@@ -67,6 +74,8 @@ NAME_REACH = 1.25 + 2 * 0.75 + 0.5
 WORLD_MARGIN = 0.03
 # Collision markers stay this long [s].
 COLLISION_SECONDS = 3
+# A lost copy stays drawn this long after its send [s] (src/recording/flights.rs).
+LOST_SECONDS = 2.0
 # Blueprint panel states (rerun.blueprint.components.PanelState).
 COLLAPSED = 2
 # Text log column kinds (TextLogColumnKind).
@@ -189,32 +198,185 @@ def rrd_verify(rrd: Path) -> None:
         fail(f"rerun rrd verify: {verify.stdout}{verify.stderr}")
 
 
+def message_copies(trace: list[dict]) -> list[dict]:
+    """Every copy a `send` record hands to the network, in send order: its layer, sender,
+    receiver, send time, arrival time (`arrive`, aligned with `to`: null when the network lost
+    it; the whole list absent where unknown, a model checker's path) and the time of the
+    `receive` that took it, if any. A receive takes the copy with its sender, receiver, layer
+    and message that arrives at the receive's instant (copies of one message may overtake each
+    other), or where no arrival is known the oldest such copy; a receive that takes no copy
+    fails the check. Each copy gets `end`, the instant it stops being in flight: its receive,
+    or else its arrival (a copy reaching a crashed robot is received by no one), or never."""
+    copies: list[dict] = []
+    receives: list[dict] = []
+    waiting: dict[tuple, list[dict]] = defaultdict(list)
+    for r in trace:
+        if r["kind"] == "send":
+            arrive = r.get("arrive")
+            for k, to in enumerate(r["to"]):
+                c = {
+                    "seq": r["seq"], "layer": r["layer"], "from": r["robot"], "to": to, "sent": r["t"],
+                    "known": arrive is not None, "arrive": None if arrive is None else arrive[k],
+                    "received": None,
+                }
+                c["lost"] = c["known"] and c["arrive"] is None
+                copies.append(c)
+                if not c["lost"]:
+                    waiting[(r["robot"], to, r["layer"], r.get("msg"))].append(c)
+        elif r["kind"] == "receive":
+            queue = waiting.get((r["from"], r["robot"], r["layer"], r.get("msg"))) or []
+            match = next((c for c in queue if c["known"] and c["arrive"] == r["t"]), None)
+            match = match or next((c for c in queue if not c["known"]), None)
+            if match is None:
+                fail(f"receive #{r['seq']} at {r['t']}: no copy of its message from p{r['from']} arrives then")
+            queue.remove(match)
+            match["received"] = r["t"]
+            match["receive"] = (len(receives), r)
+            receives.append(r)
+    for c in copies:
+        c["end"] = (
+            None if c["lost"]
+            else c["received"] if c["received"] is not None
+            else c["arrive"] if c["known"]
+            else math.inf
+        )
+    return copies
+
+
 def check_sends(rows: "Rows", trace: list[dict]) -> list[dict]:
-    """Every `send` record has a message-arrow row at its event, one arrow per receiver."""
+    """Every `send` record with a copy on its way has a message-arrow row at its event with at
+    least one arrow per such copy; every `send` whose copies the network lost (`arrive` null)
+    has a row of lost marks at its event with a stub and a cross per lost copy."""
     sends = [r for r in trace if r["kind"] == "send"]
+    at_event: dict[str, dict] = {}
+
+    def row_at(entity: str, seq: int) -> dict:
+        if entity not in at_event:
+            at_event[entity] = {ev: cols for _, ev, _, cols in rows.by_entity.get(entity, []) if ev is not None}
+        return at_event[entity].get(seq) or {}
+
     for s in sends:
+        arrive = s.get("arrive")
+        lost = 0 if arrive is None else sum(1 for a in arrive if a is None)
+        flying = len(s["to"]) - lost
         entity = f"/world/messages/{s['layer']}"
-        at_event = [cols for _, ev, _, cols in rows.by_entity.get(entity, []) if ev == s["seq"]]
-        if not at_event or len(at_event[-1].get("Arrows2D:vectors", [])) < len(s["to"]):
-            fail(f"send #{s['seq']} on {s['layer']}: no arrow per receiver in {entity}")
+        if flying and len(row_at(entity, s["seq"]).get("Arrows2D:vectors", [])) < flying:
+            fail(f"send #{s['seq']} on {s['layer']}: no arrow per copy on its way in {entity}")
+        entity = f"/world/lost/{s['layer']}"
+        if lost and len(row_at(entity, s["seq"]).get("LineStrips2D:strips", [])) < 3 * lost:
+            fail(f"send #{s['seq']} on {s['layer']}: no stub and cross per lost copy in {entity}")
     return sends
 
 
 def received_copies(trace: list[dict], with_arrival: bool = False):
-    """Each `receive` record with the time of the `send` it answers (sender, receiver, layer
-    and message equal, the earliest unmatched copy); with `with_arrival`, only copies whose
-    send gave an arrival time."""
-    pending: dict[tuple, list[float]] = defaultdict(list)
-    for r in trace:
-        if r["kind"] == "send" and (not with_arrival or "arrive" in r):
-            arrive = r.get("arrive") or [None] * len(r["to"])
-            for to, at in zip(r["to"], arrive):
-                if not with_arrival or at is not None:
-                    pending[(r["robot"], to, r["layer"], r.get("msg"))].append(r["t"])
-        elif r["kind"] == "receive":
-            sends = pending.get((r["from"], r["robot"], r["layer"], r.get("msg")))
-            if sends:
-                yield r, sends.pop(0)
+    """Each `receive` record with the time of the `send` it answers ([`message_copies`]); with
+    `with_arrival`, only copies whose send gave an arrival time."""
+    taken = [c for c in message_copies(trace) if c["received"] is not None and (c["known"] or not with_arrival)]
+    for c in sorted(taken, key=lambda c: c["receive"][0]):
+        yield c["receive"][1], c["sent"]
+
+
+def sweep_latest(rows: "Rows", entity: str, component: str, times_ns: list[int]) -> list:
+    """The component's latest-at value on sim_time at each of the sorted `times_ns` (None
+    before its first row), in one pass over the entity's rows."""
+    rs = sorted(
+        (sim, row_id, cols[component])
+        for sim, _, row_id, cols in rows.by_entity.get(entity, [])
+        if sim is not None and component in cols
+    )
+    out, i, current = [], 0, None
+    for t in times_ns:
+        while i < len(rs) and rs[i][0] <= t:
+            current = rs[i][2]
+            i += 1
+        out.append(current)
+    return out
+
+
+def check_in_flight(rows: "Rows", trace: list[dict], paths) -> tuple[int, int]:
+    """Counted from the trace alone ([`message_copies`]): at every `messages_in_flight`
+    sample, the figure is the number of copies in flight then (sent at or before, ending
+    after), lost copies never among them; on each layer the arrows drawn are those copies; and
+    the lost marks are the copies lost in the last LOST_SECONDS, each a stub from the sender
+    towards the receiver (both where they were at the send) ending in a cross. Samples within
+    a microsecond of a send, receive, arrival or expiry are skipped: the file keeps times to
+    the nanosecond. Returns (samples checked, lost copies)."""
+    copies = message_copies(trace)
+    layers = sorted({c["layer"] for c in copies})
+
+    def span_counter(spans):
+        starts = sorted(a for a, _ in spans)
+        ends = sorted(b for _, b in spans)
+        return lambda t: bisect.bisect_right(starts, t) - bisect.bisect_right(ends, t)
+
+    flying = [(c["sent"], c["end"]) for c in copies if not c["lost"]]
+    lost = [(c["sent"], c["sent"] + LOST_SECONDS) for c in copies if c["lost"]]
+    count = span_counter(flying)
+    per_layer = {
+        l: (
+            span_counter([(c["sent"], c["end"]) for c in copies if c["layer"] == l and not c["lost"]]),
+            span_counter([(c["sent"], c["sent"] + LOST_SECONDS) for c in copies if c["layer"] == l and c["lost"]]),
+        )
+        for l in layers
+    }
+    boundaries = sorted({t for span in flying + lost for t in span if t != math.inf})
+
+    def near_boundary(t: float) -> bool:
+        i = bisect.bisect_left(boundaries, t - 1e-6)
+        return i < len(boundaries) and boundaries[i] <= t + 1e-6
+
+    samples = [
+        (sim, cols["Scalars:scalars"])
+        for sim, _, _, cols in rows.by_entity.get("/metrics/messages_in_flight", [])
+        if sim is not None and "Scalars:scalars" in cols
+    ]
+    if copies and not samples:
+        fail("the trace has sends but no messages_in_flight sample")
+    samples = [(sim, v) for sim, v in sorted(samples) if not near_boundary(sim / 1e9)]
+    times = [sim for sim, _ in samples]
+    arrows = {l: sweep_latest(rows, f"/world/messages/{l}", "Arrows2D:vectors", times) for l in layers}
+    marks = {l: sweep_latest(rows, f"/world/lost/{l}", "LineStrips2D:strips", times) for l in layers}
+    for k, (sim, value) in enumerate(samples):
+        t = sim / 1e9
+        if value != [float(count(t))]:
+            fail(f"messages_in_flight at {t}: {value}, the trace has {count(t)} copies in flight")
+        for l in layers:
+            in_flight, recently_lost = per_layer[l]
+            drawn = len(arrows[l][k] or [])
+            if drawn != in_flight(t):
+                fail(f"/world/messages/{l} at {t}: {drawn} arrows, the trace has {in_flight(t)} copies in flight")
+            strips = len(marks[l][k] or [])
+            if strips != 3 * recently_lost(t):
+                fail(f"/world/lost/{l} at {t}: {strips} strokes, the trace has {recently_lost(t)} copies lost in the last {LOST_SECONDS} s")
+
+    # Each lost copy's mark at its send: a stub from the sender's position towards the
+    # receiver's, shorter than the way, and a cross of two strokes centred on its end.
+    for c in (c for c in copies if c["lost"]):
+        strips = [
+            cols.get("LineStrips2D:strips") or []
+            for _, ev, _, cols in rows.by_entity.get(f"/world/lost/{c['layer']}", [])
+            if ev == c["seq"]
+        ]
+        strips = strips[-1] if strips else []
+        start, target = pos_at(paths[c["from"]], c["sent"]), pos_at(paths[c["to"]], c["sent"])
+        way = math.dist(start, target)
+        tol = 2**-18 * max(1.0, *map(abs, start), *map(abs, target))
+
+        def marks_copy(k: int) -> bool:
+            stub, d1, d2 = strips[k : k + 3]
+            (sx, sy), (ex, ey) = stub
+            if math.dist((sx, sy), start) > tol or math.dist((ex, ey), (sx, sy)) > way + tol:
+                return False
+            if way > tol:
+                ux, uy = (target[0] - start[0]) / way, (target[1] - start[1]) / way
+                if abs((ex - sx) * uy - (ey - sy) * ux) > tol or (ex - sx) * ux + (ey - sy) * uy < 0:
+                    return False
+            centres = [((a[0] + b[0]) / 2, (a[1] + b[1]) / 2) for a, b in (d1, d2)]
+            return all(math.dist(m, (ex, ey)) <= tol for m in centres)
+
+        if not any(marks_copy(k) for k in range(0, len(strips) - 2, 3)):
+            fail(f"send #{c['seq']}: no stub from p{c['from']} at {start} towards p{c['to']} at {target} ending in a cross in /world/lost/{c['layer']}")
+    return len(samples), len(lost)
 
 
 def check_spacetime(rows: "Rows", trace: list[dict]) -> int:
@@ -607,6 +769,7 @@ def main() -> None:
             fail(f"collision #{c['seq']}: marker centred at {got}, contact point {want}")
 
     sends = check_sends(rows, trace)
+    flight_samples, lost_copies = check_in_flight(rows, trace, paths)
     spacetime = check_spacetime(rows, trace)
     ends = check_message_ends(rows, trace, paths)
     check_crashes_grey(rows, trace)
@@ -779,7 +942,8 @@ def main() -> None:
         f"verify_rrd: ok: {rrd.name}: {rows_checked} exact poses at their records, "
         f"{drawn_checked} drawn positions, "
         f"{checked} latest-at positions at {len(instants)} instants, "
-        f"{moves} legs, {trail_points} trail points, {markers} collision markers, {spacetime} space-time arrows, {ends} arrows ending at the receive, {len(sends)} sends with arrows, {switches} sensor switches, "
+        f"{moves} legs, {trail_points} trail points, {markers} collision markers, {spacetime} space-time arrows, {ends} arrows ending at the receive, {len(sends)} sends with arrows, "
+        f"{flight_samples} in-flight samples, {lost_copies} lost copies, {switches} sensor switches, "
         f"{frames_checked} sensor frames, {queries} queries, "
         f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views, "
         f"{name_strokes} name strokes, {len(outlines)} obstacles with {obstacle_hits} contacts on them, "
