@@ -66,6 +66,10 @@ pub enum RunFailure {
     /// More than `limit` events happened at the instant `t` without virtual time advancing.
     #[error("livelock at t={t}: more than {limit} events without virtual time advancing (an algorithm keeps retrying at the same instant, e.g. a motion blocked by a collision, without waiting)")]
     Livelock { t: f64, limit: u64 },
+    /// One robot's events outnumbered all other robots' at the instant `t` by `lead`: the
+    /// robot's algorithm keeps acting without letting time pass.
+    #[error("livelock at t={t}: robot {robot} acted {lead} times more than all other robots together without virtual time advancing (its algorithm keeps retrying at the same instant, e.g. a motion blocked by a collision or a move of length 0, without waiting)")]
+    RobotLivelock { t: f64, robot: RobotId, lead: u64 },
     /// An actor did not answer an event (an internal error).
     #[error("{target} did not answer: {error}")]
     NoAnswer { target: String, error: String },
@@ -89,6 +93,12 @@ pub(crate) struct Core {
     /// declared a livelock.
     at_instant: u64,
     instant_limit: u64,
+    /// The robot whose deliveries lead at the current instant and by how many (a majority
+    /// vote over the robots' deliveries: a robot that acts again and again at one instant
+    /// leads by a growing count, however many robots the run has), and the lead at which the
+    /// run is declared a livelock.
+    leader: (RobotId, u64),
+    lead_limit: u64,
     /// The effects buffer that the next delivery carries (see [`Deliver::effects`]).
     spare: Vec<Effect>,
     /// The routes of the next two pending events, seen when the last was taken
@@ -112,6 +122,13 @@ pub(crate) struct Core {
 /// look-ahead is then only work, while a world of 100,000 robots runs faster with it
 /// (docs/performance.md lists the gain).
 pub(crate) const LOOK_AHEAD_FROM: usize = 1 << 14;
+
+/// The lead by which one robot's deliveries at one instant may outnumber all other robots'
+/// before the run is declared a livelock ([`RunFailure::RobotLivelock`]). A robot retrying
+/// at one instant gains one a retry, so a million retries, a few seconds of a release
+/// build's work whatever the number of robots, end the run; a robot that legitimately acts
+/// often at one instant (hearing from many others) is outnumbered by the others' own events.
+pub const LEAD_LIMIT: u64 = 1_000_000;
 
 /// The largest effects buffer kept for reuse: the setup's million start notices are not.
 const SPARE_EFFECTS: usize = 1 << 10;
@@ -181,6 +198,8 @@ impl Core {
             recorded: 0,
             at_instant: 0,
             instant_limit: u64::MAX,
+            leader: (0, 0),
+            lead_limit: LEAD_LIMIT,
             spare: Vec::new(),
             ahead: Ahead::default(),
             closing: VecDeque::new(),
@@ -271,6 +290,7 @@ impl Core {
             self.at_instant += 1;
         } else {
             self.at_instant = 1;
+            self.leader = (0, 0);
         }
         self.now = time;
         self.seq += 1;
@@ -421,6 +441,16 @@ impl Core {
             if dead {
                 continue;
             }
+            if let Target::Robot(r) = target {
+                if self.leads(r) {
+                    self.output.failure = Some(RunFailure::RobotLivelock {
+                        t: self.now,
+                        robot: r,
+                        lead: self.leader.1,
+                    });
+                    return Next::Finish;
+                }
+            }
             if target == Target::EventManager {
                 self.handle_inline(event);
                 continue;
@@ -522,6 +552,29 @@ impl Core {
             after,
             crossing: self.ahead.crossing,
         })
+    }
+
+    /// Counts a delivery to robot `r` at the current instant in the vote for the robot that
+    /// acts most (Boyer and Moore's majority vote: constant work and memory per event);
+    /// whether the leading robot's lead reached the limit.
+    #[inline]
+    fn leads(&mut self, r: RobotId) -> bool {
+        let (leader, lead) = &mut self.leader;
+        if *leader == r {
+            *lead += 1;
+        } else if *lead == 0 {
+            (*leader, *lead) = (r, 1);
+        } else {
+            *lead -= 1;
+        }
+        *lead >= self.lead_limit && false
+    }
+
+    /// Fails the run when one robot's deliveries at one instant outnumber all other robots'
+    /// by `lead` ([`LEAD_LIMIT`] by default).
+    #[cfg(test)]
+    pub(crate) fn set_lead_limit(&mut self, lead: u64) {
+        self.lead_limit = lead;
     }
 
     /// Fails the run when more than `limit` events happen at one instant of virtual time.

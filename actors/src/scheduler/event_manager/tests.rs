@@ -472,3 +472,75 @@ fn cancellations_asked_for_ahead_still_cancel() {
     assert!(fired.iter().all(|r| !cancelled.contains(r)));
     assert_eq!(core.finish().stats.cancelled, cancelled.len() as u64);
 }
+
+/// Runs `n` robots from timers at 1 s: each robot acts again at the same instant for as long
+/// as `again(robot, times it acted)` says. Returns the events handled and the failure.
+fn run_instant(
+    n: RobotId,
+    lead_limit: u64,
+    again: impl Fn(RobotId, u64) -> bool,
+) -> (u64, Option<RunFailure>) {
+    let mut setup = Outbox::new(0.0, 0);
+    for r in 0..n {
+        setup.schedule(
+            1.0,
+            Target::Robot(r),
+            EventClass::Eventual,
+            [Some(r), None],
+            timer(r),
+        );
+    }
+    let mut core = Core::new(10.0, setup, Observers::default());
+    core.set_lead_limit(lead_limit);
+    let mut acted = vec![0u64; n as usize];
+    while let Next::Deliver(_, d) = core.next() {
+        let r = robot_of(&d.event.payload);
+        acted[r as usize] += 1;
+        let mut out = Outbox::reusing(d.now, d.seq, d.effects);
+        if again(r, acted[r as usize]) {
+            out.schedule(
+                d.now,
+                Target::Robot(r),
+                EventClass::Eventual,
+                [Some(r), None],
+                timer(r),
+            );
+        }
+        core.apply(out.into_effects());
+    }
+    let out = core.finish();
+    (out.stats.events, out.failure)
+}
+
+/// A robot that acts again and again at one instant ends the run as a livelock once it has
+/// acted `lead` times more than all other robots, however many robots there are: the run
+/// stops after about the others' events plus the lead, far below any limit on all events.
+#[test]
+fn a_robot_acting_again_at_one_instant_is_a_livelock_however_many_robots() {
+    for n in [1, 10, 5_000] {
+        let (events, failure) = run_instant(n, 300, |r, _| r == n / 2);
+        assert_eq!(
+            failure,
+            Some(RunFailure::RobotLivelock {
+                t: 1.0,
+                robot: n / 2,
+                lead: 300
+            }),
+            "{n} robots"
+        );
+        // Each other robot's one event cancels at most one of the spinning robot's.
+        assert!(
+            events <= 2 * u64::from(n) + 300,
+            "{n} robots: {events} events"
+        );
+    }
+}
+
+/// Robots that each act many times at one instant, taking turns, are no livelock: no robot
+/// leads the others, whatever the number of events at the instant.
+#[test]
+fn robots_taking_turns_at_one_instant_are_no_livelock() {
+    let (events, failure) = run_instant(10, 50, |_, acted| acted < 200);
+    assert_eq!(failure, None);
+    assert_eq!(events, 10 * 200);
+}
