@@ -34,11 +34,11 @@ pub mod stack;
 pub mod symmetry;
 pub mod wire;
 
+pub use compose::{LayerSpec, StackError};
 pub use payload::{Payload, WireError};
 pub use protocol::{FieldError, Layer, Message, Microprotocol, NoConfig, NoMsg, Out};
 pub use registry::{ProtocolSpec, Protocols, Spec, SpecError, StackProperty};
 pub use service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, Shape, APP, NET};
-pub use compose::{LayerSpec, StackError};
 pub use stack::{Routed, Stack, Wiring};
 pub use symmetry::Rename;
 pub use wire::{app_decode, app_payload, AppMsg, Content, MsgId, Pid, Real};
