@@ -83,3 +83,103 @@ pub fn indication(robot: RobotId, layer: String, ind: &Indication) -> Option<Obs
         Indication::Deliver { .. } | Indication::Custom(_) => return None,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nekosim_protocols::{app_payload, MsgId};
+
+    #[test]
+    fn a_request_is_named_by_its_kind_and_carries_its_message() {
+        let m = app_payload(&"m");
+        let cases = [
+            (Request::Broadcast { msg: m.clone() }, "broadcast"),
+            (
+                Request::Propose {
+                    k: 3,
+                    value: m.clone(),
+                },
+                "propose",
+            ),
+            (
+                Request::Send {
+                    to: vec![1],
+                    msg: m.clone(),
+                },
+                "send",
+            ),
+            (Request::Custom(m.clone()), "request"),
+        ];
+        for (req, word) in cases {
+            assert_eq!(
+                request(4, "l".into(), &req),
+                Observation::Request {
+                    robot: 4,
+                    layer: "l".into(),
+                    op: word.into(),
+                    msg: m.clone(),
+                }
+            );
+        }
+    }
+
+    #[test]
+    fn deliveries_decisions_and_detector_news_are_recorded_and_nothing_else() {
+        let m = app_payload(&"m");
+        let id = MsgId { origin: 2, n: 7 };
+        let at = |ind: &Indication| indication(1, "x".into(), ind);
+        assert_eq!(
+            at(&Indication::BDeliver { id, msg: m.clone() }),
+            Some(Observation::Deliver {
+                robot: 1,
+                layer: "x".into(),
+                id,
+                msg: m.clone(),
+            })
+        );
+        assert_eq!(
+            at(&Indication::Decide {
+                k: 5,
+                value: m.clone()
+            }),
+            Some(Observation::Decide {
+                robot: 1,
+                layer: "x".into(),
+                k: 5,
+                value: m.clone(),
+            })
+        );
+        assert_eq!(
+            at(&Indication::Suspect(0)),
+            Some(Observation::Suspect {
+                robot: 1,
+                layer: "x".into(),
+                process: 0,
+            })
+        );
+        assert_eq!(
+            at(&Indication::Trust(0)),
+            Some(Observation::Trust {
+                robot: 1,
+                layer: "x".into(),
+                process: 0,
+            })
+        );
+        assert_eq!(
+            at(&Indication::Leader(2)),
+            Some(Observation::Leader {
+                robot: 1,
+                layer: "x".into(),
+                process: 2,
+            })
+        );
+        assert_eq!(
+            at(&Indication::Deliver {
+                from: 0,
+                msg: m.clone()
+            }),
+            None
+        );
+        assert_eq!(at(&Indication::Custom(m)), None);
+    }
+}
