@@ -8,11 +8,12 @@ use std::sync::Arc;
 
 use nekosim_protocols::stack::{step_layer, Routed, Wiring};
 use nekosim_protocols::Layer;
-use nekosim_protocols::{Ctx, Indication, Input, LayerIx, Payload as MsgPayload, APP, NET};
+use nekosim_protocols::{Ctx, Indication, Input, LayerIx, Payload as MsgPayload, NET};
 
 use crate::handler::HandleEvent;
+use crate::protocol_record;
+pub use crate::protocol_record::layer_name;
 use crate::world::event::{Event, EventClass, Notice, Payload, Target};
-use crate::world::observation::Observation;
 use crate::world::outbox::Outbox;
 use crate::world::RobotId;
 
@@ -39,19 +40,6 @@ impl LayerActor {
             ctx: Ctx { me: robot, n },
             timers: BTreeMap::new(),
         }
-    }
-}
-
-/// Name of a layer for traces: its id, `"net"` or `"app"`.
-pub fn layer_name(wiring: &Wiring, ix: LayerIx) -> String {
-    match ix {
-        NET => "net".into(),
-        APP => "app".into(),
-        i => wiring
-            .ids
-            .get(i as usize)
-            .cloned()
-            .unwrap_or_else(|| format!("layer{i}")),
     }
 }
 
@@ -97,35 +85,8 @@ pub fn route_effects(
             }
             Routed::App { layer, ind } => {
                 let name = layer_name(wiring, layer);
-                match &ind {
-                    Indication::BDeliver { id, msg } => out.record(Observation::Deliver {
-                        robot,
-                        layer: name,
-                        id: *id,
-                        msg: msg.clone(),
-                    }),
-                    Indication::Decide { k, value } => out.record(Observation::Decide {
-                        robot,
-                        layer: name,
-                        k: *k,
-                        value: value.clone(),
-                    }),
-                    Indication::Suspect(p) => out.record(Observation::Suspect {
-                        robot,
-                        layer: name,
-                        process: *p,
-                    }),
-                    Indication::Trust(p) => out.record(Observation::Trust {
-                        robot,
-                        layer: name,
-                        process: *p,
-                    }),
-                    Indication::Leader(p) => out.record(Observation::Leader {
-                        robot,
-                        layer: name,
-                        process: *p,
-                    }),
-                    Indication::Deliver { .. } | Indication::Custom(_) => {}
+                if let Some(obs) = protocol_record::indication(robot, name, &ind) {
+                    out.record(obs);
                 }
                 out.notify(robot, Notice::Incoming { layer, ind });
             }
@@ -165,12 +126,8 @@ impl HandleEvent for LayerActor {
                     ind: Indication::Deliver { from, msg },
                 } = &*input
                 {
-                    out.record(Observation::Receive {
-                        robot: self.robot,
-                        from: *from,
-                        layer: layer_name(&self.wiring, self.ix),
-                        msg: msg.clone(),
-                    });
+                    let name = layer_name(&self.wiring, self.ix);
+                    out.record(protocol_record::receive(self.robot, name, *from, msg));
                 }
                 Some(*input)
             }

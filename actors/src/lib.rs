@@ -8,6 +8,8 @@
 //! - [`scheduler`]: the virtual-time scheduler actor and its ordering contract; [`kernel`]: the
 //!   same handling code driven without actors (the reference the engine bench compares with).
 //! - [`motion_manager`], [`sensor_manager`], [`robot`], [`sensor`]: the other actors.
+//! - [`layer`]: protocol layers hosted as actors; [`protocol_record`]: what a hosted stack
+//!   records, shared by every host of a stack.
 //! - [`algorithm`]: built-in robot algorithms; [`behaviour`]: composable behaviours (seed 7.2);
 //!   [`config`]: what an algorithm's configuration is; [`registry`]: algorithms by name, and
 //!   [`builtins`]: the built-in ones registered there; [`simulation`]: building and running a run.
@@ -22,6 +24,7 @@ pub mod kernel;
 pub mod layer;
 pub mod motion_manager;
 pub mod network;
+pub mod protocol_record;
 pub mod registry;
 pub mod robot;
 pub mod scheduler;

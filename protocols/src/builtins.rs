@@ -16,3 +16,26 @@ pub fn register(r: &mut Protocols) {
         .protocol::<crate::consensus::ChandraToueg>("ChandraToueg")
         .protocol::<crate::consensus_abcast::ConsensusAbcast>("ConsensusAbcast");
 }
+
+// The registry itself knows no protocol; these constructors live here so that the registry
+// does not depend on the protocols it registers.
+impl Protocols {
+    /// The built-in protocols (the same as [`Protocols::with_builtins`]).
+    pub fn new() -> Self {
+        Self::with_builtins()
+    }
+
+    /// Every built-in protocol of [`crate::builtins`], under its name.
+    pub fn with_builtins() -> Self {
+        let mut r = Self::empty();
+        register(&mut r);
+        r
+    }
+}
+
+impl Default for Protocols {
+    /// [`Protocols::with_builtins`].
+    fn default() -> Self {
+        Self::with_builtins()
+    }
+}

@@ -11,10 +11,12 @@
 //!   built-in protocols, registered exactly as a user's are.
 //! - Protocols: [`fifo`], [`retransmit`], [`rbroadcast`], [`lamport`], [`sequencer`],
 //!   [`heartbeat`], [`omega`], [`consensus`] (Chandra-Toueg), [`consensus_abcast`].
-//! - [`stack`]: composition by name, wiring checks and effect routing.
+//! - [`stack`]: a process's stack of instances, its wiring and the routing of their effects;
+//!   [`compose`]: a scenario's stack by name, checked into a wiring and a fresh stack.
 //! - [`symmetry`]: renaming process ids, for a model checker's symmetry reduction.
 
 pub mod builtins;
+pub mod compose;
 pub mod consensus;
 pub mod consensus_abcast;
 pub mod fifo;
@@ -32,12 +34,13 @@ pub mod stack;
 pub mod symmetry;
 pub mod wire;
 
+pub use compose::{LayerSpec, StackError};
 pub use payload::{Payload, WireError};
 pub use protocol::{
     FieldError, Layer, Message, Microprotocol, NoConfig, NoMsg, Out, Round, Rounds,
 };
 pub use registry::{ProtocolSpec, Protocols, Spec, SpecError, StackProperty};
 pub use service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, Shape, APP, NET};
-pub use stack::{LayerSpec, Routed, Stack, StackError, Wiring};
+pub use stack::{Routed, Stack, Wiring};
 pub use symmetry::Rename;
 pub use wire::{app_decode, app_payload, AppMsg, Content, MsgId, Pid, Real};

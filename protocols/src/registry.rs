@@ -670,32 +670,13 @@ pub fn intern(name: &str) -> &'static str {
     n
 }
 
-impl Default for Protocols {
-    /// [`Protocols::with_builtins`].
-    fn default() -> Self {
-        Self::with_builtins()
-    }
-}
-
 impl Protocols {
-    /// The built-in protocols (the same as [`Protocols::with_builtins`]).
-    pub fn new() -> Self {
-        Self::with_builtins()
-    }
-
     /// A registry without any protocol.
     pub fn empty() -> Self {
         Self {
             entries: Named::new("protocol"),
             properties: Vec::new(),
         }
-    }
-
-    /// Every built-in protocol of [`crate::builtins`], under its name.
-    pub fn with_builtins() -> Self {
-        let mut r = Self::empty();
-        crate::builtins::register(&mut r);
-        r
     }
 
     /// Registers the protocol `P` under `name` (replacing an earlier registration).

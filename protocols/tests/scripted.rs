@@ -13,7 +13,7 @@ use nekosim_protocols::retransmit::{Retransmit, RtMsg};
 use nekosim_protocols::sequencer::{FixedSequencer, SeqMsg};
 use nekosim_protocols::{
     AppMsg, Content, Ctx, Effect, Indication, Input, LayerIx, LayerSpec, Microprotocol, MsgId, Out,
-    Payload, Pid, Protocols, Real, Request, StackError, Wiring, NET,
+    Payload, Pid, Protocols, Real, Request, Routed, StackError, Wiring, APP, NET,
 };
 use serde::Serialize;
 
@@ -682,4 +682,58 @@ fn an_unknown_protocol_is_refused_with_the_registered_names() {
     ] {
         assert!(e.message.contains(name), "{name} missing in: {e}");
     }
+}
+
+#[test]
+fn step_local_with_tells_every_hop_between_layers_and_refuses_a_foreign_payload_unchanged() {
+    let specs = [
+        layer("fifo", "Fifo", "net", &[]),
+        layer("abcast", "LamportAbcast", "fifo", &[]),
+    ];
+    let (wiring, mut stack) = Wiring::check(&specs, &Protocols::with_builtins()).unwrap();
+    let ctx = Ctx { me: 0, n: 2 };
+    let mut plain = stack.clone();
+    let broadcast = Input::Request {
+        from: APP,
+        req: Request::Broadcast { msg: m(1) },
+    };
+    let mut hops = Vec::new();
+    let out = stack
+        .step_local_with(&wiring, &ctx, 1, broadcast.clone(), |to, input| {
+            hops.push((to, input.clone()))
+        })
+        .unwrap();
+    // The same run as `step_local`'s, to the same state.
+    assert_eq!(out, plain.step_local(&wiring, &ctx, 1, broadcast));
+    assert_eq!(stack, plain);
+    // Lamport hands its message to fifo, and fifo sends it over the network.
+    assert!(!hops.is_empty());
+    for (to, input) in &hops {
+        assert_eq!(*to, 0, "{input:?}");
+        assert!(
+            matches!(
+                input,
+                Input::Request {
+                    from: 1,
+                    req: Request::Send { .. }
+                }
+            ),
+            "{input:?}"
+        );
+    }
+    assert!(out
+        .iter()
+        .any(|r| matches!(r, Routed::Net { layer: 0, .. })));
+
+    // Bytes from elsewhere that are not a fifo message: refused, nothing run, nothing changed.
+    let before = stack.clone();
+    let junk = Input::Indication {
+        from: NET,
+        ind: deliver(1, Payload::from_parts(0, &[0xff; 3])),
+    };
+    let mut told = 0;
+    let refused = stack.step_local_with(&wiring, &ctx, 0, junk, |_, _| told += 1);
+    assert!(refused.is_err(), "{refused:?}");
+    assert_eq!(told, 0);
+    assert_eq!(stack, before);
 }

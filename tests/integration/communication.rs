@@ -8,7 +8,7 @@ use nekosim::world::observation::{Observation, Record};
 use nekosim::world::virtual_world::RobotSpec;
 use nekosim::{Algorithm, Comms, Fault, SimConfig};
 use nekosim_protocols::app_decode;
-use nekosim_protocols::stack::LayerSpec;
+use nekosim_protocols::LayerSpec;
 use nekosim_protocols::MsgId;
 use nekosim_protocols::Spec as NetworkSpec;
 
