@@ -846,18 +846,11 @@ impl HandleEvent for RobotActor {
                     },
                 ),
                 Request::Layer { ix, req } => {
-                    let (op, wire) = match &req {
-                        ProtoRequest::Broadcast { msg } => ("broadcast", msg.clone()),
-                        ProtoRequest::Propose { value, .. } => ("propose", value.clone()),
-                        ProtoRequest::Send { msg, .. } => ("send", msg.clone()),
-                        ProtoRequest::Custom(msg) => ("request", msg.clone()),
-                    };
-                    out.record(Observation::Request {
-                        robot: id,
-                        layer: self.handle.layer_id(ix),
-                        op: op.into(),
-                        msg: wire,
-                    });
+                    out.record(crate::protocol_record::request(
+                        id,
+                        self.handle.layer_id(ix),
+                        &req,
+                    ));
                     out.schedule(
                         now,
                         Target::Layer(id, ix),

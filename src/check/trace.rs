@@ -4,6 +4,7 @@
 use std::io;
 use std::path::Path;
 
+use nekosim_actors::protocol_record;
 use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_models::adapter::Happening;
 use nekosim_models::explain::{explain, layer_name, Event, Step};
@@ -11,7 +12,7 @@ use nekosim_models::explain::{explain, layer_name, Event, Step};
 use nekosim_models::reason::reason;
 use nekosim_models::{CheckModel, Outcome};
 use nekosim_protocols::payload::{install, type_word};
-use nekosim_protocols::{Indication, Payload, Pid, Request};
+use nekosim_protocols::{Payload, Pid};
 use serde::Serialize;
 use stateright::Expectation;
 
@@ -289,26 +290,12 @@ fn path_items(model: &CheckModel, steps: &[Step]) -> Vec<Item> {
                 }
                 Event::At { process: p, what } => match what {
                     Happening::Request { layer, req } => {
-                        let (op, msg) = match req {
-                            Request::Broadcast { msg } => ("broadcast", msg.clone()),
-                            Request::Propose { value, .. } => ("propose", value.clone()),
-                            Request::Send { msg, .. } => ("send", msg.clone()),
-                            Request::Custom(msg) => ("request", msg.clone()),
-                        };
-                        Some(record(Observation::Request {
-                            robot: *p,
-                            layer: name(*layer),
-                            op: op.into(),
-                            msg,
-                        }))
+                        Some(record(protocol_record::request(*p, name(*layer), req)))
                     }
                     Happening::Skipped { .. } => None,
-                    Happening::Receive { from, layer, msg } => Some(record(Observation::Receive {
-                        robot: *p,
-                        from: *from,
-                        layer: name(*layer),
-                        msg: msg.clone(),
-                    })),
+                    Happening::Receive { from, layer, msg } => Some(record(
+                        protocol_record::receive(*p, name(*layer), *from, msg),
+                    )),
                     Happening::Timer { layer, timer } => Some(check(CheckEvent::Timer {
                         robot: *p,
                         layer: name(*layer),
@@ -332,39 +319,7 @@ fn path_items(model: &CheckModel, steps: &[Step]) -> Vec<Item> {
                         arrive: Vec::new(),
                     })),
                     Happening::App { layer, ind } => {
-                        let layer = name(*layer);
-                        match ind {
-                            Indication::BDeliver { id, msg } => {
-                                Some(record(Observation::Deliver {
-                                    robot: *p,
-                                    layer,
-                                    id: *id,
-                                    msg: msg.clone(),
-                                }))
-                            }
-                            Indication::Decide { k, value } => Some(record(Observation::Decide {
-                                robot: *p,
-                                layer,
-                                k: *k,
-                                value: value.clone(),
-                            })),
-                            Indication::Suspect(q) => Some(record(Observation::Suspect {
-                                robot: *p,
-                                layer,
-                                process: *q,
-                            })),
-                            Indication::Trust(q) => Some(record(Observation::Trust {
-                                robot: *p,
-                                layer,
-                                process: *q,
-                            })),
-                            Indication::Leader(q) => Some(record(Observation::Leader {
-                                robot: *p,
-                                layer,
-                                process: *q,
-                            })),
-                            Indication::Deliver { .. } | Indication::Custom(_) => None,
-                        }
+                        protocol_record::indication(*p, name(*layer), ind).map(record)
                     }
                 },
             };
