@@ -25,6 +25,7 @@ pub mod layer;
 pub mod motion_manager;
 pub mod network;
 pub mod protocol_record;
+pub mod random;
 pub mod registry;
 pub mod robot;
 pub mod scheduler;

@@ -330,7 +330,7 @@ impl Robot {
 
     /// The robot's own random stream, derived from the run's seed and the robot's id.
     pub fn rng(&self) -> RefMut<'_, ChaCha8Rng> {
-        let stream = self.shared.info.id as u64;
+        let stream = crate::random::Stream::Robot(self.shared.info.id).number();
         RefMut::map(self.shared.io.borrow_mut(), |io| io.rng.live(stream))
     }
 

@@ -2,7 +2,6 @@
 //! manager hands a sensor the world's exact data; the sensor computes the reply (the seed's
 //! `calReply`, e.g. GPS noise from its own seeded random stream) and answers its robot.
 
-use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::handler::HandleEvent;
@@ -27,9 +26,8 @@ pub struct Sensor {
 impl Sensor {
     /// The `kind` sensor of `robot`; its noise stream is derived from the run's seed.
     pub fn new(robot: RobotId, kind: SensorKind, seed: u64, sensors: Arc<Sensors>) -> Self {
-        let stream = (robot as u64) << 8 | kind.stream();
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        rng.set_stream(stream.wrapping_add(1 << 40));
+        let kind_number = u8::try_from(kind.stream()).expect("sensor kinds number below 256");
+        let rng = crate::random::rng(seed, crate::random::Stream::Sensor(robot, kind_number));
         Self {
             robot,
             kind,

@@ -22,7 +22,6 @@ use crate::world::sensor::Sensors;
 use crate::world::virtual_world::{RobotSpec, Sensing, VirtualWorld, WorldConfig, WorldError};
 use crate::world::RobotId;
 use nekosim_protocols::{Input, LayerSpec, Protocols, Spec, Wiring};
-use rand::SeedableRng;
 
 /// Everything a run needs.
 pub struct SimConfig {
@@ -201,8 +200,7 @@ impl Prepared {
                 Fault::Partition(p) => partitions.push(p.clone()),
             }
         }
-        let mut net_rng = rand_chacha::ChaCha8Rng::seed_from_u64(cfg.seed);
-        net_rng.set_stream(0x004E_4554);
+        let net_rng = crate::random::rng(cfg.seed, crate::random::Stream::Network);
         let model = cfg.comms.networks.build(&cfg.comms.network)?;
         let network = Network::new(model, net_rng, partitions);
         let count = world.len();

@@ -13,7 +13,7 @@ use nekosim_actors::world::virtual_world::VirtualWorld;
 use nekosim_actors::world::virtual_world::{RobotSpec, WorldConfig, WorldSize};
 use nekosim_actors::Algorithm;
 use nekosim_protocols::{FieldError, Spec};
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 
 use super::{
     Born, Built, Overrides, Registry, RobotEntry, ScenarioError, Size, Source, MAX_COORDINATE,
@@ -337,8 +337,7 @@ impl Source {
         registry: &Registry,
     ) -> Result<Vec<Robot>, ScenarioError> {
         let total = sizes.total;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        rng.set_stream(0xB0B0);
+        let mut rng = nekosim_actors::random::rng(seed, nekosim_actors::random::Stream::Placement);
         let mut p = Placement {
             source: self,
             size: world.size,
