@@ -567,7 +567,7 @@ impl Core {
         } else {
             *lead -= 1;
         }
-        *lead >= self.lead_limit && false
+        *lead >= self.lead_limit
     }
 
     /// Fails the run when one robot's deliveries at one instant outnumber all other robots'
