@@ -6,6 +6,24 @@
 
 use nalgebra::{Point2, Vector2};
 
+/// The largest coordinate and world extent a scenario may use [units]. f64 has 53 bits of
+/// mantissa, so positions up to 1e9 (just under 2^30) are exact to 2^-23, about 1.2e-7 units:
+/// well below any radius a scenario may give ([`MIN_RADIUS`]).
+pub const MAX_COORDINATE: f64 = 1e9;
+
+/// The smallest robot radius [units]: at least ten thousand times the position resolution at
+/// [`MAX_COORDINATE`] (1.2e-7), so a contact is resolved to 1e-4 of a radius anywhere in the
+/// world. The spatial index's cells are at least two radii wide, so a smaller radius would
+/// also make a robot cross a cell every few nanoseconds of virtual time.
+pub const MIN_RADIUS: f64 = 1e-3;
+
+/// The largest speed an algorithm's configuration may give [units/s, or deg/s for turns]. A
+/// position at time `t` is computed from a time rounded to `t * 2^-52`, so its error is
+/// `v * t * 2^-52`; at 1e4 units/s that stays within the position resolution at
+/// [`MAX_COORDINATE`] (2^-23) for `t` up to 2^29 / 1e4, about 15 hours of virtual time. Faster
+/// robots also cross a world in microseconds, a run of events that never lets time advance.
+pub const MAX_SPEED: f64 = 1e4;
+
 /// A point in the world plane [units].
 pub type Point = Point2<f64>;
 /// A displacement or velocity in the world plane [units] or [units/s].

@@ -19,10 +19,10 @@ use std::collections::HashMap;
 use serde::{Deserialize, Serialize};
 
 use super::collision::{advance, Track};
+use super::geometry::MAX_COORDINATE;
 use super::geometry::{first_contact_linear, point_segment_distance, Point, Vector};
 use super::grid::{Cell, FixedHash};
 use super::motion::Shape as PieceShape;
-use crate::registry::MAX_COORDINATE;
 
 /// An obstacle as a scenario writes it (`obstacles: [Rect(min: (0, 0), max: (10, 5)), ...]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
