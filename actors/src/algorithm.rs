@@ -113,9 +113,23 @@ pub fn destination_area(world: WorldSize) -> (Point, Point) {
     }
 }
 
-/// Moves to `dest`; if the move took no virtual time (blocked at its very start by a collision,
-/// or already there), waits `retry` seconds. The seed's loops (`while (t <= limit) moveTo(..)`)
-/// would otherwise spin forever at one instant once a robot is boxed in or has gathered.
+/// How soon after its start a move that ends was blocked at its very start [s]. A robot
+/// already in contact with another that moves towards it collides at once, but the contact
+/// time is computed in floating point and may land a few ulps after the start rather than at
+/// it; a robot that retried at once would then advance time by ulps forever, a run that never
+/// reaches its end. Real moves last many orders of magnitude longer.
+pub const BLOCKED_WITHIN: f64 = 1e-9;
+
+/// Whether a move started at `started` and ended at `now` took no virtual time: it was
+/// blocked at its very start (within [`BLOCKED_WITHIN`]) or the robot was already there.
+pub fn took_no_time(started: f64, now: f64) -> bool {
+    now - started < BLOCKED_WITHIN
+}
+
+/// Moves to `dest`; if the move took no virtual time ([`took_no_time`]: blocked at its very
+/// start by a collision, or already there), waits `retry` seconds. The seed's loops
+/// (`while (t <= limit) moveTo(..)`) would otherwise spin forever at one instant once a robot
+/// is boxed in or has gathered.
 pub async fn move_or_wait(
     robot: &Robot,
     dest: Point,
@@ -125,7 +139,7 @@ pub async fn move_or_wait(
 ) {
     let started = robot.now();
     robot.move_to(dest, move_speed, turn_speed).await;
-    if robot.now() == started {
+    if took_no_time(started, robot.now()) {
         robot.sleep(retry).await;
     }
 }

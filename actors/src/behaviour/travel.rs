@@ -93,7 +93,7 @@ impl Runtime {
             },
         )
         .await;
-        if self.robot.now() == started {
+        if crate::algorithm::took_no_time(started, self.robot.now()) {
             self.robot.sleep(retry).await;
         }
     }
