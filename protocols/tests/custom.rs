@@ -450,7 +450,10 @@ fn a_configuration_the_protocol_refuses_names_its_field() {
     // A bare name has no configuration text to point into: the error is the protocol's.
     let e = check(&[layer("gossip", "RingGossip", "net", &[])]).unwrap_err();
     assert_eq!((e.field.as_str(), e.at), ("protocol", None), "{e}");
-    assert_eq!(e.message, "RingGossip: missing field `fanout`");
+    assert_eq!(
+        e.message,
+        "RingGossip: RingGossipConfig is missing the field `fanout`; expected `fanout: VALUE`"
+    );
     let e = check(&[
         layer("gossip", "RingGossip(fanout: 1)", "net", &[]),
         layer("tally", "Tally(every: 2)", "gossip", &[]),
