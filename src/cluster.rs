@@ -181,6 +181,7 @@ impl Cluster {
                 .cloned()
                 .zip(wiring.provides.iter().copied())
                 .collect(),
+            lcm: Default::default(),
         };
         // Every node's application is built the same way: node 0's stands for all.
         registry

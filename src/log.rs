@@ -167,6 +167,15 @@ impl NekoLog {
     fn text(&mut self, r: &Record) -> String {
         let t = num(r.t);
         match &r.obs {
+            Observation::Light {
+                robot,
+                light,
+                pending,
+            } => match pending {
+                Some(p) => format!("{t} p{robot} Light: {light} | computing {p}"),
+                None => format!("{t} p{robot} Light: {light}"),
+            },
+            Observation::Lcm(rec) => format!("{t} p{} {}", rec.robot(), rec.log_text()),
             Observation::Spawn {
                 robot,
                 pos,

@@ -73,6 +73,10 @@ pub struct Scenario {
     /// `animation.logpath`); paths are relative to the working directory.
     #[serde(default)]
     pub outputs: Outputs,
+    /// The Look-Compute-Move settings (docs/lcm.md): synchrony, movement, lights, frames,
+    /// sensing and the adversary; defaults without it.
+    #[serde(default)]
+    pub lcm: Option<nekosim_actors::lcm::LcmSettings>,
     /// How `nekosim check` explores the stack; the command line overrides each field.
     #[serde(default)]
     pub check: Option<CheckSettings>,

@@ -4,6 +4,8 @@
 
 use crate::algorithm::*;
 use crate::behaviour::Behaviour;
+use crate::lcm::rule_table::RuleTable;
+use crate::lcm::Lcm;
 use crate::registry::Algorithms;
 
 impl Default for Algorithms {
@@ -25,7 +27,8 @@ impl Algorithms {
             .algorithm::<BroadcastLoad>("BroadcastLoad")
             .algorithm::<MeetingPoint>("MeetingPoint")
             .algorithm::<PathReservation>("PathReservation")
-            .algorithm::<Behaviour>("Behaviour");
+            .algorithm::<Behaviour>("Behaviour")
+            .algorithm::<Lcm<RuleTable>>("RuleTable");
         r
     }
 }

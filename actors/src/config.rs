@@ -14,6 +14,8 @@ pub use crate::world::geometry::{MAX_COORDINATE, MAX_SPEED, MIN_RADIUS};
 pub struct Setting {
     /// The stack's layers: id and the service each provides.
     pub layers: Vec<(String, Service)>,
+    /// The scenario's Look-Compute-Move settings ([`crate::lcm`]).
+    pub lcm: std::sync::Arc<crate::lcm::LcmSettings>,
 }
 
 impl Setting {

@@ -10,6 +10,7 @@
 //! - [`motion_manager`], [`sensor_manager`], [`robot`], [`sensor`]: the other actors.
 //! - [`layer`]: protocol layers hosted as actors; [`protocol_record`]: what a hosted stack
 //!   records, shared by every host of a stack.
+//! - [`lcm`]: Look-Compute-Move robots (oblivious or luminous, under an adversary).
 //! - [`algorithm`]: built-in robot algorithms; [`behaviour`]: composable behaviours (seed 7.2);
 //!   [`config`]: what an algorithm's configuration is; [`registry`]: algorithms by name, and
 //!   [`builtins`]: the built-in ones registered there; [`simulation`]: building and running a run.
@@ -22,6 +23,7 @@ pub mod handler;
 pub mod host;
 pub mod kernel;
 pub mod layer;
+pub mod lcm;
 pub mod motion_manager;
 pub mod network;
 pub mod protocol_record;

@@ -23,14 +23,22 @@ pub enum Stream {
     Network,
     /// The placement of robots born at random.
     Placement,
+    /// A Look-Compute-Move robot's adversary: its local frames, phase durations and stop
+    /// points ([`crate::lcm::adversary`]).
+    Adversary(RobotId),
+    /// The Look-Compute-Move adversary's choices for a whole round: which robots it
+    /// activates ([`crate::lcm::adversary`]).
+    Rounds,
 }
 
 /// Where each kind of stream starts among ChaCha's stream numbers: robots take
-/// `[0, 2^32)`, sensors `[2^40, 2^41)` (a robot's id above its sensor kind's 8 bits), and the
-/// run-wide streams come after both.
+/// `[0, 2^32)`, sensors `[2^40, 2^41)` (a robot's id above its sensor kind's 8 bits), the
+/// run-wide streams come after both, and the robots' adversaries take `[2^42, 2^42 + 2^32)`.
 const SENSORS: u64 = 1 << 40;
 const NETWORK: u64 = 1 << 41;
 const PLACEMENT: u64 = NETWORK + 1;
+const ROUNDS: u64 = NETWORK + 2;
+const ADVERSARY: u64 = 1 << 42;
 
 impl Stream {
     /// The ChaCha stream number: distinct for distinct streams.
@@ -40,6 +48,8 @@ impl Stream {
             Stream::Sensor(r, kind) => SENSORS + (u64::from(r) << 8 | u64::from(kind)),
             Stream::Network => NETWORK,
             Stream::Placement => PLACEMENT,
+            Stream::Rounds => ROUNDS,
+            Stream::Adversary(r) => ADVERSARY + u64::from(r),
         }
     }
 
@@ -53,6 +63,10 @@ impl Stream {
             }
             NETWORK => Some(Stream::Network),
             PLACEMENT => Some(Stream::Placement),
+            ROUNDS => Some(Stream::Rounds),
+            _ if (ADVERSARY..ADVERSARY + (1 << 32)).contains(&n) => {
+                Some(Stream::Adversary((n - ADVERSARY) as RobotId))
+            }
             _ => None,
         }
     }
@@ -77,15 +91,18 @@ mod tests {
             (any::<u32>(), any::<u8>()).prop_map(|(r, k)| Stream::Sensor(r, k)),
             Just(Stream::Network),
             Just(Stream::Placement),
+            Just(Stream::Rounds),
+            any::<u32>().prop_map(Stream::Adversary),
         ]
     }
 
     /// The extremes of every kind: the first and last robot, the first and last sensor of
     /// each, and the run-wide streams.
     fn extremes() -> Vec<Stream> {
-        let mut all = vec![Stream::Network, Stream::Placement];
+        let mut all = vec![Stream::Network, Stream::Placement, Stream::Rounds];
         for r in [0, 1, 0xB0B0, 0x004E_4554, u32::MAX - 1, u32::MAX] {
             all.push(Stream::Robot(r));
+            all.push(Stream::Adversary(r));
             for k in [0, 1, 254, 255] {
                 all.push(Stream::Sensor(r, k));
             }

@@ -55,6 +55,11 @@ pub trait Algorithm: fmt::Debug + Send {
     fn name(&self) -> &str;
     /// The algorithm's code.
     fn run(&self, robot: Robot) -> AlgorithmFuture;
+    /// For a Look-Compute-Move robot, the roster of the run's such robots, which the run
+    /// fills before it starts (the adversary of a round picks among them). Default: none.
+    fn roster(&self) -> Option<&crate::lcm::settings::Roster> {
+        None
+    }
 }
 
 /// How a motion call ended.
@@ -77,6 +82,8 @@ enum Request {
     Timer { ticket: u64, at: f64 },
     ListEvents { of: RobotId, ticket: u64 },
     Log(String),
+    Record(Observation),
+    Light(crate::lcm::LightState),
     Net { to: Vec<RobotId>, msg: MsgPayload },
     Layer { ix: LayerIx, req: ProtoRequest },
 }
@@ -326,6 +333,23 @@ impl Robot {
     /// Current virtual time [s].
     pub fn now(&self) -> f64 {
         self.shared.io.borrow().now
+    }
+
+    /// The run's seed, for hosts of algorithms that derive further named streams from it
+    /// ([`crate::random::rng`]), as the Look-Compute-Move adversary does.
+    pub fn run_seed(&self) -> u64 {
+        self.shared.io.borrow().rng.seed
+    }
+
+    /// Writes a typed record to the trace and the log, at this instant, in the order of the
+    /// robot's other requests.
+    pub fn record(&self, observation: Observation) {
+        self.push(Request::Record(observation));
+    }
+
+    /// Shows `light` to the other robots from now on ([`crate::lcm`]).
+    pub fn set_light(&self, light: crate::lcm::LightState) {
+        self.push(Request::Light(light));
     }
 
     /// The robot's own random stream, derived from the run's seed and the robot's id.
@@ -878,6 +902,17 @@ impl HandleEvent for RobotActor {
                     out.record(Observation::Log { robot: id, text });
                     continue;
                 }
+                Request::Record(obs) => {
+                    out.record(obs);
+                    continue;
+                }
+                Request::Light(light) => out.schedule(
+                    now,
+                    Target::SensorManager,
+                    EventClass::Eventual,
+                    me,
+                    Payload::Light { robot: id, light },
+                ),
             };
         }
         // An inbox is nearly always empty between handlings, and its buffer (four 80-byte

@@ -156,6 +156,21 @@ pub(crate) struct Prepared {
     pub instant_limit: u64,
 }
 
+/// Tells every Look-Compute-Move algorithm which robots run one (once per roster).
+fn fill_rosters(robots: &[(RobotSpec, Box<dyn Algorithm>)]) {
+    let ids: Vec<RobotId> = (robots.iter().enumerate())
+        .filter(|(_, (_, a))| a.roster().is_some())
+        .map(|(i, _)| i as RobotId)
+        .collect();
+    for (_, a) in robots {
+        if let Some(roster) = a.roster() {
+            if roster.robots().is_empty() {
+                roster.set(ids.clone());
+            }
+        }
+    }
+}
+
 impl Prepared {
     /// Checks `cfg` and builds the world, the setup events and the network.
     pub(crate) fn new(cfg: SimConfig) -> Result<Self, SimError> {
@@ -163,6 +178,7 @@ impl Prepared {
             return Err(SimError::BadUntil(cfg.until));
         }
         let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
+        fill_rosters(&cfg.robots);
         let sensors = Arc::new(cfg.sensors);
         let world = VirtualWorld::new(cfg.world.clone(), &specs)?;
         let sensing = Sensing::new(sensors.clone(), specs.len());

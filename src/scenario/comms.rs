@@ -95,8 +95,22 @@ impl Source {
                     .cloned()
                     .zip(wiring.provides.iter().copied())
                     .collect(),
+                lcm: Arc::new(self.lcm()?),
             },
         ))
+    }
+
+    /// The scenario's Look-Compute-Move settings, checked (the defaults without an `lcm`).
+    fn lcm(&self) -> Result<nekosim_actors::lcm::LcmSettings, ScenarioError> {
+        let settings = self.scenario.lcm.clone().unwrap_or_default();
+        settings.check().map_err(|e| {
+            self.err(FieldError::new(
+                &format!("lcm.{}", e.field),
+                e.message,
+                e.expected,
+            ))
+        })?;
+        Ok(settings)
     }
 
     /// A stack error at its place: inside a layer's protocol text when it says where, else at

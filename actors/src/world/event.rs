@@ -193,6 +193,11 @@ pub enum Payload {
     },
     /// The robot crashes (handled by the event manager, then the motion manager).
     Crash { robot: RobotId },
+    /// Robot -> sensor manager: the light the robot shows from now on ([`crate::lcm`]).
+    Light {
+        robot: RobotId,
+        light: crate::lcm::LightState,
+    },
     /// The end of an instant at which robots stopped ([`Outbox::at_instant_end`]): the motion
     /// manager predicts for those still at rest.
     Settle,
@@ -256,6 +261,7 @@ impl Payload {
             Payload::LayerInput { .. } => "layer_input",
             Payload::LayerTimer { .. } => "layer_timer",
             Payload::Crash { .. } => "crash",
+            Payload::Light { .. } => "light",
             Payload::Settle => "settle",
         }
     }

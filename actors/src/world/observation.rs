@@ -142,6 +142,14 @@ pub enum Observation {
         #[serde(flatten, serialize_with = "ser::pose")]
         state: Kinematics,
     },
+    /// A robot's light changed ([`crate::lcm`]): the light others see, and the light it
+    /// computes while it computes one (a Look then may see either, as the register allows).
+    Light {
+        robot: RobotId,
+        light: crate::lcm::Light,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        pending: Option<crate::lcm::Light>,
+    },
     /// A sensor's reply; `interrupt` when a push sensor fired on its own.
     SensorReply {
         robot: RobotId,
@@ -161,6 +169,9 @@ pub enum Observation {
         #[serde(skip)]
         progress: Progress,
     },
+    /// A Look-Compute-Move robot's cycle ([`crate::lcm::record`]).
+    #[serde(untagged)]
+    Lcm(crate::lcm::record::LcmRecord),
 }
 
 impl Observation {
@@ -184,7 +195,9 @@ impl Observation {
             | Leader { robot, .. }
             | Crash { robot, .. }
             | SensorReply { robot, .. }
+            | Light { robot, .. }
             | MotionStep { robot, .. } => *robot,
+            Lcm(r) => r.robot(),
         }
     }
 }

@@ -382,6 +382,10 @@ pub trait WorldView {
     fn in_sight(&self, _other: RobotId) -> bool {
         true
     }
+    /// The light `robot` shows ([`crate::lcm`]), if it has set one. Default: none.
+    fn light(&self, _robot: RobotId) -> Option<crate::lcm::LightState> {
+        None
+    }
 }
 
 /// A sensor written against the seed's split (4.2.2): [`SensorModel::sense`] gathers exact

@@ -28,7 +28,8 @@ pub fn register(s: &mut Sensors) {
         .sensor::<View>("view")
         .sensor::<Proximity>("proximity")
         .sensor::<PushProximity>("push_proximity")
-        .sensor::<Contact>("contact");
+        .sensor::<Contact>("contact")
+        .sensor::<crate::lcm::look::Look>(crate::lcm::look::LOOK);
 }
 
 impl Default for Sensors {

@@ -9,6 +9,7 @@
 use std::collections::BTreeMap;
 
 use super::*;
+use crate::lcm::LightState;
 use crate::world::event::SensorCompute;
 
 /// An armed push sensor whose trigger is another robot's entry into its range
@@ -48,6 +49,8 @@ pub struct Sensing {
     armed: Vec<Option<Box<Armed>>>,
     /// Activations of periodic push sensors so far (tells a stale re-sense apart).
     periodic_generation: u64,
+    /// The lights robots show ([`crate::lcm`]), by robot; only robots that set one.
+    lights: BTreeMap<RobotId, LightState>,
 }
 
 impl Sensing {
@@ -58,6 +61,7 @@ impl Sensing {
             sensors,
             armed: vec![None; robots],
             periodic_generation: 0,
+            lights: BTreeMap::new(),
         }
     }
 
@@ -97,7 +101,7 @@ impl Sensing {
         contact: Option<Obstacle>,
         out: &mut Outbox,
     ) -> bool {
-        let view = View::new(world, robot, out.now(), contact);
+        let view = View::new(world, &self.lights, robot, out.now(), contact);
         match self.sensors.sense(sensor, query, &view) {
             Ok(reading) => {
                 let fires = self.sensors.fires(sensor, query, &reading);
@@ -117,6 +121,15 @@ impl Sensing {
     pub fn handle(&mut self, world: &mut VirtualWorld, payload: Payload, out: &mut Outbox) {
         let now = out.now();
         match payload {
+            Payload::Light { robot, .. } if world.robots[robot as usize].crashed => {}
+            Payload::Light { robot, light } => {
+                out.record(Observation::Light {
+                    robot,
+                    light: light.shown,
+                    pending: light.pending,
+                });
+                self.lights.insert(robot, light);
+            }
             Payload::SensorRequest { robot, .. } if world.robots[robot as usize].crashed => {}
             Payload::SensorRequest {
                 robot,
@@ -356,7 +369,7 @@ impl Sensing {
         };
         match plan.trigger {
             Trigger::Pull => {
-                let view = View::new(world, robot, now, None);
+                let view = View::new(world, &self.lights, robot, now, None);
                 return match self.sensors.sense(sensor, q, &view) {
                     Ok(reading) => SensorValue::Reply(reading),
                     Err(e) => SensorValue::Rejected(e),
@@ -422,15 +435,23 @@ impl Sensing {
 /// A robot's view of the world at an instant, for its sensors.
 struct View<'a> {
     world: &'a VirtualWorld,
+    lights: &'a BTreeMap<RobotId, LightState>,
     robot: RobotId,
     now: f64,
     contact: Option<Obstacle>,
 }
 
 impl<'a> View<'a> {
-    fn new(world: &'a VirtualWorld, robot: RobotId, now: f64, contact: Option<Obstacle>) -> Self {
+    fn new(
+        world: &'a VirtualWorld,
+        lights: &'a BTreeMap<RobotId, LightState>,
+        robot: RobotId,
+        now: f64,
+        contact: Option<Obstacle>,
+    ) -> Self {
         Self {
             world,
+            lights,
             robot,
             now,
             contact,
@@ -441,6 +462,9 @@ impl<'a> View<'a> {
 impl WorldView for View<'_> {
     fn now(&self) -> f64 {
         self.now
+    }
+    fn light(&self, robot: RobotId) -> Option<LightState> {
+        self.lights.get(&robot).copied()
     }
     fn robot(&self) -> RobotId {
         self.robot
