@@ -729,6 +729,9 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                         l.deliveries, l.mean, l.p50, l.p99, l.throughput
                     );
                 }
+                for p in &summary.predicates {
+                    println!("{}", p.text());
+                }
                 if let Some(path) = &saved {
                     let size = std::fs::metadata(path).map_or(0, |m| m.len());
                     println!(

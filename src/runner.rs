@@ -19,6 +19,7 @@ use crate::output::AtomicFile;
 use crate::recording::{RecordingError, Target};
 use crate::scenario::Built;
 use crate::trace::to_line;
+use nekosim_actors::lcm::predicate::{Monitor, Report};
 
 /// Where a run writes and who watches it.
 #[derive(Default)]
@@ -73,6 +74,8 @@ pub struct Summary {
     pub interrupted: bool,
     /// Messages, deliveries, decisions and crashes counted over the run.
     pub counts: Counts,
+    /// When each of the scenario's predicates first held, and whether it kept holding.
+    pub predicates: Vec<Report>,
 }
 
 /// What the run's communication and faults amounted to, counted from its records.
@@ -247,6 +250,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         NekoLog::new(),
         LatencyMeter::default(),
         Counts::default(),
+        Monitor::new(built.predicates.clone()),
     )));
     let codecs = built.codecs.clone();
     let recorder = recorder
@@ -258,9 +262,10 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         let recorder = recorder.clone();
         Box::new(move |r: &Record| {
             let mut o = outputs.borrow_mut();
-            let (log, trace, neko, meter, counts) = &mut *o;
+            let (log, trace, neko, meter, counts, monitor) = &mut *o;
             meter.observe(r);
             counts.observe(r);
+            monitor.observe(r);
             let mut recorder = recorder.borrow_mut();
             // Messages render through the stack's codecs, in the outputs that write them
             // (installing them for every record of a run without such outputs would be work
@@ -314,7 +319,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         .map_or(Ok(()), |r| r.finish(end));
     let out = out?;
     recorded?;
-    let (log, trace, _, meter, counts) = Rc::try_unwrap(outputs)
+    let (log, trace, _, meter, counts, mut monitor) = Rc::try_unwrap(outputs)
         .map_err(|_| SimError::System("an output is still in use".into()))?
         .into_inner();
     for (file, path) in [(log, &opts.log), (trace, &opts.trace)] {
@@ -337,6 +342,7 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         latency: meter.finish(),
         interrupted: out.stats.interrupted,
         counts: counts.settle(),
+        predicates: monitor.reports(),
     })
 }
 

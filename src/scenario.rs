@@ -392,6 +392,8 @@ pub struct Built {
     pub messages: bool,
     /// Whether a protocol can deliver to the algorithms: the scenario has a stack.
     pub deliveries: bool,
+    /// What the run reports on (`lcm.predicates`).
+    pub predicates: Vec<nekosim_actors::lcm::predicate::Predicate>,
 }
 
 /// The text of the `what` file (scenario, sweep, cluster) at `path`, and its name for errors.

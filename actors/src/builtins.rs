@@ -4,6 +4,7 @@
 
 use crate::algorithm::*;
 use crate::behaviour::Behaviour;
+use crate::lcm::algorithms::{Ando, CentreOfGravity, CircleFormation, MaxMultiplicity};
 use crate::lcm::rule_table::RuleTable;
 use crate::lcm::Lcm;
 use crate::registry::Algorithms;
@@ -28,7 +29,11 @@ impl Algorithms {
             .algorithm::<MeetingPoint>("MeetingPoint")
             .algorithm::<PathReservation>("PathReservation")
             .algorithm::<Behaviour>("Behaviour")
-            .algorithm::<Lcm<RuleTable>>("RuleTable");
+            .algorithm::<Lcm<RuleTable>>("RuleTable")
+            .algorithm::<Lcm<CentreOfGravity>>("CentreOfGravity")
+            .algorithm::<Lcm<Ando>>("Ando")
+            .algorithm::<Lcm<MaxMultiplicity>>("MaxMultiplicity")
+            .algorithm::<Lcm<CircleFormation>>("CircleFormation");
         r
     }
 }

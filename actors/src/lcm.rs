@@ -20,9 +20,12 @@
 //! the runtime's.
 
 pub mod adversary;
+pub mod algorithms;
+pub mod circle;
 pub mod frame;
 pub mod glide;
 pub mod look;
+pub mod predicate;
 pub mod record;
 pub mod rule_table;
 pub mod runtime;

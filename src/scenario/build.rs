@@ -84,6 +84,7 @@ impl Source {
             outputs: s.outputs.clone(),
             messages: s.network.is_some() || !s.stack.is_empty(),
             deliveries: !s.stack.is_empty(),
+            predicates: s.lcm.as_ref().map_or(Vec::new(), |l| l.predicates.clone()),
             name,
             seed,
             until,

@@ -273,6 +273,7 @@ pub fn view_of(snapshot: &Snapshot, frame: Frame, settings: &LcmSettings, lit: b
     View {
         light: snapshot.light.filter(|_| lit && lights.own_visible()),
         others,
+        visibility: settings.visibility.map(|v| v / frame.unit),
     }
 }
 

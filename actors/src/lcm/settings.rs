@@ -177,6 +177,9 @@ pub struct LcmSettings {
     pub cycle: f64,
     #[serde(default)]
     pub adversary: AdversaryKind,
+    /// What the run reports on: when each first held, and whether it kept holding.
+    #[serde(default)]
+    pub predicates: Vec<super::predicate::Predicate>,
     #[serde(skip)]
     pub roster: Roster,
 }
@@ -197,6 +200,7 @@ impl Default for LcmSettings {
             multiplicity: Detection::default(),
             cycle: 1.0,
             adversary: AdversaryKind::default(),
+            predicates: Vec::new(),
             roster: Roster::default(),
         }
     }
@@ -254,12 +258,21 @@ impl LcmSettings {
                 "a number > 0",
             ));
         }
+        for (i, p) in self.predicates.iter().enumerate() {
+            p.check().map_err(|e| {
+                err(
+                    &format!("predicates[{i}]"),
+                    format!("{}: {e}", p.name()),
+                    "a number > 0",
+                )
+            })?;
+        }
         if let AdversaryKind::Scripted(acts) = &self.adversary {
             for (i, a) in acts.iter().enumerate() {
                 let ok = a.look.is_finite()
                     && a.look >= 0.0
                     && a.compute >= a.look
-                    && a.move_end >= a.compute
+                    && a.move_end > a.compute
                     && a.move_end.is_finite()
                     && a.stop.is_none_or(|s| (0.0..=1.0).contains(&s));
                 if !ok {
@@ -269,7 +282,7 @@ impl LcmSettings {
                             "activation of robot {} at look {}, compute {}, move {}, stop {:?}",
                             a.robot, a.look, a.compute, a.move_end, a.stop
                         ),
-                        "0 <= look <= compute <= move, finite, stop within [0, 1]",
+                        "0 <= look <= compute < move, finite, stop within [0, 1]",
                     ));
                 }
             }

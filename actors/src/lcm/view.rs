@@ -69,12 +69,40 @@ pub struct View {
     /// The other robots it sees, by point (and light), in a fixed order: by distance from the
     /// robot, then by coordinates, then by light.
     pub others: Vec<Seen>,
+    /// How far the robot sees, in its own unit of length (`None`: everything).
+    pub visibility: Option<f64>,
 }
 
 impl View {
     /// Whether some other robot stands at the robot's own point.
     pub fn shares_its_point(&self) -> bool {
         self.others.iter().any(Seen::is_here)
+    }
+
+    /// How many robots stand at the robot's own point, itself included, as detection allows
+    /// (`None` without detection).
+    pub fn here(&self) -> Option<u32> {
+        let mut n = 1;
+        for s in self.others.iter().filter(|s| s.is_here()) {
+            match s.multiplicity {
+                Multiplicity::Unknown => return None,
+                Multiplicity::One => n += 1,
+                Multiplicity::Many => n += 2,
+                Multiplicity::Exactly(k) => n += k,
+            }
+        }
+        Some(n)
+    }
+
+    /// Every point where the robot sees robots, its own first (the origin), once each.
+    pub fn points(&self) -> Vec<Point> {
+        let mut pts = vec![Point::origin()];
+        for s in &self.others {
+            if !pts.contains(&s.at) {
+                pts.push(s.at);
+            }
+        }
+        pts
     }
 
     /// The centre of gravity of the robot and the points it sees, each point counted once
