@@ -155,15 +155,11 @@ impl Adversary {
             return length;
         };
         let least = delta.min(length);
-        let f = match plan.stop {
-            Some(f) => f,
-            None if self.own.gen_bool(0.5) => 1.0,
-            None => self.own.gen_range(0.0..1.0),
-        };
-        if f >= 1.0 {
-            length
-        } else {
-            (least + f * (length - least)).min(length)
+        match plan.stop {
+            Some(f) if f >= 1.0 => length,
+            Some(f) => (f * length).clamp(least, length),
+            None if self.own.gen_bool(0.5) => length,
+            None => (least + self.own.gen_range(0.0..1.0) * (length - least)).min(length),
         }
     }
 }

@@ -16,6 +16,7 @@ use rand::Rng;
 use serde::de::DeserializeOwned;
 
 use super::adversary::{Adversary, Plan};
+use super::circle::smallest_enclosing;
 use super::frame::Frame;
 use super::glide::Glide;
 use super::look::{Look, LookQuery, Snapshot, LOOK};
@@ -24,7 +25,7 @@ use super::settings::{Detection, LcmSettings, Roster};
 use super::view::{snap, Light, LightState, LookComputeMove, Multiplicity, Seen, View};
 use crate::config::{Configured, Setting};
 use crate::robot::{Algorithm, AlgorithmFuture, Robot};
-use crate::world::geometry::Point;
+use crate::world::geometry::{Point, Vector};
 use crate::world::motion::Motion;
 use crate::world::observation::Observation;
 use nekosim_protocols::FieldError;
@@ -281,8 +282,11 @@ pub fn view_of(snapshot: &Snapshot, frame: Frame, settings: &LcmSettings, lit: b
 const MIDPOINTS_UP_TO: usize = 16;
 
 /// A local destination in the world: mapped back through the frame, then put onto the
-/// snapshot's point it names (a robot's position, or the midpoint of two) when it is within
-/// rounding of one.
+/// snapshot's point it names when it is within rounding of one. The points a destination can
+/// name are those the shipped algorithms steer by: a robot's position, the midpoint of two,
+/// the centre of gravity of all, the centre of their smallest enclosing circle. Each is
+/// computed in world coordinates from the robots' positions sorted by coordinates, so robots
+/// that see the same robots compute the very same point, whatever their frames.
 pub fn destination(snapshot: &Snapshot, frame: Frame, local: Point) -> Point {
     let p = snapshot.me + frame.to_world(local.coords);
     let mut points: Vec<Point> = vec![snapshot.me];
@@ -291,7 +295,14 @@ pub fn destination(snapshot: &Snapshot, frame: Frame, local: Point) -> Point {
         .iter()
         .map(|q| (q - snapshot.me).norm())
         .fold(1.0, f64::max);
+    points.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    let sum = points.iter().fold(Vector::zeros(), |s, q| s + q.coords);
     let mut candidates = points.clone();
+    candidates.push(Point::from(sum / points.len() as f64));
+    points.dedup();
+    if let Some(c) = smallest_enclosing(&points) {
+        candidates.push(c.centre);
+    }
     if points.len() <= MIDPOINTS_UP_TO {
         for (i, a) in points.iter().enumerate() {
             for b in &points[i + 1..] {

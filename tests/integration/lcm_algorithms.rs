@@ -1,0 +1,169 @@
+//! The n-robot Look-Compute-Move algorithms against closed forms computed apart from the
+//! engine: the centre of gravity under FSYNC (one round to the centroid, rigid; a contraction
+//! by the stop fraction each round, non-rigid), and the predicates each shipped example
+//! reaches.
+
+use nekosim::lcm::record::LcmRecord;
+use nekosim::scenario::{Overrides, Registry, Source};
+use nekosim::world::geometry::Point;
+use nekosim::world::observation::{Observation, Record};
+
+/// Runs the scenario `text` in process and keeps its records.
+fn records(text: &str) -> Vec<Record> {
+    let source = Source::parse("lcm.ron", text).expect("parses");
+    let built = source
+        .build(Overrides::default(), &Registry::with_builtins())
+        .expect("builds");
+    nekosim::run(nekosim::SimConfig {
+        seed: built.seed,
+        until: built.until,
+        world: built.world,
+        robots: built.robots,
+        arbiters: 1,
+        record: true,
+        observers: Default::default(),
+        comms: built.comms,
+        sensors: built.sensors,
+    })
+    .expect("runs")
+    .records
+}
+
+/// Where each robot waits after each of its cycles: `(robot, cycle, position)`.
+fn waits(records: &[Record]) -> Vec<(u32, u64, Point)> {
+    records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::Lcm(LcmRecord::Wait { robot, cycle, at }) => Some((*robot, *cycle, *at)),
+            _ => None,
+        })
+        .collect()
+}
+
+const BORN: [(f64, f64); 5] = [
+    (0.0, 0.0),
+    (40.0, 10.0),
+    (-17.5, 33.25),
+    (12.0, -41.0),
+    (77.0, 61.0),
+];
+
+fn born_points() -> String {
+    let pts: Vec<String> = BORN
+        .iter()
+        .map(|(x, y)| format!("({x:?}, {y:?})"))
+        .collect();
+    pts.join(", ")
+}
+
+fn centroid() -> Point {
+    let (sx, sy) = BORN
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x, b + y));
+    Point::new(sx / BORN.len() as f64, sy / BORN.len() as f64)
+}
+
+/// Under FSYNC with rigid moves every robot computes the centroid of all five in its own
+/// frame, and all five stand on it, on equal coordinates, after the first round.
+#[test]
+fn fsync_centre_of_gravity_gathers_in_one_round() {
+    let text = format!(
+        "Scenario(seed: 7, until: 3.0, world: (size: Infinite, ghost_mode: true),
+           lcm: (synchrony: Fsync),
+           robots: [Group(count: 5, radius: 0.5, born: Points([{}]),
+                          algorithm: CentreOfGravity())])",
+        born_points()
+    );
+    let records = records(&text);
+    let first: Vec<Point> = waits(&records)
+        .into_iter()
+        .filter(|w| w.1 == 0)
+        .map(|w| w.2)
+        .collect();
+    assert_eq!(first.len(), 5);
+    let c = centroid();
+    for p in &first {
+        assert!((p - c).norm() < 1e-9, "{p} against the centroid {c}");
+        assert_eq!(*p, first[0], "robots on one point, equal coordinates");
+    }
+    // The frames differed: the robots computed the centroid in frames the adversary chose.
+    let frames: Vec<f64> = records
+        .iter()
+        .filter_map(|r| match &r.obs {
+            Observation::Lcm(LcmRecord::Look {
+                frame, cycle: 0, ..
+            }) => Some(frame.rotation),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(frames.len(), 5);
+    assert!(frames.windows(2).any(|w| w[0] != w[1]), "{frames:?}");
+}
+
+/// A scripted FSYNC adversary that stops every move halfway: the centroid stays put, and
+/// every robot's offset from it halves each round, `(p0 - c) / 2^k` after k rounds.
+#[test]
+fn centre_of_gravity_cut_short_contracts_by_the_stop_fraction() {
+    let rounds = 8;
+    let mut acts = Vec::new();
+    for k in 0..rounds {
+        for r in 0..5 {
+            acts.push(format!(
+                "(robot: {r}, look: {k}.0, compute: {k}.25, move: {k}.75, stop: Some(0.5))"
+            ));
+        }
+    }
+    let text = format!(
+        "Scenario(seed: 2, until: {rounds}.0, world: (size: Infinite, ghost_mode: true),
+           lcm: (synchrony: Fsync, movement: NonRigid(delta: 1e-6),
+                 adversary: Scripted([{}])),
+           robots: [Group(count: 5, radius: 0.5, born: Points([{}]),
+                          algorithm: CentreOfGravity())])",
+        acts.join(", "),
+        born_points()
+    );
+    let c = centroid();
+    let waits = waits(&records(&text));
+    assert_eq!(waits.len(), 5 * rounds);
+    for (robot, cycle, at) in waits {
+        let (x, y) = BORN[robot as usize];
+        let expected = c + (Point::new(x, y) - c) / 2f64.powi(cycle as i32 + 1);
+        assert!(
+            (at - expected).norm() < 1e-9 * (1.0 + (expected - c).norm()),
+            "robot {robot} after round {cycle}: {at} against {expected}"
+        );
+    }
+}
+
+/// Runs a shipped example with the command line and returns its printed summary.
+fn summary(example: &str) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .args(["run", &format!("examples/lcm/{example}.ron")])
+        .output()
+        .expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Each n-robot example reaches what it is for, and keeps it to the end.
+#[test]
+fn the_n_robot_examples_reach_their_predicates() {
+    for (example, predicate) in [
+        ("cog", "converged(epsilon 1)"),
+        ("ando", "converged(epsilon 1)"),
+        ("gather_multiplicity", "gathered"),
+        ("formation_circle", "uniform circle(epsilon 0.01)"),
+        ("formation_circle", "collision-free"),
+    ] {
+        let s = summary(example);
+        let line = s
+            .lines()
+            .find(|l| l.starts_with(&format!("{predicate}:")))
+            .unwrap_or_else(|| panic!("{example}: no {predicate} line in\n{s}"));
+        assert!(line.contains("to the end"), "{example}: {line}");
+    }
+}
