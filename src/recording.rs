@@ -46,7 +46,9 @@ pub mod rerun_canvas;
 #[cfg(feature = "rerun")]
 pub mod rrd_file;
 
-pub use canvas::{level_of, Canvas, Flight, Level, Mark, Metrics, NoCanvas, Stamp, ROBOT_GROUP};
+pub use canvas::{
+    level_of, Canvas, Flight, Level, Mark, Metrics, NoCanvas, Sight, Stamp, ROBOT_GROUP,
+};
 pub use colour::{layer_colour, robot_colour, Rgb, GREY};
 pub use flights::LOST_SECONDS;
 pub use recorder::Recorder;

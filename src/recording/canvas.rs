@@ -117,6 +117,18 @@ pub trait Canvas {
     fn packets(&mut self, _at: Stamp, _layer: &str, _colour: Rgb, _packets: &[Point]) {}
     /// The run's figures.
     fn metrics(&mut self, at: Stamp, m: &Metrics);
+    /// A Look-Compute-Move robot's last snapshot, from where it looked (`from`) to each robot
+    /// it saw, labelled with its current phase, until its cycle ends (`None`).
+    fn look(&mut self, _at: Stamp, _robot: RobotId, _sight: Option<Sight<'_>>) {}
+}
+
+/// What a Look-Compute-Move robot saw and which phase it is in ([`Canvas::look`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sight<'a> {
+    pub from: Point,
+    pub seen: &'a [Point],
+    /// `look`, `compute` or `move`.
+    pub phase: &'static str,
 }
 
 /// How much a log line matters, as the recording's log view shows it.

@@ -11,6 +11,24 @@ pub type Rgb = [u8; 3];
 /// Colour of crashed robots.
 pub const GREY: Rgb = [128, 128, 128];
 
+/// The colour a Look-Compute-Move light `l` is drawn in: the colours spin-light names in its
+/// order (black, white, red, yellow, green), then hues spaced by the golden angle. While a
+/// new light is being written (`pending`), the robot shows the mean of the old and the new.
+pub fn light_colour(l: u8, pending: Option<u8>) -> Rgb {
+    let one = |l: u8| -> Rgb {
+        match l {
+            0 => [40, 40, 40],
+            1 => [240, 240, 240],
+            2 => [220, 40, 40],
+            3 => [240, 210, 40],
+            4 => [40, 180, 70],
+            k => hsv(f64::from(k) * 137.507_764, 0.8, 0.9),
+        }
+    };
+    let (a, b) = (one(l), one(pending.unwrap_or(l)));
+    [0, 1, 2].map(|i| ((u16::from(a[i]) + u16::from(b[i])) / 2) as u8)
+}
+
 /// A distinct colour for robot `i` (hues spaced by the golden angle).
 pub fn robot_colour(i: u32) -> Rgb {
     hsv(f64::from(i) * 137.507_764, 0.75, 0.9)

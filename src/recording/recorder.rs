@@ -13,11 +13,12 @@ use nekosim_actors::world::virtual_world::WorldSize;
 use nekosim_actors::world::{Obstacle, RobotId};
 use nekosim_protocols::payload::type_word;
 
-use super::canvas::{level_of, Canvas, Flight, Mark, Metrics, Stamp, ROBOT_GROUP};
-use super::colour::{layer_colour, robot_colour, GREY};
+use super::canvas::{level_of, Canvas, Flight, Mark, Metrics, Sight, Stamp, ROBOT_GROUP};
+use super::colour::{layer_colour, light_colour, robot_colour, GREY};
 use super::flights::Flights;
 use super::EVENT_RATE_WINDOW;
 use crate::log::NekoLog;
+use nekosim_actors::lcm::record::LcmRecord;
 
 #[derive(Clone, Debug)]
 struct RobotState {
@@ -81,6 +82,8 @@ pub struct Recorder<C: Canvas> {
     last_t: f64,
     /// A group's poses, reused between rows.
     poses: Vec<(Point, f64)>,
+    /// Each Look-Compute-Move robot's snapshot in its current cycle.
+    sight: BTreeMap<RobotId, (Point, Vec<Point>)>,
 }
 
 impl<C: Canvas> Recorder<C> {
@@ -113,6 +116,7 @@ impl<C: Canvas> Recorder<C> {
             flights: Flights::default(),
             last_t: 0.0,
             poses: Vec::new(),
+            sight: BTreeMap::new(),
         }
     }
 
@@ -490,9 +494,59 @@ impl<C: Canvas> Recorder<C> {
                 self.canvas
                     .mark(at, *robot, Mark::Decide, &format!("decide #{k}"));
             }
+            Observation::Light {
+                robot,
+                light,
+                pending,
+            } => {
+                let crashed = self.robots.get(*robot as usize).is_some_and(|r| r.crashed);
+                if !crashed {
+                    self.canvas.colour(*robot, light_colour(*light, *pending));
+                    self.commit(at, *robot);
+                }
+            }
+            Observation::Lcm(r) => self.lcm(at, r),
             _ => {}
         }
         self.log_line(at, rec);
+    }
+
+    /// A Look-Compute-Move robot's phases: its snapshot drawn from the Look to the end of its
+    /// cycle, labelled with the phase, and its destination from the Compute on.
+    fn lcm(&mut self, at: Stamp, r: &LcmRecord) {
+        let robot = r.robot();
+        match r {
+            LcmRecord::Look { me, seen, .. } => {
+                let seen: Vec<Point> = seen.iter().map(|s| s.at).collect();
+                self.sight.insert(robot, (*me, seen));
+                self.draw_sight(at, robot, "look");
+            }
+            LcmRecord::Compute { to, .. } => {
+                self.canvas.destination(robot, *to);
+                self.draw_sight(at, robot, "compute");
+            }
+            LcmRecord::Move { .. } => self.draw_sight(at, robot, "move"),
+            LcmRecord::Wait { .. } => {
+                self.sight.remove(&robot);
+                self.canvas.destination(robot, None);
+                self.canvas.look(at, robot, None);
+            }
+            LcmRecord::Activate { .. } => {}
+        }
+    }
+
+    fn draw_sight(&mut self, at: Stamp, robot: RobotId, phase: &'static str) {
+        if let Some((from, seen)) = self.sight.get(&robot) {
+            self.canvas.look(
+                at,
+                robot,
+                Some(Sight {
+                    from: *from,
+                    seen,
+                    phase,
+                }),
+            );
+        }
     }
 
     fn log_line(&mut self, at: Stamp, rec: &Record) {

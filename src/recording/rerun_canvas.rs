@@ -25,7 +25,7 @@ use rerun::{archetypes, RecordingStream, TimeColumn};
 
 use super::rrd_file::{temp_path, Ids, RrdFile};
 use super::{
-    Canvas, Flight, Level, Mark, Metrics, RecordingError, Rgb, Stamp, Target, ROBOT_GROUP,
+    Canvas, Flight, Level, Mark, Metrics, RecordingError, Rgb, Sight, Stamp, Target, ROBOT_GROUP,
 };
 
 mod blueprint;
@@ -655,6 +655,22 @@ impl Canvas for RerunCanvas {
             self.flush_group(g);
         }
         self.live_flush(at.t);
+    }
+
+    fn look(&mut self, at: Stamp, robot: RobotId, sight: Option<Sight<'_>>) {
+        let entity = format!("world/looks/{robot}");
+        let e = match sight {
+            Some(s) => {
+                let strips: Vec<[[f32; 2]; 2]> =
+                    s.seen.iter().map(|&q| [p32(s.from), p32(q)]).collect();
+                let labels = (0..strips.len()).map(|i| if i == 0 { s.phase } else { "" });
+                archetypes::LineStrips2D::new(strips)
+                    .with_colors([[170, 170, 220]])
+                    .with_labels(labels)
+            }
+            None => archetypes::LineStrips2D::clear_fields(),
+        };
+        self.row(&entity, Some(at), &e);
     }
 
     fn query(&mut self, at: Stamp, robot: RobotId, circle: Option<(Point, f64)>) {

@@ -620,3 +620,31 @@ fn connect_streams_to_a_running_viewer_and_refuses_a_missing_one() {
     let out = verify_rrd(&py, &rrd, &trace, 25);
     assert!(out.contains("verify_rrd: ok"), "{out}");
 }
+
+/// Look-Compute-Move robots read back: each shows its light as its colour from each light
+/// record on (the mean of the old and the new light while it computes), and its snapshot from
+/// each Look to the end of its cycle (verify_rrd.py's `check_lcm`).
+#[test]
+fn lcm_lights_and_snapshots_read_back() {
+    let py = python();
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("lcm.ron");
+    std::fs::write(
+        &scenario,
+        "Scenario(name: \"lcm\", seed: 3, until: 12.0,
+           world: (size: Infinite, ghost_mode: true),
+           lcm: (synchrony: Async, movement: NonRigid(delta: 2.0)),
+           robots: [Group(count: 2, radius: 0.5, born: Points([(0.0, 0.0), (30.0, 40.0)]),
+             algorithm: RuleTable(lights: [\"black\", \"white\", \"red\"], rules: [
+               (me: \"black\", move: ToHalf, light: \"white\"),
+               (me: \"white\", light: \"red\"),
+               (me: \"red\", move: ToOther, light: \"black\"),
+             ]))])",
+    )
+    .unwrap();
+    let (rrd, trace) = record(scenario.to_str().unwrap(), &[], dir.path());
+    let out = verify_rrd(&py, &rrd, &trace, 25);
+    assert!(out.contains("verify_rrd: ok"), "{out}");
+    assert!(count_of(&out, " lights") >= 20, "{out}");
+    assert!(count_of(&out, " looks") >= 10, "{out}");
+}

@@ -448,6 +448,52 @@ def check_crashes_grey(rows: "Rows", trace: list[dict]) -> list[dict]:
     return crashes
 
 
+LIGHTS = [(40, 40, 40), (240, 240, 240), (220, 40, 40), (240, 210, 40), (40, 180, 70)]
+
+
+def light_rgba(light: int, pending) -> int:
+    """A Look-Compute-Move light's colour as docs/lcm.md gives it: spin-light's colours in its
+    order, the mean of the old and the new while a new light is written."""
+    a = LIGHTS[light]
+    b = LIGHTS[light if pending is None else pending]
+    r, g, bl = ((x + y) // 2 for x, y in zip(a, b))
+    return (r << 24) | (g << 16) | (bl << 8) | 0xFF
+
+
+def check_lcm(rows: "Rows", trace: list[dict]) -> tuple[int, int]:
+    """Look-Compute-Move robots show their light as their colour from each light record on,
+    and their snapshot (lines from where they looked to each robot they saw) from each Look to
+    the end of the cycle."""
+    lights = 0
+    for r in trace:
+        if r["kind"] != "light" or r["light"] >= len(LIGHTS) or (r.get("pending") or 0) >= len(LIGHTS):
+            continue
+        name, j = group(r["robot"])
+        colour = rows.latest_at_event(f"/world/robots/{name}", "Points2D:colors", r["seq"])
+        want = light_rgba(r["light"], r.get("pending"))
+        if colour is None or colour[j] != want:
+            fail(f"light #{r['seq']} of robot {r['robot']}: colour {colour}, expected {want:#010x}")
+        lights += 1
+    looks = 0
+    for r in trace:
+        if r["kind"] not in ("look", "wait"):
+            continue
+        strips = rows.latest_at_event(f"/world/looks/{r['robot']}", "LineStrips2D:strips", r["seq"])
+        if r["kind"] == "wait":
+            if strips:
+                fail(f"wait #{r['seq']} of robot {r['robot']}: its snapshot is still drawn: {strips}")
+            continue
+        want = [[r["me"], s["at"]] for s in r["seen"]]
+        got = strips or []
+        if len(got) != len(want) or any(
+            max(abs(a - b) for p, q in zip(g, w) for a, b in zip(p, q)) > 2**-20 * max(1.0, *(abs(c) for p in w for c in p))
+            for g, w in zip(got, want)
+        ):
+            fail(f"look #{r['seq']} of robot {r['robot']}: drawn {got}, expected {want}")
+        looks += 1
+    return lights, looks
+
+
 def check_blueprint(rrd: Path, rows: "Rows", trace: list[dict], check: bool = False) -> int:
     """The default blueprint lays out, from its viewport's root container, a 2D view of
     `/world`, a text log of `/log` and one time-series view per metric entity of the recording;
@@ -773,6 +819,7 @@ def main() -> None:
     spacetime = check_spacetime(rows, trace)
     ends = check_message_ends(rows, trace, paths)
     check_crashes_grey(rows, trace)
+    lcm_lights, lcm_looks = check_lcm(rows, trace)
 
     # Push sensors: at each switch, the group's circles are those of its active sensors, in
     # robot order, around the robots.
@@ -783,7 +830,7 @@ def main() -> None:
     for r in trace:
         if r["kind"] != "sensor_request":
             continue
-        query = r["value"]["query"]
+        query = (r["value"] or {}).get("query") if isinstance(r["value"], dict) else None
         if query == "activate_proximity":
             reach[r["robot"]] = radius[r["robot"]] + r["value"]["range"]
         elif query == "deactivate_proximity":
@@ -826,7 +873,7 @@ def main() -> None:
     # (`world/queries/<robot>`, at its event) to the reply (cleared).
     queries = 0
     for r in trace:
-        if r["kind"] == "sensor_request" and r["value"]["query"] in ("view", "proximity"):
+        if r["kind"] == "sensor_request" and isinstance(r["value"], dict) and r["value"].get("query") in ("view", "proximity"):
             reach = r["value"]["range"] + (radius[r["robot"]] if r["value"]["query"] == "proximity" else 0.0)
             cols = rows.latest_at_event(f"/world/queries/{r['robot']}", "Ellipses2D:centers", r["seq"])
             half = rows.latest_at_event(f"/world/queries/{r['robot']}", "Ellipses2D:half_sizes", r["seq"])
@@ -944,7 +991,7 @@ def main() -> None:
         f"{checked} latest-at positions at {len(instants)} instants, "
         f"{moves} legs, {trail_points} trail points, {markers} collision markers, {spacetime} space-time arrows, {ends} arrows ending at the receive, {len(sends)} sends with arrows, "
         f"{flight_samples} in-flight samples, {lost_copies} lost copies, {switches} sensor switches, "
-        f"{frames_checked} sensor frames, {queries} queries, "
+        f"{frames_checked} sensor frames, {queries} queries, {lcm_lights} lights, {lcm_looks} looks, "
         f"{rate_samples} event-rate samples, {log_rows} log lines, {views} blueprint views, "
         f"{name_strokes} name strokes, {len(outlines)} obstacles with {obstacle_hits} contacts on them, "
         f"plots {','.join(sorted(e.rsplit('/', 1)[1] for e in rows.by_entity if e.startswith('/metrics/')))}"
