@@ -44,6 +44,10 @@ pub mod trace;
 #[doc = include_str!("../docs/extending.md")]
 pub mod extending {}
 
+/// Look-Compute-Move robots: docs/lcm.md, whose Rust snippet runs as a doc test.
+#[doc = include_str!("../docs/lcm.md")]
+pub mod look_compute_move {}
+
 /// Model checking protocol stacks: docs/model-checking.md, whose snippets run as doc tests.
 #[doc = include_str!("../docs/model-checking.md")]
 pub mod model_checking {}
