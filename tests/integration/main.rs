@@ -10,6 +10,7 @@ mod communication;
 mod dask_sweep;
 mod determinism;
 mod kernel;
+mod lcm;
 mod mutated_inputs;
 mod obstacles;
 mod real_network;
