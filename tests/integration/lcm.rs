@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use nekosim::lcm::rule_table::{RuleTable, RuleTableConfig};
-use nekosim::lcm::settings::{Lights, Register};
+use nekosim::lcm::settings::{Lights, Movement, Register};
 use nekosim::lcm::{Light, LookComputeMove, Multiplicity, Seen, View};
 use nekosim::scenario::{RobotEntry, Source};
 use nekosim::world::geometry::{Point, Vector};
@@ -935,7 +935,7 @@ fn check_phases(cycles: &[Vec<Cycle>], lights: &[(usize, f64, Light, Option<Ligh
             if let Some(Some(l)) = c.computed {
                 if c.compute_end < s.until {
                     assert!(
-                        lights.iter().any(|x| *x == (r, c.compute_end, l, None)),
+                        lights.contains(&(r, c.compute_end, l, None)),
                         "robot {r} shows {l} at {}",
                         c.compute_end
                     );
@@ -1011,6 +1011,34 @@ fn a_replay_apart_from_the_engine_agrees_with_every_run() {
     }
     assert_eq!(runs, 48);
     assert!(total.mid_write > 0, "{total:?}");
+}
+
+/// Every shipped rendezvous example runs, and its trace replays under the example's own
+/// settings.
+#[test]
+fn every_shipped_rendezvous_example_replays() {
+    for f in rendezvous_files() {
+        let text = std::fs::read_to_string(&f).unwrap();
+        let until: f64 = 12.0;
+        let trace = trace_of(&text.replacen("until: 60.0", "until: 12.0", 1));
+        let source = Source::load(&f).unwrap();
+        let settings = source.scenario.lcm.clone().unwrap_or_default();
+        let (tables, _) = tables(&f);
+        let synchrony = format!("{:?}", settings.synchrony);
+        let setup = Setup {
+            synchrony: &synchrony,
+            delta: match settings.movement {
+                Movement::Rigid => None,
+                Movement::NonRigid { delta } => Some(delta),
+            },
+            lights: settings.lights,
+            register: settings.register,
+            cycle: settings.cycle,
+            until: until.min(source.scenario.until),
+        };
+        let tally = replay(&trace, &tables[0], setup);
+        assert!(tally.looks >= 6, "{}: {tally:?}", f.display());
+    }
 }
 
 /// External lights hide a robot's own light from itself; the replay then reads the table
