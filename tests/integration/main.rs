@@ -11,6 +11,7 @@ mod dask_sweep;
 mod determinism;
 mod kernel;
 mod lcm_algorithms;
+mod lcm;
 mod mutated_inputs;
 mod obstacles;
 mod real_network;

@@ -1,7 +1,7 @@
 //! What a Look-Compute-Move run records: every activation, Look (with the frame and the
 //! snapshot), Compute (the decision in the local frame and in the world) and Move, typed. The
 //! trace writes each as an object of its `kind`; the Neko log as one line; the recording draws
-//! them. A replay reads them back alone (tests/lcm_replay.rs).
+//! them. A replay reads them back alone (tests/integration/lcm.rs).
 
 use serde::Serialize;
 

@@ -144,12 +144,13 @@ impl RuleTable {
             rules,
         };
         let n = table.lights.len() as Light;
-        let mine: Vec<Option<Light>> = if lights.own_visible() {
+        // A one-colour palette's light is known to everyone ([`RuleTable::compute`]).
+        let mine: Vec<Option<Light>> = if lights.own_visible() || n == 1 {
             (0..n).map(Some).collect()
         } else {
             vec![None]
         };
-        let theirs: Vec<Option<Light>> = if lights.others_visible() {
+        let theirs: Vec<Option<Light>> = if lights.others_visible() || n == 1 {
             (0..n).map(Some).collect()
         } else {
             vec![None]
@@ -181,12 +182,15 @@ impl RuleTable {
 
 impl LookComputeMove for RuleTable {
     /// The row for the nearest other robot (a rule table is for two robots); stay when the
-    /// robot sees none.
+    /// robot sees none. A view holds no lights when the palette has one colour, since there is
+    /// nothing to tell apart; every light then shows that colour, and the rows that name it
+    /// match.
     fn compute(&self, view: &View) -> Decision {
         let Some(other) = view.others.first() else {
             return Decision::stay();
         };
-        let Some(rule) = self.rule(view.light, other.light, other.is_here()) else {
+        let known = |l: Option<Light>| if self.lights.len() == 1 { Some(0) } else { l };
+        let Some(rule) = self.rule(known(view.light), known(other.light), other.is_here()) else {
             return Decision::stay();
         };
         let to = match rule.go {
@@ -217,5 +221,66 @@ impl LcmConfigured for RuleTable {
 
     fn configure(c: RuleTableConfig, setting: &Setting) -> Result<Self, FieldError> {
         RuleTable::new(c, setting.lcm.lights)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lcm::view::{Multiplicity, Seen};
+
+    fn row(me: Option<&str>, other: Option<&str>, go: Move) -> RuleConfig {
+        RuleConfig {
+            me: me.map(str::to_string),
+            other: other.map(str::to_string),
+            same: None,
+            go,
+            light: None,
+        }
+    }
+
+    /// A view of one other robot at `at`, with the lights the runtime shows.
+    fn view(me: Option<Light>, at: Point, other: Option<Light>) -> View {
+        View {
+            light: me,
+            others: vec![Seen {
+                at,
+                light: other,
+                multiplicity: Multiplicity::Unknown,
+            }],
+        }
+    }
+
+    /// A one-colour table that names its colour decides as written: the runtime's view shows
+    /// no light then, and the table reads it as the one colour, under every lights setting
+    /// the check accepts it for.
+    #[test]
+    fn a_one_colour_table_that_names_its_colour_applies() {
+        for lights in [Lights::Full, Lights::External, Lights::Internal] {
+            let c = RuleTableConfig {
+                lights: vec!["black".into()],
+                rules: vec![row(Some("black"), Some("black"), Move::ToHalf)],
+            };
+            let t = RuleTable::new(c, lights).expect("complete");
+            let d = t.compute(&view(None, Point::new(4.0, 2.0), None));
+            assert_eq!(d.to, Some(Point::new(2.0, 1.0)), "{lights:?}");
+        }
+    }
+
+    /// With more colours, an unseen light matches only rows that leave it open.
+    #[test]
+    fn an_unseen_light_matches_only_open_rows() {
+        let c = RuleTableConfig {
+            lights: vec!["black".into(), "white".into()],
+            rules: vec![
+                row(Some("black"), None, Move::ToOther),
+                row(None, None, Move::ToHalf),
+            ],
+        };
+        let t = RuleTable::new(c, Lights::External).expect("complete");
+        let d = t.compute(&view(None, Point::new(4.0, 2.0), Some(0)));
+        assert_eq!(d.to, Some(Point::new(2.0, 1.0)));
+        let d = t.compute(&view(Some(0), Point::new(4.0, 2.0), Some(0)));
+        assert_eq!(d.to, Some(Point::new(4.0, 2.0)));
     }
 }
