@@ -286,6 +286,7 @@ fn table_view(lights: Lights, colours: usize, me: u8, other: u8, at: Point) -> V
             light: (lit && lights.others_visible()).then_some(other),
             multiplicity: Multiplicity::Unknown,
         }],
+        visibility: None,
     }
 }
 
@@ -802,6 +803,7 @@ fn check_compute(
             light: light(&other["light"]).filter(|_| lit && lights.others_visible()),
             multiplicity: Multiplicity::Unknown,
         }],
+        visibility: None,
     };
     let d = table.compute(&view);
     let local_to = opt_point(&compute["local_to"]);
