@@ -167,3 +167,56 @@ fn the_n_robot_examples_reach_their_predicates() {
         assert!(line.contains("to the end"), "{example}: {line}");
     }
 }
+
+/// A crashed robot stops where it is, in mid-move if it was moving, and acts no more; the
+/// others keep seeing it there, and converge onto it: the centre of gravity of robots around a
+/// point that never moves ends on that point.
+#[test]
+fn a_crashed_robot_stays_visible_where_it_stopped() {
+    let text = format!(
+        "Scenario(seed: 4, until: 40.0, world: (size: Infinite, ghost_mode: true),
+           lcm: (synchrony: Async, predicates: [Converged(epsilon: 0.01)]),
+           faults: [Crash(robot: 2, at: 1.3)],
+           robots: [Group(count: 5, radius: 0.5, born: Points([{}]),
+                          algorithm: CentreOfGravity())])",
+        born_points()
+    );
+    let records = records(&text);
+    let crash = records
+        .iter()
+        .find_map(|r| match &r.obs {
+            Observation::Crash { robot: 2, state } => Some((r.t, state.pos)),
+            _ => None,
+        })
+        .expect("robot 2 crashes");
+    assert_eq!(crash.0, 1.3);
+    // Robot 2 acts no more after its crash.
+    assert!(records
+        .iter()
+        .filter(|r| r.t > crash.0)
+        .all(|r| !matches!(&r.obs, Observation::Lcm(l) if l.robot() == 2)));
+    // Every later Look sees it where it crashed.
+    let mut looks = 0;
+    for r in records.iter().filter(|r| r.t > crash.0) {
+        if let Observation::Lcm(LcmRecord::Look { seen, .. }) = &r.obs {
+            let it = seen.iter().find(|s| s.robot == 2).expect("robot 2 seen");
+            assert_eq!(it.at, crash.1, "at {}", r.t);
+            looks += 1;
+        }
+    }
+    assert!(looks > 20, "{looks} looks after the crash");
+    // The others end next to it.
+    let last: std::collections::BTreeMap<u32, Point> = waits(&records)
+        .into_iter()
+        .map(|(robot, _, at)| (robot, at))
+        .collect();
+    for (robot, at) in last {
+        if robot != 2 {
+            assert!(
+                (at - crash.1).norm() < 0.05,
+                "robot {robot} ends at {at}, robot 2 at {}",
+                crash.1
+            );
+        }
+    }
+}
