@@ -29,6 +29,7 @@ pub mod predicate;
 pub mod record;
 pub mod rule_table;
 pub mod runtime;
+pub mod search;
 pub mod settings;
 pub mod view;
 

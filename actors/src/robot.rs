@@ -60,6 +60,11 @@ pub trait Algorithm: fmt::Debug + Send {
     fn roster(&self) -> Option<&crate::lcm::settings::Roster> {
         None
     }
+    /// For a Look-Compute-Move robot, its algorithm's pure `compute` (what a checker or a
+    /// search hosts on its own). Default: none.
+    fn look_compute_move(&self) -> Option<std::sync::Arc<dyn crate::lcm::LookComputeMove>> {
+        None
+    }
 }
 
 /// How a motion call ended.

@@ -12,6 +12,7 @@ mod determinism;
 mod kernel;
 mod lcm;
 mod lcm_algorithms;
+mod lcm_search;
 mod mutated_inputs;
 mod obstacles;
 mod real_network;

@@ -32,7 +32,7 @@ pub struct Plan {
 const ROUND_WORDS: u128 = 1 << 34;
 
 /// One robot's adversary.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Adversary {
     settings: std::sync::Arc<LcmSettings>,
     seed: u64,

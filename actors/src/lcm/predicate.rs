@@ -269,7 +269,8 @@ fn same(a: Point, b: Point) -> bool {
     (a - b).norm() <= SAME_POINT * scale
 }
 
-fn gathered(points: &[Point]) -> bool {
+/// Whether every point is one, under [`SAME_POINT`].
+pub fn gathered(points: &[Point]) -> bool {
     points
         .first()
         .is_none_or(|&p| points.iter().all(|&q| same(p, q)))

@@ -88,6 +88,10 @@ impl<A: LookComputeMove> Algorithm for Lcm<A> {
         Some(&self.settings.roster)
     }
 
+    fn look_compute_move(&self) -> Option<Arc<dyn LookComputeMove>> {
+        Some(self.algorithm.clone())
+    }
+
     fn run(&self, robot: Robot) -> AlgorithmFuture {
         let (algorithm, settings) = (self.algorithm.clone(), self.settings.clone());
         Box::pin(async move { cycles(&*algorithm, settings, robot).await })
