@@ -248,6 +248,7 @@ mod tests {
                 light: other,
                 multiplicity: Multiplicity::Unknown,
             }],
+            visibility: None,
         }
     }
 

@@ -400,9 +400,12 @@ fn rounds(n: usize, stops: &[f64]) -> Vec<Round> {
     out
 }
 
-/// The key of a configuration: exact positions, lights and cycle counts (frames follow the
-/// cycle counts).
-fn key(w: &World, depth: usize) -> (usize, Vec<u64>, Vec<Light>, Vec<u32>) {
+/// A configuration at a depth: exact positions' bits, lights and cycle counts (frames follow
+/// the cycle counts).
+type Key = (usize, Vec<u64>, Vec<Light>, Vec<u32>);
+
+/// The key of a configuration at `depth`.
+fn key(w: &World, depth: usize) -> Key {
     (
         depth,
         w.at.iter()
@@ -472,7 +475,7 @@ fn dfs(
     goals: &[Goal],
     max_rounds: u64,
     path: &mut Vec<Round>,
-    seen: &mut HashSet<(usize, Vec<u64>, Vec<Light>, Vec<u32>)>,
+    seen: &mut HashSet<Key>,
     coverage: &mut Coverage,
 ) -> Option<Violation> {
     if left == 0 {
