@@ -38,7 +38,7 @@ mod motion_logic;
 mod robot_state;
 mod sensing;
 
-use robot_state::{OwnEvents, PairEvents, Pairs, RobotState, PARTNER_BYTES};
+use robot_state::{OwnEvents, PairEvents, Pairs, RobotState};
 pub use sensing::Sensing;
 
 /// The world's extent (seed 3.2).
@@ -581,8 +581,8 @@ impl VirtualWorld {
     }
 
     /// The robots next to `cells` but not to `skip` that `id` has no pair events with yet,
-    /// each once, in the order of [`blocks`] ([`blocks_beyond`]); what predicting against them
-    /// reads of their states is asked for, together rather than one miss after the other.
+    /// each once, in the order of [`blocks`] ([`blocks_beyond`]); their states, which predicting
+    /// against them reads, are asked for together rather than one miss after the other.
     fn fresh_around(&self, id: RobotId, cells: &[Cell], skip: &[Cell]) -> Fresh {
         let mut fresh = Fresh::new();
         let pairs = &self.robots[id as usize].pairs;
@@ -594,8 +594,7 @@ impl VirtualWorld {
             }
         });
         for &o in &fresh {
-            let state = &self.robots[o as usize] as *const RobotState;
-            super::prefetch::prefetch_at(state as usize, PARTNER_BYTES);
+            super::prefetch::prefetch(&self.robots[o as usize]);
         }
         fresh
     }
