@@ -17,20 +17,14 @@ use crate::world::RobotId;
 pub struct WorldAhead {
     /// The robots of the next event, when its handling reads the world,
     pub next: Option<[RobotId; 2]>,
-    /// those of the event after it, likewise,
+    /// and those of the event after it, likewise.
     pub after: Option<[RobotId; 2]>,
-    /// and the robot and offset of the next event when it is a cell crossing.
-    pub crossing: Option<(RobotId, [i64; 2])>,
 }
 
 impl WorldAhead {
-    /// Asks `world` for all of it ([`VirtualWorld::prefetch`](crate::world::virtual_world::VirtualWorld::prefetch),
-    /// [`VirtualWorld::prefetch_crossing`](crate::world::virtual_world::VirtualWorld::prefetch_crossing)).
+    /// Asks `world` for all of it ([`VirtualWorld::prefetch`](crate::world::virtual_world::VirtualWorld::prefetch)).
     pub fn prefetch(&self, world: &crate::world::virtual_world::VirtualWorld) {
         world.prefetch(self.next, self.after);
-        if let Some((robot, offset)) = self.crossing {
-            world.prefetch_crossing(robot, offset);
-        }
     }
 }
 
@@ -547,11 +541,7 @@ impl Core {
             _ => None,
         };
         let (next, after) = (in_world(self.ahead.next), in_world(self.ahead.after));
-        (next.is_some() || after.is_some()).then_some(WorldAhead {
-            next,
-            after,
-            crossing: self.ahead.crossing,
-        })
+        (next.is_some() || after.is_some()).then_some(WorldAhead { next, after })
     }
 
     /// Counts a delivery to robot `r` at the current instant in the vote for the robot that
