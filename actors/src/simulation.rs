@@ -306,7 +306,7 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
         let stopped = move |i: usize| {
             i % STOP_EVERY == 0 && stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed))
         };
-        let mut robots: Vec<Addr<Host<RobotActor>>> = p
+        let mut robots: Vec<Recipient<Deliver>> = p
             .robots
             .into_iter()
             .zip(robot_info)
@@ -323,11 +323,14 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                     // This thread's arbiter: started in place, without a closure sent over the
                     // arbiter's queue and a task to run it (at 1M robots, both held until the
                     // system ran).
-                    Host(RobotActor::new(info, algorithm, seed, ids)).start()
+                    Host(RobotActor::new(info, algorithm, seed, ids))
+                        .start()
+                        .recipient()
                 } else {
                     Host::start_in_arbiter(&arbiter_of(info.id), move |_| {
                         Host(RobotActor::new(info, algorithm, seed, ids))
                     })
+                    .recipient()
                 }
             })
             .collect();
