@@ -11,7 +11,7 @@ use nekosim_models::explain::{explain, layer_name, Event, Step};
 #[cfg(feature = "rerun")]
 use nekosim_models::reason::reason;
 use nekosim_models::{CheckModel, Outcome};
-use nekosim_protocols::payload::{install, type_word};
+use nekosim_protocols::codec::{install, type_word};
 use nekosim_protocols::{Payload, Pid};
 use serde::Serialize;
 use stateright::Expectation;

@@ -11,7 +11,7 @@ use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_actors::world::sensor::{Plan, Reach, SensorKind, Trigger};
 use nekosim_actors::world::virtual_world::WorldSize;
 use nekosim_actors::world::{Obstacle, RobotId};
-use nekosim_protocols::payload::type_word;
+use nekosim_protocols::codec::type_word;
 
 use super::canvas::{level_of, Canvas, Flight, Mark, Metrics, Stamp, ROBOT_GROUP};
 use super::colour::{layer_colour, robot_colour, GREY};
