@@ -164,12 +164,18 @@ impl Prepared {
         }
         let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
         let sensors = Arc::new(cfg.sensors);
+        // A stop from outside (the user's Ctrl-C) while the world is built leaves the setup
+        // empty: the run then ends before its first record, without starting a million
+        // robots' worth of setup first.
+        let stop = cfg.observers.stop.clone();
+        let stopped = move || stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed));
         let world = VirtualWorld::new(cfg.world.clone(), &specs)?;
         let sensing = Sensing::new(sensors.clone(), specs.len());
         let (wiring, template) = Wiring::check(&cfg.comms.stack, &cfg.comms.protocols)?;
         let mut setup = Outbox::new(0.0, 0);
+        let starts = if stopped() { 0 } else { specs.len() };
         // Protocol layers start first, bottom-up, then the algorithms; crashes are scheduled.
-        for r in 0..specs.len() as RobotId {
+        for r in 0..starts as RobotId {
             for l in 0..cfg.comms.stack.len() as nekosim_protocols::LayerIx {
                 setup.schedule(
                     0.0,
@@ -184,11 +190,13 @@ impl Prepared {
                 );
             }
         }
-        world.start(&mut setup);
+        if !stopped() {
+            world.start(&mut setup);
+        }
         let mut partitions = Vec::new();
         for f in &cfg.comms.faults {
             match f {
-                Fault::Crash { robot, at } => {
+                Fault::Crash { robot, at } if !stopped() => {
                     setup.schedule(
                         *at,
                         Target::EventManager,
@@ -197,6 +205,7 @@ impl Prepared {
                         Payload::Crash { robot: *robot },
                     );
                 }
+                Fault::Crash { .. } => {}
                 Fault::Partition(p) => partitions.push(p.clone()),
             }
         }

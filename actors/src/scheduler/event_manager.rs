@@ -177,6 +177,9 @@ impl std::fmt::Debug for Observers {
 /// How many events pass between two progress calls.
 pub const PROGRESS_EVERY: u64 = 4096;
 
+/// How many of the setup's effects go in between two looks at the stop flag.
+const STOP_EVERY: usize = 1024;
+
 impl Core {
     /// A core that runs until `until` [s]; `setup` holds the effects of the setup at t = 0
     /// (cause 0).
@@ -201,8 +204,24 @@ impl Core {
             run: smallvec::SmallVec::new(),
             spare_then: Vec::new(),
         };
-        core.apply(setup.into_effects());
+        core.apply_setup(setup.into_effects());
         core
+    }
+
+    /// Applies the setup's effects in order, as [`Core::apply`] does, unless the run is
+    /// stopped from outside meanwhile: a million robots' setup records take a while to write,
+    /// and the user's Ctrl-C then cuts them where it comes. The records so far are the first
+    /// records of the whole run, and the run ends before its first event.
+    fn apply_setup(&mut self, mut effects: Vec<Effect>) {
+        self.prefetch_cancelled(&effects);
+        for (i, e) in effects.drain(..).enumerate() {
+            if i % STOP_EVERY == 0 && self.stopped() {
+                self.output.stats.interrupted = true;
+                break;
+            }
+            self.apply_one(e);
+        }
+        self.keep_spare(effects);
     }
 
     /// Applies the effects of one handling, in order.
