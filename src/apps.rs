@@ -12,9 +12,9 @@
 use std::fmt;
 
 use nekosim_actors::registry::Setting;
+use nekosim_protocols::app::app_payload;
 use nekosim_protocols::registry::Named;
 use nekosim_protocols::service::{Indication, Request};
-use nekosim_protocols::wire::app_payload;
 use nekosim_protocols::{FieldError, Pid, Service, Spec, SpecError};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};

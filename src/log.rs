@@ -9,7 +9,7 @@ use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_actors::world::obstacle::Shape;
 use nekosim_actors::world::sensor::SensorQuery;
 use nekosim_actors::world::{MotionOutcome, RobotId};
-use nekosim_protocols::payload::type_word;
+use nekosim_protocols::codec::type_word;
 use nekosim_protocols::Payload;
 
 pub use nekosim_actors::world::observation::num;

@@ -12,7 +12,7 @@ use std::time::Instant;
 use nekosim_actors::scheduler::Observers;
 use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_actors::{SimConfig, SimError};
-use nekosim_protocols::payload::{install, Codecs};
+use nekosim_protocols::codec::{install, Codecs};
 
 use crate::log::NekoLog;
 use crate::output::AtomicFile;

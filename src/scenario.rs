@@ -21,7 +21,7 @@ use nekosim_actors::world::obstacle::Shape;
 use nekosim_actors::world::sensor::{SensorModel, Sensors};
 use nekosim_actors::world::virtual_world::{RobotSpec, WorldConfig};
 use nekosim_actors::{Algorithm, Comms};
-use nekosim_protocols::payload::Codecs;
+use nekosim_protocols::codec::Codecs;
 use nekosim_protocols::{FieldError, LayerSpec, Protocols, Spec};
 use serde::Deserialize;
 

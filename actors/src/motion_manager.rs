@@ -5,7 +5,7 @@
 use std::sync::{Arc, Mutex};
 
 use crate::handler::HandleEvent;
-use crate::world::event::{Event, Payload};
+use crate::world::event::Event;
 use crate::world::outbox::Outbox;
 use crate::world::virtual_world::VirtualWorld;
 
@@ -32,9 +32,6 @@ impl HandleEvent for MotionManager {
     fn look_ahead(&self, next: Option<&Event>, after: Option<&Event>) {
         if let Ok(world) = self.world.try_lock() {
             world.prefetch(next.map(|e| e.concerns), after.map(|e| e.concerns));
-            if let Some(Payload::CellCrossing { robot, offset }) = next.map(|e| &e.payload) {
-                world.prefetch_crossing(*robot, *offset);
-            }
         }
     }
 }

@@ -33,8 +33,7 @@ use std::collections::HashMap;
 
 use actix::prelude::*;
 
-use crate::host::{Deliver, Host, Replied, ReplyTo};
-use crate::robot::RobotActor;
+use crate::host::{Deliver, Replied, ReplyTo};
 use crate::world::event::{Event, Target};
 use crate::world::outbox::Outbox;
 use crate::world::sensor::SensorKind;
@@ -49,9 +48,7 @@ pub use event_manager::{
 pub struct Routes {
     pub motion_manager: Recipient<Deliver>,
     pub sensor_manager: Recipient<Deliver>,
-    /// The robot actors' addresses themselves, not boxed recipients: one fewer indirection
-    /// into a million cold robots' memory on every hop.
-    pub robots: Vec<Addr<Host<RobotActor>>>,
+    pub robots: Vec<Recipient<Deliver>>,
     pub network: Recipient<Deliver>,
     /// Each robot's protocol layers, by stack index.
     pub layers: Vec<Vec<Recipient<Deliver>>>,
@@ -123,7 +120,7 @@ impl Scheduler {
     fn route(&mut self, target: Target) -> &Recipient<Deliver> {
         match target {
             Target::EventManager => unreachable!("the event manager's events are handled inline"),
-            Target::Robot(_) => unreachable!("robots are sent to by address"),
+            Target::Robot(r) => &self.routes.robots[r as usize],
             Target::MotionManager => &self.routes.motion_manager,
             Target::SensorManager => &self.routes.sensor_manager,
             Target::Network => &self.routes.network,
@@ -150,10 +147,7 @@ impl Scheduler {
         deliver.reply = Some(ReplyTo::new(me.clone()));
         self.in_flight = Some(target);
         // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
-        match target {
-            Target::Robot(r) => self.routes.robots[r as usize].do_send(deliver),
-            _ => self.route(target).do_send(deliver),
-        }
+        self.route(target).do_send(deliver);
     }
 
     /// Hands the output over. The actor is not stopped: the run's host drops or leaves the

@@ -180,12 +180,18 @@ impl Prepared {
         let specs: Vec<RobotSpec> = cfg.robots.iter().map(|(s, _)| *s).collect();
         fill_rosters(&cfg.robots);
         let sensors = Arc::new(cfg.sensors);
+        // A stop from outside (the user's Ctrl-C) while the world is built leaves the setup
+        // empty: the run then ends before its first record, without starting a million
+        // robots' worth of setup first.
+        let stop = cfg.observers.stop.clone();
+        let stopped = move || stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed));
         let world = VirtualWorld::new(cfg.world.clone(), &specs)?;
         let sensing = Sensing::new(sensors.clone(), specs.len());
         let (wiring, template) = Wiring::check(&cfg.comms.stack, &cfg.comms.protocols)?;
         let mut setup = Outbox::new(0.0, 0);
+        let starts = if stopped() { 0 } else { specs.len() };
         // Protocol layers start first, bottom-up, then the algorithms; crashes are scheduled.
-        for r in 0..specs.len() as RobotId {
+        for r in 0..starts as RobotId {
             for l in 0..cfg.comms.stack.len() as nekosim_protocols::LayerIx {
                 setup.schedule(
                     0.0,
@@ -200,11 +206,13 @@ impl Prepared {
                 );
             }
         }
-        world.start(&mut setup);
+        if !stopped() {
+            world.start(&mut setup);
+        }
         let mut partitions = Vec::new();
         for f in &cfg.comms.faults {
             match f {
-                Fault::Crash { robot, at } => {
+                Fault::Crash { robot, at } if !stopped() => {
                     setup.schedule(
                         *at,
                         Target::EventManager,
@@ -213,6 +221,7 @@ impl Prepared {
                         Payload::Crash { robot: *robot },
                     );
                 }
+                Fault::Crash { .. } => {}
                 Fault::Partition(p) => partitions.push(p.clone()),
             }
         }
@@ -322,7 +331,7 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
         let stopped = move |i: usize| {
             i % STOP_EVERY == 0 && stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed))
         };
-        let mut robots: Vec<Addr<Host<RobotActor>>> = p
+        let mut robots: Vec<Recipient<Deliver>> = p
             .robots
             .into_iter()
             .zip(robot_info)
@@ -339,11 +348,14 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                     // This thread's arbiter: started in place, without a closure sent over the
                     // arbiter's queue and a task to run it (at 1M robots, both held until the
                     // system ran).
-                    Host(RobotActor::new(info, algorithm, seed, ids)).start()
+                    Host(RobotActor::new(info, algorithm, seed, ids))
+                        .start()
+                        .recipient()
                 } else {
                     Host::start_in_arbiter(&arbiter_of(info.id), move |_| {
                         Host(RobotActor::new(info, algorithm, seed, ids))
                     })
+                    .recipient()
                 }
             })
             .collect();

@@ -97,7 +97,7 @@ pub fn layer_name(wiring: &Wiring, ix: u16) -> &str {
 /// One event as a line of text, messages in their protocols' readable forms.
 pub fn describe(model: &CheckModel, e: &Event) -> String {
     let w = &model.actors[0].shared.wiring;
-    nekosim_protocols::payload::with_codecs(&w.codecs, || describe_in(w, e))
+    nekosim_protocols::codec::with_codecs(&w.codecs, || describe_in(w, e))
 }
 
 fn describe_in(w: &Wiring, e: &Event) -> String {

@@ -5,7 +5,7 @@
 
 use std::collections::BTreeSet;
 
-use nekosim_protocols::payload::with_codecs;
+use nekosim_protocols::codec::with_codecs;
 use nekosim_protocols::{MsgId, Payload, Pid, Request};
 use stateright::Path;
 

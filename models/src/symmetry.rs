@@ -16,7 +16,7 @@
 
 use std::sync::Arc;
 
-use nekosim_protocols::payload::Codecs;
+use nekosim_protocols::codec::Codecs;
 use nekosim_protocols::{Payload, Pid, Rename, Request, APP};
 use stateright::actor::{Envelope, Id, Network, Timers};
 

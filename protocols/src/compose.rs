@@ -8,11 +8,11 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::payload::Codecs;
+use crate::app::app_codec;
+use crate::codec::Codecs;
 use crate::registry::{ProtocolSpec, Protocols};
 use crate::service::{LayerIx, Service, NET};
 use crate::stack::{Stack, Wiring};
-use crate::wire::app_codec;
 
 /// One layer of a scenario's stack: `Layer(id: "abcast", protocol: LamportAbcast, below: "fifo")`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -4,9 +4,10 @@
 //!
 //! - [`protocol`]: the [`Microprotocol`] trait: a protocol's own message, timer and
 //!   configuration types, typed handlers and [`Out`]; [`Layer`] holds any protocol.
-//! - [`payload`]: the one wire encoding below the typed edge ([`Payload`]).
-//! - [`service`]: services, requests, indications, inputs and effects; [`wire`]: process ids,
-//!   message ids, the application's messages.
+//! - [`wire`]: process ids, layer indices, message ids and contents; [`payload`]: the one
+//!   wire encoding below the typed edge ([`Payload`]); [`codec`]: how hosts render and rename
+//!   payloads without the protocols' types; [`app`]: the application's messages.
+//! - [`service`]: services, requests, indications, inputs and effects.
 //! - [`registry`]: protocols by name ([`Protocols::with_builtins`]); [`builtins`] lists the
 //!   built-in protocols, registered exactly as a user's are.
 //! - Protocols: [`fifo`], [`retransmit`], [`rbroadcast`], [`lamport`], [`sequencer`],
@@ -15,7 +16,9 @@
 //!   [`compose`]: a scenario's stack by name, checked into a wiring and a fresh stack.
 //! - [`symmetry`]: renaming process ids, for a model checker's symmetry reduction.
 
+pub mod app;
 pub mod builtins;
+pub mod codec;
 pub mod compose;
 pub mod consensus;
 pub mod consensus_abcast;
@@ -34,6 +37,7 @@ pub mod stack;
 pub mod symmetry;
 pub mod wire;
 
+pub use app::{app_decode, app_payload, AppMsg};
 pub use compose::{LayerSpec, StackError};
 pub use payload::{Payload, WireError};
 pub use protocol::{
@@ -43,4 +47,4 @@ pub use registry::{ProtocolSpec, Protocols, Spec, SpecError, StackProperty};
 pub use service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, Shape, APP, NET};
 pub use stack::{Routed, Stack, Wiring};
 pub use symmetry::Rename;
-pub use wire::{app_decode, app_payload, AppMsg, Content, MsgId, Pid, Real};
+pub use wire::{Content, MsgId, Pid, Real};

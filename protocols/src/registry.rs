@@ -11,10 +11,12 @@ use std::sync::Arc;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::payload::{decode_bytes, Codec, WireError};
+use crate::codec::Codec;
+use crate::payload::{decode_bytes, WireError};
 use crate::protocol::{FieldError, Layer, Microprotocol};
 use crate::service::Shape;
 use crate::stack::Stack;
+use crate::symmetry::Rename;
 
 /// A protocol (or algorithm) and its configuration as a scenario writes it, kept as RON text
 /// (`Fifo`, `Retransmit(period: 0.5)`, `RingGossip(fanout: 2)`); a registry reads it into the
@@ -646,14 +648,26 @@ fn render_timer_entry<P: Microprotocol>(
     Ok(fmt::Debug::fmt(&t, f))
 }
 
+/// Renames an encoded message of protocol `P` (a codec entry).
+fn rename_msg_entry<P: Microprotocol>(bytes: &[u8], r: &Rename) -> Option<Vec<u8>> {
+    let msg: P::Msg = decode_bytes(bytes).ok()?;
+    postcard::to_allocvec(&P::renamed_msg(&msg, r)?).ok()
+}
+
+/// Renames an encoded timer of protocol `P` (a codec entry).
+fn rename_timer_entry<P: Microprotocol>(bytes: &[u8], r: &Rename) -> Option<Vec<u8>> {
+    let t: P::Timer = decode_bytes(bytes).ok()?;
+    postcard::to_allocvec(&P::renamed_timer(&t, r)?).ok()
+}
+
 /// The codec of a protocol type (how hosts render its messages and timers).
 pub fn codec_of<P: Microprotocol>(name: &'static str) -> Codec {
     Codec {
         protocol: name,
         render: render_entry::<P>,
         render_timer: render_timer_entry::<P>,
-        rename: crate::symmetry::rename_msg_entry::<P>,
-        rename_timer: crate::symmetry::rename_timer_entry::<P>,
+        rename: rename_msg_entry::<P>,
+        rename_timer: rename_timer_entry::<P>,
     }
 }
 

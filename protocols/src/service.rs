@@ -9,13 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::payload::Payload;
 use crate::wire::{MsgId, Pid, Real};
-
-/// A layer's index in its process's stack (the same in every process).
-pub type LayerIx = u16;
-/// The network, below every stack.
-pub const NET: LayerIx = LayerIx::MAX;
-/// The robot's algorithm, on top of every stack.
-pub const APP: LayerIx = LayerIx::MAX - 1;
+// Where a request or an indication comes from and goes: named with the services.
+pub use crate::wire::{LayerIx, APP, NET};
 
 /// What a handler knows of its setting. Protocols are time-free: they react to messages,
 /// requests and timers only, so a model checker can explore them without clocks.

@@ -12,7 +12,8 @@ use std::collections::VecDeque;
 use std::fmt;
 use std::sync::Arc;
 
-use crate::payload::{Codec, Codecs, Payload, WireError};
+use crate::codec::{Codec, Codecs};
+use crate::payload::{Payload, WireError};
 use crate::protocol::Layer;
 use crate::service::{Ctx, Effect, Indication, Input, LayerIx, Request, Service, APP, NET};
 use crate::wire::{Pid, Real};
@@ -36,7 +37,7 @@ pub struct Wiring {
 impl Wiring {
     /// The readable form of a payload (or of anything holding payloads) of this stack.
     pub fn render<T: fmt::Display + ?Sized>(&self, value: &T) -> String {
-        crate::payload::render(&self.codecs, value)
+        crate::codec::render(&self.codecs, value)
     }
 
     /// The readable form of a timer of layer `layer`.

@@ -11,8 +11,7 @@
 
 use std::fmt;
 
-use crate::payload::{decode_bytes, Payload};
-use crate::protocol::Microprotocol;
+use crate::payload::Payload;
 use crate::wire::{MsgId, Pid};
 
 /// A renaming of process ids: process `p` becomes `to[p]`.
@@ -56,18 +55,6 @@ impl<'a> Rename<'a> {
     pub fn permutation(&self) -> &[Pid] {
         self.to
     }
-}
-
-/// Renames an encoded message of protocol `P` (a codec entry).
-pub fn rename_msg_entry<P: Microprotocol>(bytes: &[u8], r: &Rename) -> Option<Vec<u8>> {
-    let msg: P::Msg = decode_bytes(bytes).ok()?;
-    postcard::to_allocvec(&P::renamed_msg(&msg, r)?).ok()
-}
-
-/// Renames an encoded timer of protocol `P` (a codec entry).
-pub fn rename_timer_entry<P: Microprotocol>(bytes: &[u8], r: &Rename) -> Option<Vec<u8>> {
-    let t: P::Timer = decode_bytes(bytes).ok()?;
-    postcard::to_allocvec(&P::renamed_timer(&t, r)?).ok()
 }
 
 /// A codec entry for what cannot be renamed (the application's messages, which only the

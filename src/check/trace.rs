@@ -11,7 +11,7 @@ use nekosim_models::explain::{explain, layer_name, Event, Step};
 #[cfg(feature = "rerun")]
 use nekosim_models::reason::reason;
 use nekosim_models::{CheckModel, Outcome};
-use nekosim_protocols::payload::{install, type_word};
+use nekosim_protocols::codec::{install, type_word};
 use nekosim_protocols::{Payload, Pid};
 use serde::Serialize;
 use stateright::Expectation;
@@ -128,9 +128,11 @@ pub(super) fn write_recording(
     let statement = format!("{statement}{why}");
     rec.canvas_mut().note(&format!("### {verdict}{statement}"));
     rec.canvas_mut().log(start, verdict_level, &verdict);
-    for item in path_items(model, &steps) {
+    let items = path_items(model, &steps);
+    let dropped = dropped_copies(&items);
+    for (item, dropped) in items.into_iter().zip(dropped) {
         match item {
-            Item::Obs(r) => rec.record(&r),
+            Item::Obs(r) => rec.record_dropping(&r, &dropped),
             Item::Check(x) => match x.event {
                 CheckEvent::Crash { robot } => rec.record(&Record {
                     t: x.t,
@@ -217,6 +219,76 @@ pub fn trace_lines(model: &CheckModel, steps: &[Step]) -> Vec<String> {
         .collect()
 }
 
+/// What names a copy on its way in a path: sender, receiver, layer and message.
+#[cfg_attr(not(feature = "rerun"), allow(dead_code))]
+type CopyKey<'a> = (Pid, Pid, &'a str, &'a Payload);
+
+/// For each item of a path, which copies of its send (by index in its `to`) the network
+/// drops at a later step. A loss, like a receive, ends the oldest copy on its way with the
+/// same sender, receiver, layer and message: such copies are alike, so which one is lost
+/// changes nothing of what is shown, and a receive never takes a copy that a loss ends.
+#[cfg_attr(not(feature = "rerun"), allow(dead_code))]
+fn dropped_copies(items: &[Item]) -> Vec<Vec<bool>> {
+    use std::collections::{HashMap, VecDeque};
+
+    let mut dropped: Vec<Vec<bool>> = items.iter().map(|_| Vec::new()).collect();
+    // Per sender, receiver, layer and message, the copies on their way (item, copy), oldest
+    // first.
+    let mut waiting: HashMap<CopyKey, VecDeque<(usize, usize)>> = HashMap::new();
+    for (i, item) in items.iter().enumerate() {
+        match item {
+            Item::Obs(Record {
+                obs:
+                    Observation::Send {
+                        robot,
+                        to,
+                        layer,
+                        msg,
+                        ..
+                    },
+                ..
+            }) => {
+                dropped[i] = vec![false; to.len()];
+                for (k, dest) in to.iter().enumerate() {
+                    let key = (*robot, *dest, layer.as_str(), msg);
+                    waiting.entry(key).or_default().push_back((i, k));
+                }
+            }
+            Item::Obs(Record {
+                obs:
+                    Observation::Receive {
+                        robot,
+                        from,
+                        layer,
+                        msg,
+                    },
+                ..
+            }) => {
+                let key = (*from, *robot, layer.as_str(), msg);
+                waiting.get_mut(&key).and_then(VecDeque::pop_front);
+            }
+            Item::Check(CheckRecord {
+                event:
+                    CheckEvent::Drop {
+                        robot,
+                        to: [to],
+                        layer,
+                        payload,
+                        ..
+                    },
+                ..
+            }) => {
+                let key = (*robot, *to, layer.as_str(), payload);
+                if let Some((j, k)) = waiting.get_mut(&key).and_then(VecDeque::pop_front) {
+                    dropped[j][k] = true;
+                }
+            }
+            _ => {}
+        }
+    }
+    dropped
+}
+
 /// An event of a path: a simulator observation, or a kind only model-checking traces have.
 enum Item {
     Obs(Record),
@@ -248,6 +320,9 @@ pub enum CheckEvent {
         /// The message's type, the first word of `msg`.
         #[serde(rename = "type")]
         ty: String,
+        /// The message itself, which finds the copy the loss ends (the trace shows `msg`).
+        #[serde(skip)]
+        payload: Payload,
     },
     /// A protocol timer fired (the checker fires timers whenever it likes).
     Timer {
@@ -286,6 +361,7 @@ fn path_items(model: &CheckModel, steps: &[Step]) -> Vec<Item> {
                         layer: name(msg.layer),
                         ty: type_word(&text).to_string(),
                         msg: text,
+                        payload: msg.msg.clone(),
                     }))
                 }
                 Event::At { process: p, what } => match what {

@@ -11,7 +11,7 @@ use nekosim_actors::world::observation::{Observation, Record};
 use nekosim_actors::world::sensor::{Plan, Reach, SensorKind, Trigger};
 use nekosim_actors::world::virtual_world::WorldSize;
 use nekosim_actors::world::{Obstacle, RobotId};
-use nekosim_protocols::payload::type_word;
+use nekosim_protocols::codec::type_word;
 
 use super::canvas::{level_of, Canvas, Flight, Mark, Metrics, Sight, Stamp, ROBOT_GROUP};
 use super::colour::{layer_colour, light_colour, robot_colour, GREY};
@@ -285,6 +285,14 @@ impl<C: Canvas> Recorder<C> {
 
     /// Draws one record. Records must come in processing order.
     pub fn record(&mut self, rec: &Record) {
+        self.record_dropping(rec, &[]);
+    }
+
+    /// Draws one record, a send of which the network drops the copies to `to[k]` where
+    /// `dropped[k]` holds, beside those its `arrive` says it drops: a model checker's path
+    /// drops a copy at a later step, and a dropped copy is drawn as lost from its send and
+    /// never counts as in flight, as in a run. Records must come in processing order.
+    pub fn record_dropping(&mut self, rec: &Record, dropped: &[bool]) {
         self.advance(rec.t);
         self.last_t = rec.t;
         self.recent.push_back(rec.t);
@@ -446,12 +454,12 @@ impl<C: Canvas> Recorder<C> {
                 let label = type_word(&text).to_string();
                 let (mut flying, mut lost) = (false, false);
                 for (k, dest) in to.iter().enumerate() {
-                    // No arrival times at all: unknown (a model checker's path); a copy
-                    // without one: the network dropped it.
+                    // No arrival times at all: unknown (a model checker's path), dropped
+                    // where `dropped` says; a copy without one: the network dropped it.
                     let (arrive, dropped) = match arrive.get(k) {
                         Some(Some(t)) => (Some(*t), false),
                         Some(None) => (None, true),
-                        None => (None, false),
+                        None => (None, dropped.get(k).copied().unwrap_or(false)),
                     };
                     let flight = Flight {
                         from: *robot,

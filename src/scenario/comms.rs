@@ -6,7 +6,7 @@ use std::sync::Arc;
 use nekosim_actors::registry::Setting;
 use nekosim_actors::world::network::Partition;
 use nekosim_actors::{Comms, Fault};
-use nekosim_protocols::payload::Codecs;
+use nekosim_protocols::codec::Codecs;
 use nekosim_protocols::{FieldError, Spec, SpecError, StackError, Wiring};
 
 use super::{FaultSpec, Pos, Registry, ScenarioError, Source};

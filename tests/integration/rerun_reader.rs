@@ -272,12 +272,13 @@ fn a_recording_is_complete_and_in_place_even_when_the_run_fails() {
 }
 
 /// `nekosim check --rrd`: the counterexample's recording, read back by the official reader,
-/// shows what the JSONL trace of the same path says.
+/// shows what the JSONL trace of the same path says; the copies the path drops are drawn as
+/// lost from their send and never count as in flight, as in a run's recording.
 #[test]
 fn counterexample_recordings_read_back_with_the_official_reader() {
     let py = python();
     let dir = tempfile::tempdir().unwrap();
-    for (model, args, property) in [
+    for (i, (model, args, property)) in [
         (
             "reliable-broadcast",
             &["--network", "lossy"][..],
@@ -290,10 +291,19 @@ fn counterexample_recordings_read_back_with_the_official_reader() {
             &["--crashes", "1", "--keep-going"][..],
             "uniform agreement",
         ),
-    ] {
+        (
+            // Depth-first: a longer path, on which some copies arrive and others are lost.
+            "reliable-broadcast",
+            &["--network", "lossy", "--strategy", "dfs"][..],
+            "agreement",
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
         let (rrd, trace) = (
-            dir.path().join(format!("{model}.rrd")),
-            dir.path().join(format!("{model}.jsonl")),
+            dir.path().join(format!("{model}-{i}.rrd")),
+            dir.path().join(format!("{model}-{i}.jsonl")),
         );
         let o = Command::new(env!("CARGO_BIN_EXE_nekosim"))
             .args(["check", model])
@@ -314,6 +324,14 @@ fn counterexample_recordings_read_back_with_the_official_reader() {
         assert!(out.contains("verify_check_rrd: ok"), "{model}: {out}");
         if model == "lamport-abcast" {
             assert!(!out.contains(" 0 crashes grey"), "{model}: {out}");
+        }
+        // The lossy network's paths drop copies; the other loses none.
+        let lossy = args.contains(&"lossy");
+        assert_eq!(count_of(&out, " lost copies") > 0, lossy, "{model}: {out}");
+        assert!(count_of(&out, " in-flight samples") > 0, "{model}: {out}");
+        if i == 2 {
+            // Copies lost and copies received on one path.
+            assert!(count_of(&out, " space-time arrows") > 0, "{model}: {out}");
         }
         eprintln!("{model}: {}", out.trim());
     }

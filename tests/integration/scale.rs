@@ -150,3 +150,133 @@ fn progress_counts_the_events_of_a_long_instant() {
     let every = nekosim::scheduler::PROGRESS_EVERY;
     assert_eq!(*calls.borrow(), [(0.0, every), (0.0, 2 * every)]);
 }
+
+/// `nekosim run` of 600,000 robots moving at random (the seed's density), writing a trace and
+/// a log into `dir`, with its output piped.
+#[cfg(unix)]
+fn large_run(dir: &std::path::Path) -> std::process::Child {
+    std::process::Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .arg("run")
+        .arg(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("examples/scenarios/random_movement.ron"),
+        )
+        .args(["--set", "robots[0].count=600000"])
+        .args(["--set", "world.size.width=61968"])
+        .args(["--set", "world.size.height=61968"])
+        .args(["--until", "10"])
+        .arg("--trace")
+        .arg(dir.join("run.jsonl"))
+        .arg("--log")
+        .arg(dir.join("run.log"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// What a terminal's Ctrl-C sends.
+#[cfg(unix)]
+fn ctrl_c(child: &std::process::Child) {
+    let kill = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+}
+
+/// The names of the files in `dir`, sorted.
+#[cfg(unix)]
+fn names_in(dir: &std::path::Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// Ctrl-C while a large run sets up (its world, its robots' actors, the setup's records), after
+/// the scenario is built and the outputs are opened, ends it within seconds, as documented
+/// (docs/scenario.md): exit 130 before any event, the trace and the log complete for the run
+/// up to there (a prefix of its setup records), and no temporary file left. Left alone, the
+/// setup takes several times as long.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_while_a_large_run_sets_up_ends_it_within_seconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = large_run(dir.path());
+    // The outputs' temporary files appear once the scenario is built: the run sets up.
+    let started = std::time::Instant::now();
+    while !names_in(dir.path()).iter().any(|n| n.contains(".partial-")) {
+        assert!(child.try_wait().unwrap().is_none(), "the run ended early");
+        assert!(started.elapsed().as_secs() < 300, "the run never set up");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    ctrl_c(&child);
+    let interrupted = std::time::Instant::now();
+    let out = child.wait_with_output().unwrap();
+    let took = interrupted.elapsed();
+    let err = String::from_utf8_lossy(&out.stderr);
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(took.as_secs_f64() < 5.0, "exited {took:?} after Ctrl-C");
+    assert!(
+        err.contains("interrupted at simulated time 0.000 s"),
+        "{err}"
+    );
+    assert!(
+        summary.contains(", events: 0,"),
+        "an event was taken: {summary}"
+    );
+    assert_eq!(names_in(dir.path()), ["run.jsonl", "run.log"]);
+    // Whole records, all of the setup at t = 0, and the log a line for each.
+    let records: Vec<serde_json::Value> = std::fs::read_to_string(dir.path().join("run.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert!(
+        records.iter().all(|r| r["t"] == 0.0),
+        "{:?}",
+        records.last()
+    );
+    assert!(records.len() < 600_000, "the setup was not cut");
+    let log = std::fs::read_to_string(dir.path().join("run.log")).unwrap();
+    assert!(log.is_empty() || log.ends_with('\n'));
+    assert_eq!(
+        log.lines().count(),
+        records.len() - silent_arrivals(&records)
+    );
+}
+
+/// Ctrl-C while the scenario is still built (the robots placed) ends the command at once with
+/// exit 130 and writes nothing (docs/scenario.md).
+#[cfg(unix)]
+#[test]
+fn ctrl_c_while_a_large_scenario_is_built_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let child = large_run(dir.path());
+    // Placing 600,000 robots takes seconds: the interrupt comes while they are placed.
+    std::thread::sleep(std::time::Duration::from_millis(1000));
+    ctrl_c(&child);
+    let interrupted = std::time::Instant::now();
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(interrupted.elapsed().as_secs_f64() < 5.0);
+    assert!(
+        err.contains("interrupted while building the scenario: nothing was written"),
+        "{err}"
+    );
+    assert!(
+        out.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    assert!(
+        names_in(dir.path()).is_empty(),
+        "{:?}",
+        names_in(dir.path())
+    );
+}

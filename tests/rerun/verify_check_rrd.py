@@ -8,7 +8,12 @@ process p stands at its place on a ring (radius 10 max(1, n/3), p0 at the top, c
 every step; every `send` of the trace has an arrow per receiver at its step, from the sender's
 rim to the receiver's (markers of radius 1; no arrowhead under a marker), shifted to the right
 of its direction so the two directions between a pair stay apart, and labelled with the whole
-message; a crashed process is grey from its crash on; the text log has one
+message, but for the copies the path drops, which have a lost mark (a stub ending in a cross)
+instead; counted from the trace's sends, receives and drops alone, as for a run
+(verify_rrd.py): a copy a `drop` record ends is lost from its send, never in flight, and
+marked for 2 s (two steps); the others are in flight until their receive, and every
+`messages_in_flight` sample, each layer's arrows and lost marks agree; a crashed process is
+grey from its crash on; the text log has one
 line per lane's birth and per trace record plus the verdict naming PROPERTY, at the start and
 at the end, an ERROR for a counterexample and INFO for a witness; the default blueprint is
 the layout of `nekosim run` recordings (verify_rrd.py) with message plots only, the
@@ -23,11 +28,14 @@ import math
 import sys
 from pathlib import Path
 
+from collections import defaultdict
+
 from verify_rrd import (
     TOLERANCE,
     Rows,
     check_blueprint,
     check_crashes_grey,
+    check_in_flight,
     check_sends,
     check_spacetime,
     fail,
@@ -48,16 +56,54 @@ def place(p: int, n: int) -> tuple[float, float]:
     return r * math.cos(a), r * math.sin(a)
 
 
-def check_world_arrows(rows: "Rows", trace: list[dict], n: int) -> int:
-    """Each send's world arrows: tail on the sender's rim, tip on the receiver's, both off
-    the centre line by half a radius to the right of the direction; labels whole messages."""
+def path_copies(trace: list[dict]) -> list[dict]:
+    """Every copy a `send` of a checker's path hands to the network, in send order, in the form
+    of verify_rrd.message_copies: its layer, sender, receiver and step, no arrival time. A
+    `receive` ends the oldest copy on its way with its sender, receiver, layer and message, and
+    so does a `drop`, which makes that copy lost from its send (such copies are alike, so which
+    one is lost changes nothing of what is shown). A receive or drop that ends no copy fails
+    the check."""
+    copies: list[dict] = []
+    waiting: dict[tuple, list[dict]] = defaultdict(list)
+    for r in trace:
+        if r["kind"] == "send":
+            for to in r["to"]:
+                c = {
+                    "seq": r["seq"], "layer": r["layer"], "from": r["robot"], "to": to, "sent": r["t"],
+                    "known": False, "arrive": None, "received": None, "lost": False,
+                }
+                copies.append(c)
+                waiting[(r["robot"], to, r["layer"], r.get("msg"))].append(c)
+        elif r["kind"] in ("receive", "drop"):
+            if r["kind"] == "receive":
+                key = (r["from"], r["robot"], r["layer"], r.get("msg"))
+            else:
+                key = (r["robot"], r["to"][0], r["layer"], r.get("msg"))
+            queue = waiting.get(key)
+            if not queue:
+                fail(f"{r['kind']} #{r['seq']}: no copy of its message from p{key[0]} to p{key[1]} on its way")
+            c = queue.pop(0)
+            if r["kind"] == "receive":
+                c["received"] = r["t"]
+            else:
+                c["lost"] = True
+    for c in copies:
+        c["end"] = None if c["lost"] else c["received"] if c["received"] is not None else math.inf
+    return copies
+
+
+def check_world_arrows(rows: "Rows", trace: list[dict], n: int, copies: list[dict]) -> int:
+    """Each send's world arrows for its copies not lost: tail on the sender's rim, tip on the
+    receiver's, both off the centre line by half a radius to the right of the direction;
+    labels whole messages."""
     checked = 0
+    lost = {(c["seq"], c["to"]) for c in copies if c["lost"]}
     for s in (r for r in trace if r["kind"] == "send"):
         entity = f"/world/messages/{s['layer']}"
         rows_at = [cols for _, ev, _, cols in rows.by_entity.get(entity, []) if ev == s["seq"]]
-        cols = rows_at[-1]
-        pairs = list(zip(cols["Arrows2D:origins"], cols["Arrows2D:vectors"], cols.get("Arrows2D:labels", [])))
-        for to in s["to"]:
+        cols = rows_at[-1] if rows_at else {}
+        pairs = list(zip(cols.get("Arrows2D:origins", []), cols.get("Arrows2D:vectors", []), cols.get("Arrows2D:labels", [])))
+        for to in (to for to in s["to"] if (s["seq"], to) not in lost):
             a, b = place(s["robot"], n), place(to, n)
             d = math.dist(a, b)
             ux, uy = (b[0] - a[0]) / d, (b[1] - a[1]) / d
@@ -112,8 +158,15 @@ def main() -> None:
         if pose is None or math.dist(pose[:2], want) > TOLERANCE:
             fail(f"process {p}: exact pose at step 0 is {pose}, expected its place {want}")
 
-    sends = check_sends(rows, trace)
-    world_arrows = check_world_arrows(rows, trace, processes)
+    copies = path_copies(trace)
+    lost_at = defaultdict(int)
+    for c in copies:
+        lost_at[c["seq"]] += c["lost"]
+    sends = check_sends(rows, trace, lambda s: lost_at[s["seq"]])
+    world_arrows = check_world_arrows(rows, trace, processes, copies)
+    # Processes stand still at their places: the lost marks' stubs start and aim there.
+    paths = {p: [(0.0, *place(p, processes), 0.0, 0.0)] for p in range(processes)}
+    samples, lost = check_in_flight(rows, trace, paths, copies)
     arrows = check_spacetime(rows, trace)
     crashes = check_crashes_grey(rows, trace)
     # The verdict beside the diagram, stated in full.
@@ -155,7 +208,8 @@ def main() -> None:
 
     print(
         f"verify_check_rrd: ok: {rrd.name}: {processes} lanes over {steps} steps, "
-        f"{len(sends)} sends with {world_arrows} rim-to-rim arrows, {arrows} space-time arrows, {len(crashes)} crashes grey, {len(texts)} log lines, "
+        f"{len(sends)} sends with {world_arrows} rim-to-rim arrows, {samples} in-flight samples, {lost} lost copies, "
+        f"{arrows} space-time arrows, {len(crashes)} crashes grey, {len(texts)} log lines, "
         f"{views} blueprint views"
     )
 

@@ -243,10 +243,11 @@ def message_copies(trace: list[dict]) -> list[dict]:
     return copies
 
 
-def check_sends(rows: "Rows", trace: list[dict]) -> list[dict]:
+def check_sends(rows: "Rows", trace: list[dict], lost_of=None) -> list[dict]:
     """Every `send` record with a copy on its way has a message-arrow row at its event with at
-    least one arrow per such copy; every `send` whose copies the network lost (`arrive` null)
-    has a row of lost marks at its event with a stub and a cross per lost copy."""
+    least one arrow per such copy; every `send` whose copies the network lost (`arrive` null,
+    or as many as `lost_of(send)` says where the send cannot say) has a row of lost marks at
+    its event with a stub and a cross per lost copy."""
     sends = [r for r in trace if r["kind"] == "send"]
     at_event: dict[str, dict] = {}
 
@@ -257,7 +258,7 @@ def check_sends(rows: "Rows", trace: list[dict]) -> list[dict]:
 
     for s in sends:
         arrive = s.get("arrive")
-        lost = 0 if arrive is None else sum(1 for a in arrive if a is None)
+        lost = sum(1 for a in arrive if a is None) if arrive is not None else lost_of(s) if lost_of else 0
         flying = len(s["to"]) - lost
         entity = f"/world/messages/{s['layer']}"
         if flying and len(row_at(entity, s["seq"]).get("Arrows2D:vectors", [])) < flying:
@@ -293,15 +294,16 @@ def sweep_latest(rows: "Rows", entity: str, component: str, times_ns: list[int])
     return out
 
 
-def check_in_flight(rows: "Rows", trace: list[dict], paths) -> tuple[int, int]:
-    """Counted from the trace alone ([`message_copies`]): at every `messages_in_flight`
+def check_in_flight(rows: "Rows", trace: list[dict], paths, copies=None) -> tuple[int, int]:
+    """Counted from the trace alone ([`message_copies`], or the `copies` given): at every `messages_in_flight`
     sample, the figure is the number of copies in flight then (sent at or before, ending
     after), lost copies never among them; on each layer the arrows drawn are those copies; and
     the lost marks are the copies lost in the last LOST_SECONDS, each a stub from the sender
     towards the receiver (both where they were at the send) ending in a cross. Samples within
     a microsecond of a send, receive, arrival or expiry are skipped: the file keeps times to
     the nanosecond. Returns (samples checked, lost copies)."""
-    copies = message_copies(trace)
+    if copies is None:
+        copies = message_copies(trace)
     layers = sorted({c["layer"] for c in copies})
 
     def span_counter(spans):

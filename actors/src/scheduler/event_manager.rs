@@ -17,20 +17,14 @@ use crate::world::RobotId;
 pub struct WorldAhead {
     /// The robots of the next event, when its handling reads the world,
     pub next: Option<[RobotId; 2]>,
-    /// those of the event after it, likewise,
+    /// and those of the event after it, likewise.
     pub after: Option<[RobotId; 2]>,
-    /// and the robot and offset of the next event when it is a cell crossing.
-    pub crossing: Option<(RobotId, [i64; 2])>,
 }
 
 impl WorldAhead {
-    /// Asks `world` for all of it ([`VirtualWorld::prefetch`](crate::world::virtual_world::VirtualWorld::prefetch),
-    /// [`VirtualWorld::prefetch_crossing`](crate::world::virtual_world::VirtualWorld::prefetch_crossing)).
+    /// Asks `world` for all of it ([`VirtualWorld::prefetch`](crate::world::virtual_world::VirtualWorld::prefetch)).
     pub fn prefetch(&self, world: &crate::world::virtual_world::VirtualWorld) {
         world.prefetch(self.next, self.after);
-        if let Some((robot, offset)) = self.crossing {
-            world.prefetch_crossing(robot, offset);
-        }
     }
 }
 
@@ -183,6 +177,9 @@ impl std::fmt::Debug for Observers {
 /// How many events pass between two progress calls.
 pub const PROGRESS_EVERY: u64 = 4096;
 
+/// How many of the setup's effects go in between two looks at the stop flag.
+const STOP_EVERY: usize = 1024;
+
 impl Core {
     /// A core that runs until `until` [s]; `setup` holds the effects of the setup at t = 0
     /// (cause 0).
@@ -207,8 +204,24 @@ impl Core {
             run: smallvec::SmallVec::new(),
             spare_then: Vec::new(),
         };
-        core.apply(setup.into_effects());
+        core.apply_setup(setup.into_effects());
         core
+    }
+
+    /// Applies the setup's effects in order, as [`Core::apply`] does, unless the run is
+    /// stopped from outside meanwhile: a million robots' setup records take a while to write,
+    /// and the user's Ctrl-C then cuts them where it comes. The records so far are the first
+    /// records of the whole run, and the run ends before its first event.
+    fn apply_setup(&mut self, mut effects: Vec<Effect>) {
+        self.prefetch_cancelled(&effects);
+        for (i, e) in effects.drain(..).enumerate() {
+            if i % STOP_EVERY == 0 && self.stopped() {
+                self.output.stats.interrupted = true;
+                break;
+            }
+            self.apply_one(e);
+        }
+        self.keep_spare(effects);
     }
 
     /// Applies the effects of one handling, in order.
@@ -547,11 +560,7 @@ impl Core {
             _ => None,
         };
         let (next, after) = (in_world(self.ahead.next), in_world(self.ahead.after));
-        (next.is_some() || after.is_some()).then_some(WorldAhead {
-            next,
-            after,
-            crossing: self.ahead.crossing,
-        })
+        (next.is_some() || after.is_some()).then_some(WorldAhead { next, after })
     }
 
     /// Counts a delivery to robot `r` at the current instant in the vote for the robot that

@@ -427,16 +427,6 @@ impl Grid {
         self.cells.get(&c).map_or(&[], |v| v.as_slice())
     }
 
-    /// Asks for the dense table's cell `c` to be brought into cache ([`super::prefetch`]): a
-    /// no-op outside the dense table.
-    pub fn prefetch_cell(&self, c: Cell) {
-        if let Some(d) = &self.dense {
-            if let Some(i) = d.index(c) {
-                super::prefetch::prefetch(&d.heads[i]);
-            }
-        }
-    }
-
     /// Asks for the dense table's cells of the 3×3 block around cell `c` to be brought into
     /// cache ([`super::prefetch`]), ahead of an event that will look at them. A no-op outside
     /// the dense table. (The caller reads `c` from the robot's state, which its handling
@@ -604,8 +594,8 @@ mod tests {
         }
     }
 
-    /// Asking for any cell or the block around it (in the dense table, at its tiles' and its
-    /// own edges, outside it, or in a hashed grid) is only a hint: it does not panic, and every
+    /// Asking for the block around any cell (in the dense table, at its tiles' and its own
+    /// edges, outside it, or in a hashed grid) is only a hint: it does not panic, and every
     /// cell's neighbours stay as they were.
     #[test]
     fn asking_for_cells_changes_nothing() {
@@ -629,13 +619,11 @@ mod tests {
             for y in -3..40 {
                 for g in [&dense, &hashed] {
                     g.prefetch_around([x, y]);
-                    g.prefetch_cell([x, y]);
                 }
             }
         }
         dense.prefetch_around([i64::MAX, i64::MIN]);
         dense.prefetch_around([i64::MIN, i64::MAX]);
-        dense.prefetch_cell([i64::MAX, i64::MIN]);
         assert_eq!(look(&dense), before_dense);
         assert_eq!(look(&hashed), before_hashed);
         assert_eq!(before_dense, before_hashed);

@@ -207,7 +207,7 @@ mod ser {
     use serde::ser::{SerializeMap, Serializer};
 
     use super::*;
-    use nekosim_protocols::payload::type_word;
+    use nekosim_protocols::codec::type_word;
 
     /// Names of the fields every trace object has; custom motion parameters never take them.
     const RESERVED: [&str; 6] = ["t", "seq", "kind", "robot", "ticket", "motion"];

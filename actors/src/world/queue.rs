@@ -300,17 +300,10 @@ impl EventQueue {
             let e = *self.order.peek_nth(n)?;
             self.slots.route_where(e.slot, |_| true)
         };
-        // The next slot is peeked again for its crossing: reading it once for both makes a
-        // build that runs slower at a million robots (docs/performance.md lists the gain).
-        let (after, next) = (route(1), route(0));
-        let crossing = self
-            .order
-            .peek_nth(0)
-            .and_then(|e| self.slots.crossing(e.slot));
+        let after = route(1);
         Ahead {
-            next,
+            next: route(0),
             after,
-            crossing,
         }
     }
 
@@ -358,9 +351,6 @@ pub struct Ahead {
     pub next: Option<Route>,
     /// The route of the event after it.
     pub after: Option<Route>,
-    /// The robot and offset of the next event when it is a cell crossing, whose handling
-    /// reads cells beyond those its robot's state names ([`crate::world::virtual_world::VirtualWorld::prefetch_crossing`]).
-    pub crossing: Option<(RobotId, [i64; 2])>,
 }
 
 #[cfg(test)]
@@ -467,50 +457,6 @@ mod tests {
             }
         }
         h
-    }
-
-    /// A cell crossing for `robot` towards `offset`.
-    fn crossing(time: f64, cause: u64, index: u32, robot: RobotId, offset: [i64; 2]) -> Event {
-        Event {
-            payload: Payload::CellCrossing { robot, offset },
-            ..step(time, cause, index, robot)
-        }
-    }
-
-    /// The look-ahead reports the next event's robot and offset when it is a cell crossing,
-    /// claimed (as the world schedules them) or not, and nothing for any other next event: a
-    /// motion step (kept compact), a collision, a timer.
-    #[test]
-    fn the_look_ahead_names_the_next_crossing() {
-        let mut q = EventQueue::new();
-        let mut claims = Claims::default();
-        let collision = Event {
-            payload: Payload::Collision { a: 3, b: 4 },
-            ..step(1.0, 1, 0, 3)
-        };
-        q.register(ev(0.5, 1, 9, 2));
-        q.register(collision);
-        claim(&mut q, &mut claims, &crossing(2.0, 1, 1, 5, [1, -1]));
-        claim(&mut q, &mut claims, &step(3.0, 1, 2, 6));
-        q.register(crossing(4.0, 1, 3, 7, [0, 1]));
-        q.register(ev(5.0, 1, 4, 8));
-        let mut seen = Vec::new();
-        while q.pop().is_some() {
-            seen.push(q.look_ahead().crossing);
-        }
-        // After each event taken: the next is the collision, the claimed crossing, the step,
-        // the crossing, the timer, none.
-        assert_eq!(
-            seen,
-            vec![
-                None,
-                Some((5, [1, -1])),
-                None,
-                Some((7, [0, 1])),
-                None,
-                None
-            ]
-        );
     }
 
     #[test]

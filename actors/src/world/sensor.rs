@@ -14,8 +14,8 @@ use std::any::Any;
 use std::fmt;
 use std::sync::Arc;
 
+use nekosim_protocols::app::compact_ron;
 use nekosim_protocols::registry::{intern, Named};
-use nekosim_protocols::wire::compact_ron;
 
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;

@@ -38,7 +38,7 @@ mod motion_logic;
 mod robot_state;
 mod sensing;
 
-use robot_state::{OwnEvents, PairEvents, Pairs, RobotState, PARTNER_BYTES};
+use robot_state::{OwnEvents, PairEvents, Pairs, RobotState};
 pub use sensing::Sensing;
 
 /// The world's extent (seed 3.2).
@@ -301,33 +301,6 @@ impl VirtualWorld {
         }
     }
 
-    /// Asks ahead for the cells that `robot`'s crossing out of its last cell by `offset` will
-    /// read ([`super::prefetch`]; [`VirtualWorld::prefetch`] asked for the 3×3 block around
-    /// that last cell): the cells it is registered in, which the crossing leaves, and the 3×3
-    /// blocks around the middle and the end of its next cells, guessed as the steps of its
-    /// present cells again from the cell it enters (a path is straight within a span, mostly).
-    /// At a million robots each of these is a cache miss of its own.
-    pub fn prefetch_crossing(&self, robot: RobotId, offset: [i64; 2]) {
-        let Some(state) = self.robots.get(robot as usize) else {
-            return;
-        };
-        let mut last = state.cell;
-        for c in state.span.cells(state.cell) {
-            self.grid.prefetch_cell(c);
-            last = c;
-        }
-        // Wrapping: a hint never panics, whatever cells a world far out has.
-        let (add, sub) = (i64::wrapping_add, i64::wrapping_sub);
-        let entered = [add(last[0], offset[0]), add(last[1], offset[1])];
-        let d = [sub(last[0], state.cell[0]), sub(last[1], state.cell[1])];
-        if d != [0, 0] {
-            self.grid
-                .prefetch_around([add(entered[0], d[0] / 2), add(entered[1], d[1] / 2)]);
-            self.grid
-                .prefetch_around([add(entered[0], d[0]), add(entered[1], d[1])]);
-        }
-    }
-
     /// Width of the spatial index's cells [units].
     pub fn cell_size(&self) -> f64 {
         self.grid.cell_size()
@@ -581,8 +554,8 @@ impl VirtualWorld {
     }
 
     /// The robots next to `cells` but not to `skip` that `id` has no pair events with yet,
-    /// each once, in the order of [`blocks`] ([`blocks_beyond`]); what predicting against them
-    /// reads of their states is asked for, together rather than one miss after the other.
+    /// each once, in the order of [`blocks`] ([`blocks_beyond`]); their states, which predicting
+    /// against them reads, are asked for together rather than one miss after the other.
     fn fresh_around(&self, id: RobotId, cells: &[Cell], skip: &[Cell]) -> Fresh {
         let mut fresh = Fresh::new();
         let pairs = &self.robots[id as usize].pairs;
@@ -594,8 +567,7 @@ impl VirtualWorld {
             }
         });
         for &o in &fresh {
-            let state = &self.robots[o as usize] as *const RobotState;
-            super::prefetch::prefetch_at(state as usize, PARTNER_BYTES);
+            super::prefetch::prefetch(&self.robots[o as usize]);
         }
         fresh
     }

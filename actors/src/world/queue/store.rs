@@ -285,17 +285,6 @@ impl Store {
         }
     }
 
-    /// The robot and offset of the cell crossing in `slot`, if it holds one.
-    pub(super) fn crossing(&self, slot: u32) -> Option<(RobotId, [i64; 2])> {
-        match self.table(slot) {
-            (Table::Steps(_), _) => None,
-            (Table::Events(t), n) => match t.get(n)?.payload {
-                Payload::CellCrossing { robot, offset } => Some((robot, offset)),
-                _ => None,
-            },
-        }
-    }
-
     pub(super) fn prefetch(&self, slot: u32) {
         match self.table(slot) {
             (Table::Steps(t), n) => t.prefetch(n),

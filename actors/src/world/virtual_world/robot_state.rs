@@ -1,6 +1,5 @@
 //! A robot's state in the virtual world (seed 4.2.4): its motion or rest pose, radius, armed
-//! push sensors, the events predicted with its partners and its own conditional events, laid
-//! out so that what a partner's prediction reads comes first.
+//! push sensors, the events predicted with its partners and its own conditional events.
 
 use smallvec::SmallVec;
 
@@ -10,14 +9,8 @@ use crate::world::motion::{Path, Pose};
 use crate::world::sensor::SensorKind;
 use crate::world::RobotId;
 
-/// A robot's state in the world, laid out by hand (`repr(C)`), a cache line apart from the
-/// next: what predicting a partner against the robot reads (its motion, rest pose, radius and
-/// push sensors) comes first, in its first three lines ([`PARTNER_BYTES`]), then its partner
-/// table, then what only its own events read. At a million robots a prediction asks for the
-/// partner's first three lines only, and cancelling a pair for the partner table's lines
-/// alone, rather than for the whole state's seven lines.
+/// A robot's state in the world.
 #[derive(Debug)]
-#[repr(C, align(64))]
 pub(super) struct RobotState {
     /// The motion in progress; its step events are asked of it (`events`) when needed
     /// rather than kept beside it, which would take 128 bytes a robot.
@@ -46,10 +39,6 @@ pub(super) struct RobotState {
     /// Stopped at this instant and not predicted for at rest yet ([`VirtualWorld::settle_all`]).
     pub(super) unsettled: bool,
 }
-
-/// The bytes of a [`RobotState`] that predicting a partner against it reads: those before its
-/// partner table.
-pub(super) const PARTNER_BYTES: usize = std::mem::offset_of!(RobotState, pairs);
 
 /// What the world shows of a robot's armed push sensors (the sensor manager owns the rest),
 /// kept apart from the robot's state: most robots never arm one, and each would pay 48 bytes.
@@ -151,22 +140,6 @@ impl Pairs {
 mod tests {
     use super::*;
     use crate::world::event::EventId;
-
-    /// What predicting a partner reads of its state lies in the state's first three cache
-    /// lines, the only ones such a prediction asks for ahead, and each state starts a line.
-    #[test]
-    fn a_partners_prediction_reads_its_first_three_lines() {
-        use std::mem::{align_of, offset_of, size_of};
-        assert_eq!(align_of::<RobotState>(), 64);
-        const { assert!(PARTNER_BYTES <= 3 * 64) };
-        let ends = [
-            offset_of!(RobotState, motion) + size_of::<Option<Path>>(),
-            offset_of!(RobotState, radius) + size_of::<f64>(),
-            offset_of!(RobotState, rest) + size_of::<Pose>(),
-            offset_of!(RobotState, listening) + size_of::<Option<Box<Listening>>>(),
-        ];
-        assert!(ends.iter().all(|&e| e <= PARTNER_BYTES), "{ends:?}");
-    }
 
     /// A robot's partner table that spilled to the heap goes back inline once it fits again,
     /// its partners still in order with their events.
