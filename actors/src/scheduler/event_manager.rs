@@ -325,20 +325,15 @@ impl Core {
     /// the same actor, up to a run of [`RUN`] ([`Deliver::then`]), each one that
     /// [`Core::next`] would take and deliver there next: at `until` or before, for the same
     /// actor, not past the livelock limit, no instant's end event pending (it could come
-    /// between them). After an event that schedules another at its instant
-    /// ([`Payload::schedules_at_its_instant`]), only events of that instant.
-    fn take_run(&mut self, target: Target, first: &Payload) -> Vec<Event> {
+    /// between them).
+    fn take_run(&mut self, target: Target) -> Vec<Event> {
         let mut then = std::mem::take(&mut self.spare_then);
         debug_assert!(then.is_empty() && self.run.is_empty());
         if !self.runs || !self.closing.is_empty() || self.stopped() {
             return then;
         }
         let (mut t, mut at) = (self.now, self.at_instant);
-        let mut until = if first.schedules_at_its_instant() {
-            self.now
-        } else {
-            self.until
-        };
+        let until = self.until;
         while then.len() < RUN - 1 {
             let Some((ev, slot)) = self.queue.pop_for(target, until) else {
                 break;
@@ -349,9 +344,6 @@ impl Core {
                 break;
             }
             (t, at) = (ev.time, n);
-            if ev.payload.schedules_at_its_instant() {
-                until = ev.time;
-            }
             self.run.push((ev.time, slot));
             then.push(ev);
         }
@@ -468,7 +460,7 @@ impl Core {
                 self.handle_inline(event);
                 continue;
             }
-            let then = self.take_run(target, &event.payload);
+            let then = self.take_run(target);
             let look_ahead = self.queue.len() >= LOOK_AHEAD_FROM;
             self.ahead = if look_ahead {
                 self.queue.look_ahead()

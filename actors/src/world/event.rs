@@ -224,22 +224,6 @@ impl Payload {
         }
     }
 
-    /// Whether handling this event schedules another at its own instant: a notice to a robot
-    /// (a collision, a contact, a crash) or a motion's first step (a motion request). Any
-    /// later event then comes after that one, so a delivery's run
-    /// ([`crate::host::Deliver::then`]) takes no event of a later instant after it (many such
-    /// events would go back to the queue unhandled). A hint only: a run holds only events that
-    /// come next whatever it says.
-    pub fn schedules_at_its_instant(&self) -> bool {
-        matches!(
-            self,
-            Payload::MotionRequest { .. }
-                | Payload::Collision { .. }
-                | Payload::Contact { .. }
-                | Payload::Crash { .. }
-        )
-    }
-
     /// Short name of the kind of event.
     pub fn kind(&self) -> &'static str {
         match self {

@@ -513,30 +513,10 @@ impl Grid {
     }
 }
 
-/// The engine's hash maps' hasher: aHash under fixed keys, several times faster than the
-/// standard SipHash on small keys (cells, ids), and the same on every run (nothing may depend
-/// on a map's order anyway).
-#[derive(Clone, Debug)]
-pub struct FixedHash(ahash::RandomState);
-
-impl Default for FixedHash {
-    fn default() -> Self {
-        Self(ahash::RandomState::with_seeds(
-            0x6e65_6b6f,
-            0x7369_6d75,
-            0x6c61_746f,
-            0x7267_7269,
-        ))
-    }
-}
-
-impl std::hash::BuildHasher for FixedHash {
-    type Hasher = ahash::AHasher;
-
-    fn build_hasher(&self) -> ahash::AHasher {
-        self.0.build_hasher()
-    }
-}
+/// The engine's hash maps' hasher: the standard SipHash under fixed keys, the same on every
+/// run (nothing may depend on a map's order anyway, and a run must not depend on the
+/// process's random keys).
+pub type FixedHash = std::hash::BuildHasherDefault<std::collections::hash_map::DefaultHasher>;
 
 #[cfg(test)]
 mod tests {
