@@ -76,6 +76,7 @@ impl RobotFairness {
             Self::None => "none".into(),
             Self::Weak => "weak".into(),
             Self::Strong => "strong".into(),
+            Self::Bounded(Some(1)) => "bounded (at most 1 step in a row)".into(),
             Self::Bounded(Some(k)) => format!("bounded (at most {k} steps in a row)"),
             Self::Bounded(None) | Self::SpinLight => format!(
                 "bounded (at most {} steps in a row, spin-light's limit)",
