@@ -454,12 +454,11 @@ pub fn check_live(
 ) -> Result<Conclusion, CheckError> {
     // A Look-Compute-Move scenario of two rule-table robots is checked on its own finite
     // model; every other scenario's stack goes to stateright.
-    if args.model.ends_with(".ron") || Path::new(&args.model).is_file() {
-        if !SHORTCUTS.iter().any(|(n, ..)| *n == args.model) {
-            let source = Source::load(Path::new(&args.model))?;
-            if let Some(table) = lcm::rule_table_of(&source) {
-                return lcm::check(&source, table?, args, out);
-            }
+    let is_file = args.model.ends_with(".ron") || Path::new(&args.model).is_file();
+    if is_file && !SHORTCUTS.iter().any(|(n, ..)| *n == args.model) {
+        let source = Source::load(Path::new(&args.model))?;
+        if let Some(table) = lcm::rule_table_of(&source) {
+            return lcm::check(&source, table?, args, out);
         }
     }
     if args.lcm.any() {
