@@ -27,6 +27,7 @@ use stateright::Expectation;
 use crate::recording::RecordingError;
 use crate::scenario::{CheckNetwork, FaultSpec, Overrides, Registry, ScenarioError, Source};
 
+pub mod lcm;
 mod trace;
 
 pub use trace::{trace_lines, CheckEvent, CheckRecord};
@@ -101,6 +102,8 @@ pub struct CheckArgs {
     /// Explore on after a counterexample, to settle every property; by default the search
     /// stops at the first.
     pub keep_going: bool,
+    /// Overrides of a Look-Compute-Move scenario's settings ([`lcm`]).
+    pub lcm: lcm::LcmOverrides,
 }
 
 /// What a check does beside its report while it runs.
@@ -160,6 +163,9 @@ pub enum CheckError {
     /// The recording could not be made (exit 2 when the user's input is at fault).
     #[error(transparent)]
     Recording(#[from] RecordingError),
+    /// Bad arguments for a Look-Compute-Move check (exit 2).
+    #[error("{0}")]
+    Lcm(String),
 }
 
 /// Properties a protocol states itself, checked alongside its service's whenever it is in
@@ -446,6 +452,20 @@ pub fn check_live(
     out: &mut dyn Write,
     live: &Live,
 ) -> Result<Conclusion, CheckError> {
+    // A Look-Compute-Move scenario of two rule-table robots is checked on its own finite
+    // model; every other scenario's stack goes to stateright.
+    let is_file = args.model.ends_with(".ron") || Path::new(&args.model).is_file();
+    if is_file && !SHORTCUTS.iter().any(|(n, ..)| *n == args.model) {
+        let source = Source::load(Path::new(&args.model))?;
+        if let Some(table) = lcm::rule_table_of(&source) {
+            return lcm::check(&source, table?, args, out);
+        }
+    }
+    if args.lcm.any() {
+        return Err(CheckError::Lcm(
+            "--synchrony, --movement, --register, --fairness and --property apply to a Look-Compute-Move scenario whose two robots run a rule table".into(),
+        ));
+    }
     let Resolved {
         name,
         target,

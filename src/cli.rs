@@ -197,6 +197,24 @@ enum Command {
         /// No progress line on the terminal.
         #[arg(long)]
         quiet: bool,
+        /// Look-Compute-Move: the synchrony model [default: the scenario's].
+        #[arg(long, value_name = "NAME", value_parser = check::lcm::parse_synchrony)]
+        synchrony: Option<nekosim_actors::lcm::Synchrony>,
+        /// Look-Compute-Move: rigid or non-rigid moves [default: the scenario's].
+        #[arg(long, value_enum)]
+        movement: Option<MovementArg>,
+        /// Look-Compute-Move: what a Look reads from a light being written [default: the
+        /// scenario's].
+        #[arg(long, value_enum)]
+        register: Option<RegisterArg>,
+        /// Look-Compute-Move: weak, strong, none, bounded (spin-light's limit) or bounded:K
+        /// [default: bounded].
+        #[arg(long, value_name = "FAIRNESS", value_parser = check::lcm::RobotFairness::parse)]
+        fairness: Option<check::lcm::RobotFairness>,
+        /// Look-Compute-Move: eventually, eventually-always or always-eventually "on one
+        /// point" [default: eventually-always, as the scenario's gathered predicate].
+        #[arg(long, value_name = "SHAPE", value_parser = check::lcm::parse_property)]
+        property: Option<nekosim_models::liveness::Liveness>,
     },
 }
 
@@ -240,6 +258,19 @@ enum StrategyArg {
     Bfs,
     Dfs,
     Simulation,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum MovementArg {
+    Rigid,
+    NonRigid,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum RegisterArg {
+    Atomic,
+    Regular,
+    Safe,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -344,6 +375,11 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             symmetry,
             keep_going,
             quiet,
+            synchrony,
+            movement,
+            register,
+            fairness,
+            property,
             ..
         } => {
             if rrd.is_some() && !cfg!(feature = "rerun") {
@@ -375,6 +411,17 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 rounds,
                 symmetry,
                 keep_going,
+                lcm: check::lcm::LcmOverrides {
+                    synchrony,
+                    rigid: movement.map(|m| m == MovementArg::Rigid),
+                    register: register.map(|r| match r {
+                        RegisterArg::Atomic => nekosim_actors::lcm::Register::Atomic,
+                        RegisterArg::Regular => nekosim_actors::lcm::Register::Regular,
+                        RegisterArg::Safe => nekosim_actors::lcm::Register::Safe,
+                    }),
+                    fairness,
+                    property,
+                },
             };
             // Ctrl-C (or SIGTERM) stops the search: the check reports what it found and
             // explored, writes the outputs asked for, and exits 130; a second one ends the

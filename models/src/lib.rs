@@ -6,6 +6,8 @@
 //!   properties read.
 //! - [`family`]: the services the checker knows, which decide the properties.
 //! - [`model`]: building a model from a stack (crashes, bounds) and running the checker.
+//! - [`liveness`]: liveness under fairness on any explicit-state transition system, with
+//!   lasso counterexamples (the Look-Compute-Move checks use it).
 //! - [`compact`]: the breadth-first search over compact states (collapse compression).
 //! - [`property`]: the properties of each protocol family.
 //! - [`reason`]: why a counterexample violates its property, in the property's terms.
@@ -22,6 +24,7 @@ pub mod compact;
 pub mod config;
 pub mod explain;
 pub mod family;
+pub mod liveness;
 pub mod model;
 pub mod property;
 pub mod reason;

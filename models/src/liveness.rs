@@ -1,0 +1,573 @@
+//! Liveness under fairness on an explicit-state transition system: the whole reachable graph
+//! is built (within a budget), then `eventually P`, `eventually always P` and `always
+//! eventually P` are decided by strongly connected components, as SPIN's `-a -f` decides them
+//! by nested depth-first search, and a property that fails comes with a **lasso**: a stem from
+//! an initial state, then a cycle the adversary can repeat forever.
+//!
+//! The system is any [`TransitionSystem`]: its states, its initial states, and each state's
+//! successors, each labelled with the actors (robots, processes) that moved in that step. An
+//! actor is *enabled* in a state when some step from it moves that actor. A state with no
+//! step ends the run, and a run that ends stays in its last state forever (SPIN's stutter
+//! extension): nothing is enabled there, so that stutter is fair under every fairness.
+//!
+//! Fairness constrains which infinite runs count:
+//! - [`Fairness::None`]: every run;
+//! - [`Fairness::Weak`]: no actor stays enabled from some point on without moving again (for
+//!   Look-Compute-Move robots, which are all enabled until the run ends: every robot is
+//!   activated infinitely often);
+//! - [`Fairness::Strong`]: no actor is enabled infinitely often without moving infinitely
+//!   often.
+//!
+//! Bounded fairness (no actor waits more than k steps of the others) is a property of the
+//! adversary, so it belongs in the model: counters in the state, as spin-light's schedulers
+//! keep them.
+//!
+//! A run of a finite graph ends in a cycle, so a property fails exactly when a fair cycle of
+//! the right kind is reachable. Within a strongly connected component (SCC), one cycle can
+//! visit every state and take every step, so under weak fairness a component holds a fair
+//! cycle exactly when every actor either moves inside it or is disabled in one of its states.
+//! Under strong fairness, a component in which some actor is enabled but never moves inside it
+//! has a fair cycle only among its states where that actor is disabled: those are decomposed
+//! again (the classic Streett emptiness refinement). The components are Tarjan's, computed
+//! with an explicit stack (no recursion, so deep graphs cannot overflow the thread's stack).
+
+use std::collections::{HashMap, VecDeque};
+use std::fmt::Debug;
+use std::hash::Hash;
+
+/// A set of actors, one bit each (at most 64 actors).
+pub type Actors = u64;
+
+/// An explicit-state transition system whose steps name the actors that moved.
+pub trait TransitionSystem {
+    type State: Clone + Eq + Hash + Debug;
+    /// What a step did, for the report (the actors that moved are [`Self::moved`]).
+    type Label: Clone + Debug;
+
+    /// Every initial state.
+    fn initial_states(&self) -> Vec<Self::State>;
+
+    /// Pushes every step from `state` onto `out`; none when the run ends there.
+    fn successors(&self, state: &Self::State, out: &mut Vec<(Self::Label, Self::State)>);
+
+    /// The actors a step moved.
+    fn moved(&self, label: &Self::Label) -> Actors;
+
+    /// How many actors there are (numbered from 0).
+    fn actors(&self) -> usize;
+}
+
+/// Which infinite runs a liveness property is judged on (see the module's doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fairness {
+    None,
+    Weak,
+    Strong,
+}
+
+/// The temporal shape of a liveness property over a state predicate `P`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Liveness {
+    /// `<> P`: every fair run reaches a state where `P` holds.
+    Eventually,
+    /// `<>[] P`: every fair run reaches a point after which `P` always holds.
+    EventuallyAlways,
+    /// `[]<> P`: every fair run has `P` hold infinitely often.
+    AlwaysEventually,
+}
+
+impl Liveness {
+    /// The formula, as SPIN writes it, over `p`.
+    pub fn formula(self, p: &str) -> String {
+        match self {
+            Self::Eventually => format!("<> {p}"),
+            Self::EventuallyAlways => format!("<>[] {p}"),
+            Self::AlwaysEventually => format!("[]<> {p}"),
+        }
+    }
+}
+
+/// Limits of an exploration; `None` is unlimited.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Limits {
+    /// Unique states.
+    pub max_states: Option<usize>,
+    /// Bytes of the graph, as [`Graph::memory`] estimates them.
+    pub max_memory: Option<u64>,
+}
+
+/// What stopped an exploration before it was exhaustive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Exceeded {
+    States { limit: usize },
+    Memory { limit: u64, estimate: u64 },
+}
+
+/// The reachable graph of a system: states in breadth-first order (so the stems found are
+/// shortest), their steps, and the first step that reached each.
+#[derive(Debug)]
+pub struct Graph<T: TransitionSystem> {
+    pub states: Vec<T::State>,
+    /// Steps of state `i`: `edges[offsets[i]..offsets[i + 1]]`.
+    offsets: Vec<usize>,
+    edges: Vec<Edge>,
+    labels: Vec<T::Label>,
+    /// The states reached first from an initial state, and by which edge, for the stems.
+    initial: Vec<bool>,
+    /// The actors enabled in each state.
+    enabled: Vec<Actors>,
+    /// Steps explored (with repetitions).
+    pub transitions: usize,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Edge {
+    to: u32,
+    moved: Actors,
+}
+
+/// Explores every state reachable from the initial states, breadth first.
+pub fn explore<T: TransitionSystem>(system: &T, limits: Limits) -> Result<Graph<T>, Exceeded> {
+    let mut index: HashMap<T::State, u32> = HashMap::new();
+    let mut g = Graph::<T> {
+        states: Vec::new(),
+        offsets: vec![0],
+        edges: Vec::new(),
+        labels: Vec::new(),
+        initial: Vec::new(),
+        enabled: Vec::new(),
+        transitions: 0,
+    };
+    let mut add = |s: T::State, g: &mut Graph<T>, initial: bool| -> Result<u32, Exceeded> {
+        if let Some(&i) = index.get(&s) {
+            if initial {
+                g.initial[i as usize] = true;
+            }
+            return Ok(i);
+        }
+        if let Some(limit) = limits.max_states {
+            if g.states.len() >= limit {
+                return Err(Exceeded::States { limit });
+            }
+        }
+        let i = g.states.len() as u32;
+        index.insert(s.clone(), i);
+        g.states.push(s);
+        g.initial.push(initial);
+        Ok(i)
+    };
+    for s in system.initial_states() {
+        add(s, &mut g, true)?;
+    }
+    let mut next = Vec::new();
+    let mut i = 0;
+    while i < g.states.len() {
+        next.clear();
+        system.successors(&g.states[i], &mut next);
+        let mut enabled = 0;
+        for (label, s) in next.drain(..) {
+            let to = add(s, &mut g, false)?;
+            let moved = system.moved(&label);
+            enabled |= moved;
+            g.edges.push(Edge { to, moved });
+            g.labels.push(label);
+        }
+        g.transitions += g.edges.len() - g.offsets[i];
+        g.offsets.push(g.edges.len());
+        g.enabled.push(enabled);
+        if let Some(limit) = limits.max_memory {
+            let estimate = g.memory();
+            if estimate > limit {
+                return Err(Exceeded::Memory { limit, estimate });
+            }
+        }
+        i += 1;
+    }
+    Ok(g)
+}
+
+/// A counterexample to a liveness property: from `start` (an initial state), the `stem`'s
+/// steps, then the `cycle`'s steps, which end where the cycle began and repeat forever. An
+/// empty cycle means the run ends at the stem's last state and stays there.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lasso<S, L> {
+    pub start: S,
+    pub stem: Vec<(L, S)>,
+    pub cycle: Vec<(L, S)>,
+}
+
+impl<S: Clone, L> Lasso<S, L> {
+    /// The state where the cycle begins (and ends).
+    pub fn entry(&self) -> &S {
+        self.stem.last().map_or(&self.start, |(_, s)| s)
+    }
+}
+
+/// A property's verdict on a whole graph.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Verdict<S, L> {
+    Holds,
+    Fails(Lasso<S, L>),
+}
+
+impl<T: TransitionSystem> Graph<T> {
+    /// Unique states.
+    pub fn len(&self) -> usize {
+        self.states.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.states.is_empty()
+    }
+
+    /// Distinct steps (edges).
+    pub fn edge_count(&self) -> usize {
+        self.edges.len()
+    }
+
+    /// An estimate of the graph's bytes: each state twice (the list and the index), each
+    /// edge and label, and the per-state bookkeeping.
+    pub fn memory(&self) -> u64 {
+        let state = std::mem::size_of::<T::State>() as u64;
+        let per_state = 2 * state + 8 + 8 + 1 + 8 + 16;
+        let per_edge = std::mem::size_of::<Edge>() as u64 + std::mem::size_of::<T::Label>() as u64;
+        self.states.len() as u64 * per_state + self.edges.len() as u64 * per_edge
+    }
+
+    fn out(&self, i: usize) -> std::ops::Range<usize> {
+        self.offsets[i]..self.offsets[i + 1]
+    }
+
+    /// Decides `kind` over the predicate `p` under `fairness`.
+    pub fn check(
+        &self,
+        kind: Liveness,
+        fairness: Fairness,
+        p: impl Fn(&T::State) -> bool,
+    ) -> Verdict<T::State, T::Label> {
+        let n = self.states.len();
+        let holds: Vec<bool> = self.states.iter().map(&p).collect();
+        // Where the stem may go, where the cycle may go, and what the cycle must visit.
+        let (stem_in, cycle_in, must): (Vec<bool>, Vec<bool>, Vec<bool>) = match kind {
+            Liveness::Eventually => {
+                let avoid: Vec<bool> = holds.iter().map(|h| !h).collect();
+                let seeds = (0..n).filter(|&i| self.initial[i] && avoid[i]).collect();
+                let reach = self.reach(seeds, &avoid);
+                (reach.clone(), reach, vec![true; n])
+            }
+            Liveness::EventuallyAlways => (vec![true; n], vec![true; n], holds.map_not()),
+            Liveness::AlwaysEventually => (vec![true; n], holds.map_not(), vec![true; n]),
+        };
+        let Some(cycle) = self.fair_cycle(&cycle_in, &must, fairness) else {
+            return Verdict::Holds;
+        };
+        let seeds = (0..n).filter(|&i| self.initial[i] && stem_in[i]).collect();
+        let stem = self
+            .path(seeds, |i| cycle.first() == Some(&i), &stem_in)
+            .expect("the cycle is reachable within the stem's states");
+        let start = stem.states[0];
+        let entry = *stem.states.last().expect("a path has a state");
+        let cycle = self.close(entry, &cycle, &must, fairness);
+        Verdict::Fails(Lasso {
+            start: self.states[start].clone(),
+            stem: self.steps(&stem),
+            cycle: self.steps(&cycle),
+        })
+    }
+
+    /// The states reachable from `seeds` within `allowed`.
+    fn reach(&self, seeds: Vec<usize>, allowed: &[bool]) -> Vec<bool> {
+        let mut seen = vec![false; self.states.len()];
+        let mut todo = seeds;
+        for &s in &todo {
+            seen[s] = true;
+        }
+        while let Some(i) = todo.pop() {
+            for e in &self.edges[self.out(i)] {
+                let j = e.to as usize;
+                if allowed[j] && !seen[j] {
+                    seen[j] = true;
+                    todo.push(j);
+                }
+            }
+        }
+        seen
+    }
+
+    /// A shortest path from one of `seeds` to a state where `goal` holds, within `allowed`:
+    /// its states and the edges between them (`edges[k]` leads from `states[k]`).
+    fn path(
+        &self,
+        seeds: Vec<usize>,
+        goal: impl Fn(usize) -> bool,
+        allowed: &[bool],
+    ) -> Option<Walk> {
+        let mut parent: HashMap<usize, Option<(usize, usize)>> = HashMap::new();
+        let mut queue = VecDeque::new();
+        for s in seeds {
+            if parent.insert(s, None).is_none() {
+                queue.push_back(s);
+            }
+        }
+        while let Some(i) = queue.pop_front() {
+            if goal(i) {
+                let mut walk = Walk {
+                    states: vec![i],
+                    edges: Vec::new(),
+                };
+                let mut at = i;
+                while let Some(Some((p, k))) = parent.get(&at) {
+                    walk.states.push(*p);
+                    walk.edges.push(*k);
+                    at = *p;
+                }
+                walk.states.reverse();
+                walk.edges.reverse();
+                return Some(walk);
+            }
+            for k in self.out(i) {
+                let j = self.edges[k].to as usize;
+                if allowed[j] && !parent.contains_key(&j) {
+                    parent.insert(j, Some((i, k)));
+                    queue.push_back(j);
+                }
+            }
+        }
+        None
+    }
+
+    /// The (label, state) steps of a walk.
+    fn steps(&self, walk: &Walk) -> Vec<(T::Label, T::State)> {
+        walk.edges
+            .iter()
+            .zip(&walk.states[1..])
+            .map(|(&k, &s)| (self.labels[k].clone(), self.states[s].clone()))
+            .collect()
+    }
+
+    /// A component (its states, sorted) holding a fair cycle within `allowed` that visits
+    /// `must`, or a state of `allowed ∩ must` where the run ends (a one-state "component").
+    fn fair_cycle(
+        &self,
+        allowed: &[bool],
+        must: &[bool],
+        fairness: Fairness,
+    ) -> Option<Vec<usize>> {
+        let n = self.states.len();
+        if let Some(end) = (0..n).find(|&i| allowed[i] && must[i] && self.out(i).is_empty()) {
+            return Some(vec![end]);
+        }
+        let mut work: Vec<Vec<usize>> = vec![(0..n).filter(|&i| allowed[i]).collect()];
+        let mut inside = vec![false; n];
+        while let Some(set) = work.pop() {
+            for scc in self.components(&set) {
+                for &i in &scc {
+                    inside[i] = true;
+                }
+                let moved_inside: Actors = scc
+                    .iter()
+                    .flat_map(|&i| self.edges[self.out(i)].iter())
+                    .filter(|e| inside[e.to as usize])
+                    .fold(0, |a, e| a | e.moved);
+                let cyclic = scc.len() > 1
+                    || self.edges[self.out(scc[0])]
+                        .iter()
+                        .any(|e| e.to as usize == scc[0]);
+                let visits = scc.iter().any(|&i| must[i]);
+                let verdict = if !cyclic || !visits {
+                    Err(None)
+                } else {
+                    match fairness {
+                        Fairness::None => Ok(()),
+                        Fairness::Weak => {
+                            let always: Actors = scc.iter().fold(!0, |a, &i| a & self.enabled[i]);
+                            if always & !moved_inside == 0 {
+                                Ok(())
+                            } else {
+                                Err(None)
+                            }
+                        }
+                        Fairness::Strong => {
+                            let sometimes: Actors = scc.iter().fold(0, |a, &i| a | self.enabled[i]);
+                            let starved = sometimes & !moved_inside;
+                            if starved == 0 {
+                                Ok(())
+                            } else {
+                                let rest: Vec<usize> = scc
+                                    .iter()
+                                    .copied()
+                                    .filter(|&i| self.enabled[i] & starved == 0)
+                                    .collect();
+                                Err((!rest.is_empty()).then_some(rest))
+                            }
+                        }
+                    }
+                };
+                for &i in &scc {
+                    inside[i] = false;
+                }
+                match verdict {
+                    Ok(()) => return Some(scc),
+                    Err(Some(rest)) => work.push(rest),
+                    Err(None) => {}
+                }
+            }
+        }
+        None
+    }
+
+    /// A cycle from `entry` within the component `scc` that visits `must` and satisfies
+    /// `fairness`: it takes a step of every actor that moves inside the component, and, under
+    /// weak fairness, visits a state where each actor that never moves there is disabled.
+    /// Its states start and end at `entry`; no step when the run ends there.
+    fn close(&self, entry: usize, scc: &[usize], must: &[bool], fairness: Fairness) -> Walk {
+        let mut cycle = Walk {
+            states: vec![entry],
+            edges: Vec::new(),
+        };
+        if scc.len() == 1 && self.out(entry).is_empty() {
+            return cycle;
+        }
+        let mut allowed = vec![false; self.states.len()];
+        for &i in scc {
+            allowed[i] = true;
+        }
+        let goto = |cycle: &mut Walk, goal: &dyn Fn(usize) -> bool| {
+            let at = *cycle.states.last().expect("non-empty");
+            let p = self
+                .path(vec![at], goal, &allowed)
+                .expect("strongly connected");
+            cycle.states.extend_from_slice(&p.states[1..]);
+            cycle.edges.extend_from_slice(&p.edges);
+        };
+        let inner = |i: usize| self.out(i).filter(|&k| allowed[self.edges[k].to as usize]);
+        let take = |cycle: &mut Walk, k: usize| {
+            cycle.edges.push(k);
+            cycle.states.push(self.edges[k].to as usize);
+        };
+        if !must[entry] {
+            goto(&mut cycle, &|i| must[i]);
+        }
+        let moved_inside: Actors = scc
+            .iter()
+            .flat_map(|&i| inner(i))
+            .fold(0, |a, k| a | self.edges[k].moved);
+        if fairness != Fairness::None {
+            for a in 0..64 {
+                let bit: Actors = 1 << a;
+                if moved_inside & bit != 0 {
+                    goto(&mut cycle, &|i| {
+                        inner(i).any(|k| self.edges[k].moved & bit != 0)
+                    });
+                    let at = *cycle.states.last().expect("non-empty");
+                    let k = inner(at)
+                        .find(|&k| self.edges[k].moved & bit != 0)
+                        .expect("found");
+                    take(&mut cycle, k);
+                } else if fairness == Fairness::Weak
+                    && !cycle.states.iter().any(|&i| self.enabled[i] & bit == 0)
+                    && scc.iter().any(|&i| self.enabled[i] & bit == 0)
+                {
+                    goto(&mut cycle, &|i| self.enabled[i] & bit == 0);
+                }
+            }
+        }
+        if cycle.edges.is_empty() {
+            let k = inner(entry)
+                .next()
+                .expect("a cyclic component has an inner step");
+            take(&mut cycle, k);
+        }
+        if *cycle.states.last().expect("non-empty") != entry {
+            goto(&mut cycle, &|i| i == entry);
+        }
+        cycle
+    }
+
+    /// Tarjan's strongly connected components of the subgraph induced by `set`, with an
+    /// explicit call stack.
+    fn components(&self, set: &[usize]) -> Vec<Vec<usize>> {
+        const NONE: u32 = u32::MAX;
+        let n = self.states.len();
+        let mut member = vec![false; n];
+        for &i in set {
+            member[i] = true;
+        }
+        let mut index = vec![NONE; n];
+        let mut low = vec![0u32; n];
+        let mut on_stack = vec![false; n];
+        let mut stack: Vec<usize> = Vec::new();
+        let mut calls: Vec<(usize, usize)> = Vec::new();
+        let mut next = 0u32;
+        let mut out = Vec::new();
+        for &root in set {
+            if index[root] != NONE {
+                continue;
+            }
+            calls.push((root, self.offsets[root]));
+            index[root] = next;
+            low[root] = next;
+            next += 1;
+            stack.push(root);
+            on_stack[root] = true;
+            while let Some(&mut (v, ref mut k)) = calls.last_mut() {
+                if *k < self.offsets[v + 1] {
+                    let w = self.edges[*k].to as usize;
+                    *k += 1;
+                    if !member[w] {
+                        continue;
+                    }
+                    if index[w] == NONE {
+                        index[w] = next;
+                        low[w] = next;
+                        next += 1;
+                        stack.push(w);
+                        on_stack[w] = true;
+                        calls.push((w, self.offsets[w]));
+                    } else if on_stack[w] {
+                        low[v] = low[v].min(index[w]);
+                    }
+                    continue;
+                }
+                calls.pop();
+                if let Some(&(u, _)) = calls.last() {
+                    low[u] = low[u].min(low[v]);
+                }
+                if low[v] == index[v] {
+                    let mut scc = Vec::new();
+                    loop {
+                        let w = stack.pop().expect("v is on the stack");
+                        on_stack[w] = false;
+                        scc.push(w);
+                        if w == v {
+                            break;
+                        }
+                    }
+                    scc.sort_unstable();
+                    out.push(scc);
+                }
+            }
+        }
+        out
+    }
+}
+
+/// States and the edges between them.
+#[derive(Debug)]
+struct Walk {
+    states: Vec<usize>,
+    edges: Vec<usize>,
+}
+
+trait MapNot {
+    fn map_not(&self) -> Vec<bool>;
+}
+
+impl MapNot for Vec<bool> {
+    fn map_not(&self) -> Vec<bool> {
+        self.iter().map(|b| !b).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests;
