@@ -28,6 +28,7 @@ use crate::recording::RecordingError;
 use crate::scenario::{CheckNetwork, FaultSpec, Overrides, Registry, ScenarioError, Source};
 
 pub mod lcm;
+pub mod lcm_search;
 mod trace;
 
 pub use trace::{trace_lines, CheckEvent, CheckRecord};
@@ -104,6 +105,9 @@ pub struct CheckArgs {
     pub keep_going: bool,
     /// Overrides of a Look-Compute-Move scenario's settings ([`lcm`]).
     pub lcm: lcm::LcmOverrides,
+    /// What a search of Look-Compute-Move robots checks ([`lcm_search`]; default:
+    /// collision-free).
+    pub goals: Vec<nekosim_actors::lcm::search::Goal>,
 }
 
 /// What a check does beside its report while it runs.
@@ -459,6 +463,10 @@ pub fn check_live(
         let source = Source::load(Path::new(&args.model))?;
         if let Some(table) = lcm::rule_table_of(&source) {
             return lcm::check(&source, table?, args, out);
+        }
+        // Other Look-Compute-Move scenarios: the search beyond exhaustive checking.
+        if source.scenario.lcm.is_some() && source.scenario.stack.is_empty() {
+            return lcm_search::check(&source, registry, args, out);
         }
     }
     if args.lcm.any() {

@@ -215,6 +215,12 @@ enum Command {
         /// point" [default: eventually-always, as the scenario's gathered predicate].
         #[arg(long, value_name = "SHAPE", value_parser = check::lcm::parse_property)]
         property: Option<nekosim_models::liveness::Liveness>,
+        /// Look-Compute-Move search (three or more robots, or algorithms on exact positions):
+        /// collision-free, diameter-never-grows, gathered-within:K or converged-within:EPS:K;
+        /// repeat for several [default: collision-free]. `--depth` is the rounds searched,
+        /// `--strategy simulation` searches at random (`--max-states` runs).
+        #[arg(long = "goal", value_name = "GOAL", value_parser = check::lcm_search::parse_goal)]
+        goals: Vec<nekosim_actors::lcm::search::Goal>,
     },
 }
 
@@ -380,6 +386,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             register,
             fairness,
             property,
+            goals,
             ..
         } => {
             if rrd.is_some() && !cfg!(feature = "rerun") {
@@ -422,6 +429,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                     fairness,
                     property,
                 },
+                goals,
             };
             // Ctrl-C (or SIGTERM) stops the search: the check reports what it found and
             // explored, writes the outputs asked for, and exits 130; a second one ends the

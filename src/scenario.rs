@@ -430,7 +430,7 @@ pub fn read_ron<T: serde::de::DeserializeOwned>(
 }
 
 /// A scenario file read and parsed, with the positions of its values.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct Source {
     pub file: String,
     pub scenario: Scenario,

@@ -205,3 +205,75 @@ fn a_searched_schedule_replays_exactly() {
     }
     assert_eq!(rounds, expected);
 }
+
+/// `nekosim check` on a scenario of three robots that compute the centre of gravity: the
+/// search finds two robots merging before the three gather (both activated alone, both go to
+/// the same centre), prints the schedule, exits 1, and `--trace` holds the replayed run in
+/// which the two stand on one point and the third elsewhere. The diameter never grows on
+/// any schedule of the menu (exit 0, stating the depth covered), and the random search finds
+/// the merge too.
+#[test]
+fn the_check_command_searches_and_replays() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("three.ron");
+    std::fs::write(
+        &scenario,
+        "Scenario(seed: 11, until: 10.0, world: (size: Infinite, ghost_mode: true),
+           lcm: (synchrony: Ssync, movement: NonRigid(delta: 1.0)),
+           robots: [Group(count: 3, radius: 0.5,
+                          born: Points([(0.0, 0.0), (40.0, 10.0), (12.0, -31.0)]),
+                          algorithm: CentreOfGravity())])",
+    )
+    .unwrap();
+    let trace = dir.path().join("cex.jsonl");
+    let check = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_nekosim"))
+            .arg("check")
+            .arg(&scenario)
+            .args(args)
+            .output()
+            .expect("runs")
+    };
+    let out = check(&["--depth", "2", "--trace", trace.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(text.contains("collision-free: fails"), "{text}");
+    assert!(text.contains("while the robots are not gathered"), "{text}");
+    // The replay: after its round, exactly two robots share a point.
+    let mut end = std::collections::BTreeMap::new();
+    for line in std::fs::read_to_string(&trace).unwrap().lines() {
+        let v: serde_json::Value = serde_json::from_str(line).unwrap();
+        if v["kind"] == "wait" {
+            end.insert(
+                v["robot"].as_u64().unwrap(),
+                (v["at"][0].as_f64().unwrap(), v["at"][1].as_f64().unwrap()),
+            );
+        }
+    }
+    assert_eq!(end.len(), 2, "{end:?}");
+    let points: Vec<_> = end.values().collect();
+    assert_eq!(points[0], points[1]);
+
+    let out = check(&["--depth", "2", "--goal", "diameter-never-grows"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{text}");
+    assert!(
+        text.contains("holds on every schedule searched (depth 2)"),
+        "{text}"
+    );
+
+    let out = check(&[
+        "--depth",
+        "3",
+        "--strategy",
+        "simulation",
+        "--max-states",
+        "20",
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(text.contains("random runs"), "{text}");
+
+    let out = check(&["--goal", "gathered-within:x"]);
+    assert_eq!(out.status.code(), Some(2));
+}

@@ -302,9 +302,10 @@ impl Problem {
                 let closest = p0 + v * s;
                 let scale = from[a].coords.amax().max(from[b].coords.amax()).max(1.0);
                 if s > 0.0 && closest.norm() <= SAME_POINT * scale {
+                    let at = from[a] + (w.at[a] - from[a]) * s;
                     return Err(format!(
-                        "robots {a} and {b} meet at {} while the robots are not gathered",
-                        from[a] + (w.at[a] - from[a]) * s
+                        "robots {a} and {b} meet at ({}, {}) while the robots are not gathered",
+                        at.x, at.y
                     ));
                 }
             }
