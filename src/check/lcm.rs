@@ -11,8 +11,12 @@ use std::path::Path;
 use std::time::Instant;
 
 use nekosim_actors::lcm::predicate::Predicate;
+use nekosim_actors::lcm::record::LcmRecord;
 use nekosim_actors::lcm::rule_table::{RuleTable, RuleTableConfig};
-use nekosim_actors::lcm::settings::{Lights, Movement, Register, Synchrony};
+use nekosim_actors::lcm::settings::{AdversaryKind, Lights, Movement, Register, Synchrony};
+use nekosim_actors::lcm::Light;
+use nekosim_actors::world::geometry::Point;
+use nekosim_actors::world::observation::Observation;
 use nekosim_models::liveness::{explore, Exceeded, Fairness, Lasso, Limits, Liveness, Verdict};
 use serde_json::json;
 
@@ -20,6 +24,7 @@ use super::{CheckArgs, CheckError, Conclusion};
 use crate::scenario::{RobotEntry, Source};
 
 pub mod abstraction;
+pub mod replay;
 
 pub use abstraction::{Abstraction, Pending, Phase, Position, State, Step, Variant};
 
@@ -417,6 +422,9 @@ pub fn check(
             }
         }
     }
+    if let Some((lasso, _)) = &first_lasso {
+        replay_lasso(source, lasso, rigid, args.rrd.as_deref(), out)?;
+    }
     if let (Some(path), Some((lasso, kind))) = (&args.trace, &first_lasso) {
         write_lasso(path, lasso, &table, *kind).map_err(|source| CheckError::Trace {
             path: path.clone(),
@@ -496,4 +504,104 @@ fn write_lasso(
     let mut text = lasso_lines(lasso, table, kind).join("\n");
     text.push('\n');
     std::fs::write(path, text)
+}
+
+/// Replays `lasso` in the simulator ([`replay`]), says whether the run shows the violation,
+/// and records it to `rrd` if asked.
+fn replay_lasso(
+    source: &Source,
+    lasso: &Lasso<State, Step>,
+    rigid: bool,
+    rrd: Option<&Path>,
+    out: &mut dyn Write,
+) -> Result<(), CheckError> {
+    let Some(plan) = replay::replay(lasso) else {
+        let _ = writeln!(out, "replay: the lasso has no cycle to repeat");
+        return Ok(());
+    };
+    let mut scenario = source.clone();
+    let lcm = scenario.scenario.lcm.get_or_insert_with(Default::default);
+    // The script fixes every instant; the synchrony model only names the schedule.
+    lcm.synchrony = Synchrony::Async;
+    lcm.adversary = AdversaryKind::Scripted(plan.activations.clone());
+    lcm.initial_lights = plan.lights.to_vec();
+    lcm.predicates.clear();
+    if rigid {
+        lcm.movement = Movement::Rigid;
+    } else if lcm.movement == Movement::Rigid {
+        lcm.movement = Movement::NonRigid { delta: 1.0 };
+    }
+    scenario.scenario.until = plan.until;
+    let registry = crate::scenario::Registry::with_builtins();
+    let build = || -> Result<crate::scenario::Built, CheckError> {
+        let mut built = scenario.build(crate::scenario::Overrides::default(), &registry)?;
+        for (i, (spec, _)) in built.robots.iter_mut().enumerate() {
+            spec.pose.pos = plan.born[i.min(1)];
+        }
+        Ok(built)
+    };
+    let built = build()?;
+    let records = nekosim_actors::run(nekosim_actors::SimConfig {
+        seed: built.seed,
+        until: built.until,
+        world: built.world,
+        robots: built.robots,
+        arbiters: 1,
+        record: true,
+        observers: Default::default(),
+        comms: built.comms,
+        sensors: built.sensors,
+    })
+    .map_err(|e| CheckError::Lcm(format!("the replay did not run: {e}")))?
+    .records;
+    let at = |t: f64| -> ([Point; 2], [Option<Light>; 2]) {
+        let (mut pos, mut light) = (plan.born, [None, None]);
+        for r in records.iter().take_while(|r| r.t < t) {
+            match &r.obs {
+                Observation::Lcm(LcmRecord::Wait { robot, at, .. }) => pos[*robot as usize] = *at,
+                Observation::Light {
+                    robot,
+                    light: l,
+                    pending: None,
+                } => light[*robot as usize] = Some(*l),
+                _ => {}
+            }
+        }
+        (pos, light)
+    };
+    let [from, first, second] = plan.marks;
+    let (_, lights) = at(from);
+    let shows = [first, second].iter().all(|&t| {
+        let (pos, l) = at(t);
+        pos[0] != pos[1] && l == lights
+    });
+    let (end, _) = at(second);
+    let _ = writeln!(
+        out,
+        "replay in the simulator (the stem, then the cycle twice, from t = {from} to {first} and {second}): {}",
+        if shows {
+            format!(
+                "the robots are apart after each repetition, at ({}, {}) and ({}, {}), with the lights they had when it began",
+                end[0].x, end[0].y, end[1].x, end[1].y
+            )
+        } else {
+            "the simulated run does not show the violation (the model's steps between a Compute and its Move do not map onto the simulator's instants here)".to_string()
+        }
+    );
+    if let Some(path) = rrd {
+        let built = build()?;
+        crate::runner::run(
+            built,
+            crate::runner::RunOptions {
+                recording: crate::recording::Target {
+                    rrd: Some(path.to_path_buf()),
+                    connect: None,
+                },
+                ..Default::default()
+            },
+        )
+        .map_err(|e| CheckError::Lcm(format!("the replay's recording failed: {e}")))?;
+        let _ = writeln!(out, "replay recorded: {}", path.display());
+    }
+    Ok(())
 }

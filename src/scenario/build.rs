@@ -549,7 +549,9 @@ impl Placement<'_> {
                 "a born point at least one radius away from every obstacle",
             )));
         }
-        for (other, o) in self.placed.iter().enumerate() {
+        // In ghost mode robots never collide, so they may be born on one point.
+        let ghosts = src.scenario.world.ghost_mode;
+        for (other, o) in self.placed.iter().enumerate().filter(|_| !ghosts) {
             if let Some(o) = o {
                 if (o.pose.pos - p).norm() < o.radius + r {
                     return Err(src.err(FieldError::new(

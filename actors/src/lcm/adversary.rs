@@ -22,6 +22,8 @@ use crate::world::RobotId;
 pub struct Plan {
     pub look: f64,
     pub compute_end: f64,
+    /// When the Move starts (the end of the Compute, unless a script says later).
+    pub move_start: f64,
     pub move_end: f64,
     pub stop: Option<f64>,
     /// The round it belongs to, under a synchrony model of rounds.
@@ -76,6 +78,7 @@ impl Adversary {
                     return Some(Plan {
                         look: a.look,
                         compute_end: a.compute,
+                        move_start: a.start_move.unwrap_or(a.compute),
                         move_end: a.move_end,
                         stop: a.stop,
                         round: None,
@@ -101,6 +104,7 @@ impl Adversary {
             return Some(Plan {
                 look: start,
                 compute_end: start + t / 4.0,
+                move_start: start + t / 4.0,
                 move_end: start + 3.0 * t / 4.0,
                 stop: None,
                 round: Some(k),
@@ -116,6 +120,7 @@ impl Adversary {
         Some(Plan {
             look,
             compute_end: look + compute,
+            move_start: look + compute,
             move_end: look + compute + moving,
             stop: None,
             round: None,

@@ -109,7 +109,11 @@ async fn cycles<A: LookComputeMove + ?Sized>(
     let colours = algorithm.colours().max(1);
     // Self-stabilising algorithms start from any light: the adversary's choice.
     let mut light: Light = if colours > 1 {
-        let l = robot.rng().gen_range(0..colours);
+        let drawn = robot.rng().gen_range(0..colours);
+        let l = match settings.initial_lights.get(id as usize) {
+            Some(&l) if l < colours => l,
+            _ => drawn,
+        };
         robot.set_light(LightState::steady(l));
         l
     } else {
@@ -214,6 +218,7 @@ async fn go(
     to: Option<Point>,
     cycle: u64,
 ) -> Point {
+    wait_until(robot, plan.move_start).await;
     let duration = plan.move_end - robot.now();
     let Some(to) = to.filter(|_| duration > 0.0) else {
         wait_until(robot, plan.move_end).await;

@@ -100,6 +100,7 @@ impl Schedule {
                     robot,
                     look: start,
                     compute: start + cycle / 4.0,
+                    start_move: None,
                     move_end: start + 3.0 * cycle / 4.0,
                     stop: Some(stop),
                 });
@@ -192,7 +193,11 @@ impl Problem {
                 .map(|r| {
                     let colours = self.colours(r as usize);
                     if colours > 1 {
-                        rng(self.seed, Stream::Robot(r)).gen_range(0..colours)
+                        let drawn = rng(self.seed, Stream::Robot(r)).gen_range(0..colours);
+                        match self.settings.initial_lights.get(r as usize) {
+                            Some(&l) if l < colours => l,
+                            _ => drawn,
+                        }
                     } else {
                         0
                     }
@@ -271,6 +276,7 @@ impl Problem {
                 let plan = Plan {
                     look: 0.0,
                     compute_end: 0.0,
+                    move_start: 0.0,
                     move_end: 1.0,
                     stop: Some(stop),
                     round: None,

@@ -104,13 +104,16 @@ pub enum Detection {
 }
 
 /// One activation of a scripted adversary: when `robot` Looks, when its Compute ends, when its
-/// Move ends, and where a non-rigid move stops (the fraction of the way, 1 when omitted).
+/// Move starts (`start_move`, at the end of the Compute when omitted) and ends, and where a
+/// non-rigid move stops (the fraction of the way, 1 when omitted).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Activation {
     pub robot: RobotId,
     pub look: f64,
     pub compute: f64,
+    #[serde(default)]
+    pub start_move: Option<f64>,
     #[serde(rename = "move")]
     pub move_end: f64,
     #[serde(default)]
@@ -180,6 +183,10 @@ pub struct LcmSettings {
     /// What the run reports on: when each first held, and whether it kept holding.
     #[serde(default)]
     pub predicates: Vec<super::predicate::Predicate>,
+    /// The robots' first lights, by robot id (a checker's counterexample replays from its
+    /// own); robots beyond the list start with a light the adversary draws.
+    #[serde(default)]
+    pub initial_lights: Vec<super::view::Light>,
     #[serde(skip)]
     pub roster: Roster,
 }
@@ -201,6 +208,7 @@ impl Default for LcmSettings {
             cycle: 1.0,
             adversary: AdversaryKind::default(),
             predicates: Vec::new(),
+            initial_lights: Vec::new(),
             roster: Roster::default(),
         }
     }
@@ -269,20 +277,22 @@ impl LcmSettings {
         }
         if let AdversaryKind::Scripted(acts) = &self.adversary {
             for (i, a) in acts.iter().enumerate() {
+                let start = a.start_move.unwrap_or(a.compute);
                 let ok = a.look.is_finite()
                     && a.look >= 0.0
                     && a.compute >= a.look
-                    && a.move_end > a.compute
+                    && start >= a.compute
+                    && a.move_end > start
                     && a.move_end.is_finite()
                     && a.stop.is_none_or(|s| (0.0..=1.0).contains(&s));
                 if !ok {
                     return Err(err(
                         &format!("adversary[0][{i}]"),
                         format!(
-                            "activation of robot {} at look {}, compute {}, move {}, stop {:?}",
-                            a.robot, a.look, a.compute, a.move_end, a.stop
+                            "activation of robot {} at look {}, compute {}, start_move {:?}, move {}, stop {:?}",
+                            a.robot, a.look, a.compute, a.start_move, a.move_end, a.stop
                         ),
-                        "0 <= look <= compute < move, finite, stop within [0, 1]",
+                        "0 <= look <= compute <= start_move < move, finite, stop within [0, 1]",
                     ));
                 }
             }

@@ -230,7 +230,13 @@ impl VirtualWorld {
         for (i, s) in specs.iter().enumerate() {
             let id = i as RobotId;
             let cell = world.grid.cell_of(s.pose.pos);
-            for other in world.grid.neighbours(cell) {
+            // In ghost mode robots never collide, so they may be born on one point (as
+            // Look-Compute-Move robots that start gathered are).
+            for other in world
+                .grid
+                .neighbours(cell)
+                .filter(|_| !world.cfg.ghost_mode)
+            {
                 let o = &world.robots[other as usize];
                 if (o.rest.pos - s.pose.pos).norm() < o.radius + s.radius {
                     return Err(WorldError::Overlap { a: other, b: id });
