@@ -15,6 +15,7 @@ mod lcm_algorithms;
 mod lcm_search;
 mod mutated_inputs;
 mod obstacles;
+mod python_package;
 mod real_network;
 mod recording;
 #[cfg(feature = "rerun")]
