@@ -239,12 +239,15 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
     run_observed(built, opts, None)
 }
 
+/// What [`run_observed`] calls with every record.
+pub type Observe = Box<dyn FnMut(&Record)>;
+
 /// [`run`], also calling `observe` with every record in order, beside the outputs (the Python
 /// bindings keep a run's records this way).
 pub fn run_observed(
     built: Built,
     opts: RunOptions,
-    mut observe: Option<Box<dyn FnMut(&Record)>>,
+    mut observe: Option<Observe>,
 ) -> Result<Summary, RunError> {
     let mut log = create(&opts.log)?;
     if let Some(f) = log.as_mut() {

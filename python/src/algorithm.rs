@@ -131,9 +131,7 @@ impl PyLcm {
             pyo3::exceptions::PyTypeError::new_err(format!(
                 "{}.compute returned {}; expected a nekosim.Decision",
                 self.name,
-                out.get_type()
-                    .name()
-                    .map_or("?".into(), |n| n.to_string())
+                out.get_type().name().map_or("?".into(), |n| n.to_string())
             ))
         })?;
         let d = d.get();
@@ -252,7 +250,9 @@ fn to_python<'py>(py: Python<'py>, v: &ron::Value) -> PyResult<Bound<'py, PyAny>
             ron::Number::F32(f) => f.get().into_pyobject(py)?.into_any(),
             ron::Number::F64(f) => f.get().into_pyobject(py)?.into_any(),
             other => match other.into_f64() {
-                f if f.fract() == 0.0 && f.abs() < 9.0e15 => (f as i64).into_pyobject(py)?.into_any(),
+                f if f.fract() == 0.0 && f.abs() < 9.0e15 => {
+                    (f as i64).into_pyobject(py)?.into_any()
+                }
                 f => f.into_pyobject(py)?.into_any(),
             },
         },

@@ -135,7 +135,9 @@ fn column(name: &str, kind: Kind, cells: &[&Value]) -> Result<ArrayRef, ArrowErr
             for v in cells {
                 match v.as_array() {
                     Some(items) => {
-                        items.iter().for_each(|i| b.values().append_option(i.as_i64()));
+                        items
+                            .iter()
+                            .for_each(|i| b.values().append_option(i.as_i64()));
                         b.append(true);
                     }
                     None => b.append(false),
@@ -148,7 +150,9 @@ fn column(name: &str, kind: Kind, cells: &[&Value]) -> Result<ArrayRef, ArrowErr
             for v in cells {
                 match v.as_array() {
                     Some(items) => {
-                        items.iter().for_each(|i| b.values().append_option(i.as_f64()));
+                        items
+                            .iter()
+                            .for_each(|i| b.values().append_option(i.as_f64()));
                         b.append(true);
                     }
                     None => b.append(false),

@@ -35,7 +35,12 @@ fn ron_text(value: &Bound<'_, PyAny>) -> PyResult<String> {
     if value.is_none() {
         Ok("None".into())
     } else if value.is_instance_of::<PyBool>() {
-        Ok(if value.extract::<bool>()? { "true" } else { "false" }.into())
+        Ok(if value.extract::<bool>()? {
+            "true"
+        } else {
+            "false"
+        }
+        .into())
     } else if value.is_instance_of::<PyInt>() {
         Ok(value.str()?.to_string())
     } else if value.is_instance_of::<PyFloat>() {
@@ -58,7 +63,8 @@ impl Scenario {
     /// Reads and checks the scenario file at `path`.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let (file, text) = read_file(&path, "scenario").map_err(|e| crate::scenario_error(py, &e))?;
+        let (file, text) =
+            read_file(&path, "scenario").map_err(|e| crate::scenario_error(py, &e))?;
         Self::parse(py, file, text)
     }
 

@@ -56,8 +56,13 @@ fn python() -> Option<PathBuf> {
         let base = std::env::var("NEKOSIM_PYTHON").unwrap_or_else(|_| "python3".into());
         if Command::new(&base).arg("--version").output().is_err() {
             let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
-            assert!(!ci, "no Python interpreter ({base}) under CI: the Python package is untested");
-            eprintln!("python_package: no Python interpreter ({base}); the Python package is not tested");
+            assert!(
+                !ci,
+                "no Python interpreter ({base}) under CI: the Python package is untested"
+            );
+            eprintln!(
+                "python_package: no Python interpreter ({base}); the Python package is not tested"
+            );
             return None;
         }
         run(Command::new(base).args(["-m", "venv"]).arg(&venv));
@@ -67,11 +72,9 @@ fn python() -> Option<PathBuf> {
     }
     // The package is built from the sources every time (cargo rebuilds what changed), with
     // the pinned maturin, as a debug build in this target directory.
-    let path = std::env::join_paths(
-        std::iter::once(bin.clone()).chain(std::env::split_paths(
-            &std::env::var_os("PATH").unwrap_or_default(),
-        )),
-    )
+    let path = std::env::join_paths(std::iter::once(bin.clone()).chain(std::env::split_paths(
+        &std::env::var_os("PATH").unwrap_or_default(),
+    )))
     .unwrap();
     run(Command::new(&py)
         .args([
