@@ -236,6 +236,19 @@ fn create(path: &Option<PathBuf>) -> Result<Option<AtomicFile>, RunError> {
 
 /// Runs `built`, writing the requested outputs.
 pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
+    run_observed(built, opts, None)
+}
+
+/// What [`run_observed`] calls with every record.
+pub type Observe = Box<dyn FnMut(&Record)>;
+
+/// [`run`], also calling `observe` with every record in order, beside the outputs (the Python
+/// bindings keep a run's records this way).
+pub fn run_observed(
+    built: Built,
+    opts: RunOptions,
+    mut observe: Option<Observe>,
+) -> Result<Summary, RunError> {
     let mut log = create(&opts.log)?;
     if let Some(f) = log.as_mut() {
         for line in crate::log::obstacle_lines(&built.world.obstacles) {
@@ -261,6 +274,9 @@ pub fn run(built: Built, opts: RunOptions) -> Result<Summary, RunError> {
         let outputs = outputs.clone();
         let recorder = recorder.clone();
         Box::new(move |r: &Record| {
+            if let Some(f) = observe.as_mut() {
+                f(r);
+            }
             let mut o = outputs.borrow_mut();
             let (log, trace, neko, meter, counts, monitor) = &mut *o;
             meter.observe(r);

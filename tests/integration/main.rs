@@ -16,6 +16,7 @@ mod lcm_check;
 mod lcm_search;
 mod mutated_inputs;
 mod obstacles;
+mod python_package;
 mod real_network;
 mod recording;
 #[cfg(feature = "rerun")]

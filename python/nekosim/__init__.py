@@ -1,0 +1,198 @@
+"""nekosim from Python: load, edit and run scenarios, read their traces as pandas
+DataFrames, and write Look-Compute-Move algorithms in Python (docs/python.md).
+
+>>> import nekosim
+>>> run = nekosim.Scenario.load("examples/lcm/cog.ron").run(seed=3, until=10)
+>>> run.summary["events"]  # doctest: +SKIP
+>>> run.trace.head()       # doctest: +SKIP
+"""
+
+import os
+from typing import Any, Dict, List, Mapping, Optional, Union
+
+import pandas as pd
+import pyarrow as pa
+import pyarrow.ipc
+
+from . import _nekosim
+from ._errors import ScenarioError
+from ._nekosim import Decision, Seen, View
+
+__all__ = [
+    "Decision",
+    "Run",
+    "Scenario",
+    "ScenarioError",
+    "Seen",
+    "View",
+    "register",
+    "registered",
+]
+
+_REGISTERED: Dict[str, Any] = {}
+
+
+def register(name: str, algorithm: Any) -> None:
+    """Registers a Python Look-Compute-Move algorithm under ``name`` for every run.
+
+    ``algorithm`` is a class, built with the scenario's configuration as keyword
+    arguments (``algorithm: Name(step: 0.5)`` calls ``Class(step=0.5)``), or an object
+    (then the scenario names it with no configuration). It has
+    ``compute(self, view: View) -> Decision``, and optionally ``colours`` (how many
+    colours its lights take, default 1) and ``colour_name(self, light) -> str``.
+    """
+    _REGISTERED[name] = algorithm
+
+
+def registered() -> Dict[str, Any]:
+    """The algorithms :func:`register` registered, by name."""
+    return dict(_REGISTERED)
+
+
+# Typed columns: integers and booleans stay integers and booleans where a column has
+# nulls (the fields of other kinds of records).
+_TYPES = {pa.int64(): pd.Int64Dtype(), pa.bool_(): pd.BooleanDtype()}
+
+
+class Run:
+    """A finished run: its summary, trace, log and trajectories."""
+
+    def __init__(self, core: Any, scenario: "Scenario", seed: Optional[int],
+                 until: Optional[float], algorithms: Dict[str, Any]) -> None:
+        self._core = core
+        self._scenario = scenario
+        self._seed = seed
+        self._until = until
+        self._algorithms = algorithms
+        self._table: Optional[pa.Table] = None
+        self._trace: Optional[pd.DataFrame] = None
+
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """The figures ``nekosim run`` prints: name, seed, robots, events, cancelled,
+        collisions, end_time, wall_seconds, events_per_second, interrupted, counts (a dict),
+        latency (a dict or None) and predicates (their report lines)."""
+        return self._core.summary
+
+    @property
+    def log(self) -> List[str]:
+        """The Neko log's lines, as ``nekosim run --log`` writes them."""
+        return self._core.log
+
+    @property
+    def trace_table(self) -> pa.Table:
+        """The trace as an Arrow table: one row per record, one column per field."""
+        if self._table is None:
+            reader = pa.ipc.open_stream(self._core.trace_ipc())
+            self._table = reader.read_all()
+        return self._table
+
+    @property
+    def trace(self) -> pd.DataFrame:
+        """The trace as a DataFrame: one row per record of ``nekosim run --trace``, one
+        column per field (docs/trace.md), null where a record has no such field."""
+        if self._trace is None:
+            self._trace = self.trace_table.to_pandas(types_mapper=_TYPES.get)
+        return self._trace
+
+    def positions(self, t: float) -> pd.DataFrame:
+        """Every robot's exact position at simulated time ``t`` (from the motion formulas:
+        the last kinematic state at or before ``t``, moved on at its velocity), indexed
+        by robot id, with columns ``x`` and ``y``."""
+        robots, xs, ys = self._core.positions(float(t))
+        return pd.DataFrame(
+            {"x": pd.Series(xs, dtype="float64"), "y": pd.Series(ys, dtype="float64")},
+            index=pd.Index(robots, name="robot", dtype="int64"),
+        )
+
+    def record(self, path: Union[str, "os.PathLike[str]"]) -> "Run":
+        """Saves the run as a Rerun recording at ``path``: the same run again (same
+        scenario, seed and algorithms) with its recording; returns that run."""
+        again = self._scenario.run(seed=self._seed, until=self._until,
+                                   algorithms=self._algorithms, rrd=path)
+        if len(again) != len(self):
+            raise RuntimeError(
+                f"the run recorded made {len(again)} records, not {len(self)}: "
+                "an algorithm is not deterministic")
+        return again
+
+    def __len__(self) -> int:
+        return len(self._core)
+
+    def __repr__(self) -> str:
+        s = self.summary
+        return (f"Run({s['name']!r}, seed={s['seed']}, robots={s['robots']}, "
+                f"events={s['events']}, end_time={s['end_time']:.3f})")
+
+
+class Scenario:
+    """A scenario file (docs/scenario.md), checked when loaded and after each ``set``."""
+
+    def __init__(self, core: Any) -> None:
+        self._core = core
+
+    @classmethod
+    def load(cls, path: Union[str, "os.PathLike[str]"]) -> "Scenario":
+        """Reads the scenario file at ``path``; a bad file raises :class:`ScenarioError`
+        at its FILE:LINE:COL."""
+        return cls(_nekosim.Scenario.load(os.fspath(path)))
+
+    @classmethod
+    def from_ron(cls, text: str, name: str = "<string>") -> "Scenario":
+        """Reads scenario text; ``name`` names it in errors."""
+        return cls(_nekosim.Scenario.from_ron(text, name))
+
+    def set(self, path: str, value: Any) -> "Scenario":
+        """Sets the value at ``path`` as ``nekosim run --set PATH=VALUE`` does
+        (``"robots[0].count"``, ``"network.lambda"``); numbers, booleans and None are
+        converted, a string is RON text (``"Infinite"``, ``'"a name"'``). Returns the
+        scenario."""
+        self._core.set(path, value)
+        return self
+
+    def copy(self) -> "Scenario":
+        """An independent copy (``set`` on one leaves the other as it is)."""
+        return Scenario.from_ron(self.text, self.file)
+
+    @property
+    def text(self) -> str:
+        """The scenario's RON text, with every ``set`` applied."""
+        return self._core.text
+
+    @property
+    def file(self) -> str:
+        """The file's name in errors."""
+        return self._core.file
+
+    @property
+    def name(self) -> str:
+        """The scenario's name."""
+        return self._core.name
+
+    @property
+    def seed(self) -> int:
+        """The scenario's seed."""
+        return self._core.seed
+
+    def run(self, seed: Optional[int] = None, until: Optional[float] = None,
+            algorithms: Optional[Mapping[str, Any]] = None,
+            rrd: Optional[Union[str, "os.PathLike[str]"]] = None) -> Run:
+        """Runs the scenario as ``nekosim run`` does.
+
+        ``seed`` and ``until`` override the file's; ``algorithms`` maps names the scenario
+        uses to Python Look-Compute-Move algorithms (beside those :func:`register`
+        registered); ``rrd`` also saves a Rerun recording. An exception raised by an
+        algorithm's ``compute`` ends the run and is raised here.
+        """
+        algos = dict(_REGISTERED)
+        algos.update(algorithms or {})
+        core = self._core.run_core(
+            seed=seed,
+            until=None if until is None else float(until),
+            algorithms=list(algos.items()),
+            rrd=None if rrd is None else os.fspath(rrd),
+        )
+        return Run(core, self.copy(), seed, until, algos)
+
+    def __repr__(self) -> str:
+        return f"Scenario({self.name!r}, file={self.file!r})"

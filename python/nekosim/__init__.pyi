@@ -1,0 +1,64 @@
+"""nekosim from Python (docs/python.md)."""
+
+import os
+from typing import Any, Dict, List, Mapping, Optional, Protocol, Union
+
+import pandas as pd
+import pyarrow as pa
+
+from ._errors import ScenarioError as ScenarioError
+from ._nekosim import Decision as Decision
+from ._nekosim import Seen as Seen
+from ._nekosim import View as View
+
+_Path = Union[str, "os.PathLike[str]"]
+
+class LookComputeMove(Protocol):
+    """What a Python Look-Compute-Move algorithm provides (``colours`` and
+    ``colour_name`` are optional)."""
+    def compute(self, view: View) -> Decision: ...
+
+def register(name: str, algorithm: Any) -> None:
+    """Registers a Python Look-Compute-Move algorithm (a class or an object) under
+    ``name`` for every run."""
+
+def registered() -> Dict[str, Any]: ...
+
+class Run:
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """The figures ``nekosim run`` prints."""
+    @property
+    def log(self) -> List[str]:
+        """The Neko log's lines."""
+    @property
+    def trace_table(self) -> pa.Table:
+        """The trace as an Arrow table."""
+    @property
+    def trace(self) -> pd.DataFrame:
+        """The trace: one row per record, one typed column per field."""
+    def positions(self, t: float) -> pd.DataFrame:
+        """Exact positions at simulated time ``t``, indexed by robot, columns x and y."""
+    def record(self, path: _Path) -> "Run":
+        """Saves the run as a Rerun recording (the same run again)."""
+    def __len__(self) -> int: ...
+
+class Scenario:
+    @classmethod
+    def load(cls, path: _Path) -> "Scenario": ...
+    @classmethod
+    def from_ron(cls, text: str, name: str = "<string>") -> "Scenario": ...
+    def set(self, path: str, value: Union[int, float, bool, str, None]) -> "Scenario":
+        """Sets a value by its ``--set`` path; a string is RON text."""
+    def copy(self) -> "Scenario": ...
+    @property
+    def text(self) -> str: ...
+    @property
+    def file(self) -> str: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def seed(self) -> int: ...
+    def run(self, seed: Optional[int] = None, until: Optional[float] = None,
+            algorithms: Optional[Mapping[str, Any]] = None,
+            rrd: Optional[_Path] = None) -> Run: ...

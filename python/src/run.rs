@@ -1,0 +1,226 @@
+//! A run from Python: the scenario built with the Python algorithms in place, run by the
+//! runner the command line uses (the same records, summary and recording), its records kept
+//! as the trace's objects, its Neko log lines and every robot's kinematic states, from which
+//! [`RunCore::positions`] gives the exact positions at any instant (docs/trace.md,
+//! "Rebuilding trajectories").
+
+use std::cell::RefCell;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::rc::Rc;
+
+use nekosim::lcm::Lcm;
+use nekosim::log::NekoLog;
+use nekosim::protocols::codec::install;
+use nekosim::recording::Target;
+use nekosim::runner::{self, RunError, RunOptions, Summary};
+use nekosim::scenario::{Overrides, Registry, ScenarioError, Source};
+use nekosim::world::observation::{Observation, Record};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use serde_json::Value;
+
+use crate::algorithm::{Hosted, PyLcm, HOST_NAME};
+
+/// A robot's kinematic state from `t` on: `pos + vel (t' - t)`.
+#[derive(Clone, Copy, Debug)]
+struct State {
+    t: f64,
+    pos: (f64, f64),
+    vel: (f64, f64),
+}
+
+/// What the run leaves behind.
+#[derive(Debug, Default)]
+struct Kept {
+    rows: Vec<Value>,
+    log: Vec<String>,
+    states: BTreeMap<u32, Vec<State>>,
+}
+
+impl Kept {
+    fn observe(&mut self, neko: &mut NekoLog, r: &Record) {
+        self.rows.push(nekosim::trace::to_json(r));
+        if let Some(line) = neko.line(r) {
+            self.log.push(line);
+        }
+        let (robot, pos, vel) = match &r.obs {
+            Observation::Spawn { robot, pos, .. } => (*robot, *pos, Default::default()),
+            Observation::MotionStep { robot, state, .. }
+            | Observation::MotionFinish { robot, state, .. }
+            | Observation::Crash { robot, state } => (*robot, state.pos, state.vel),
+            _ => return,
+        };
+        self.states.entry(robot).or_default().push(State {
+            t: r.t,
+            pos: (pos.x, pos.y),
+            vel: (vel.x, vel.y),
+        });
+    }
+}
+
+/// Why a run from Python failed.
+enum Failure {
+    Scenario(ScenarioError),
+    Run(RunError),
+}
+
+/// A finished run: its summary, records, log and trajectories.
+#[derive(Debug)]
+#[pyclass(module = "nekosim._nekosim", frozen)]
+pub struct RunCore {
+    summary: Summary,
+    kept: Kept,
+}
+
+/// Runs scenario `text` (named `file`) with the Python algorithms `algorithms`.
+pub fn execute(
+    py: Python<'_>,
+    file: String,
+    text: String,
+    overrides: Overrides,
+    algorithms: Vec<(String, Py<PyAny>)>,
+    rrd: Option<PathBuf>,
+) -> PyResult<RunCore> {
+    let hosted = Hosted::new(algorithms);
+    let inner = hosted.clone();
+    // The engine calls Python algorithms from its own threads too (`arbiters`): the run holds
+    // no Python lock, and each `compute` takes it.
+    let outcome = py.detach(move || -> Result<(Summary, Kept), Failure> {
+        let mut source = Source::parse(&file, &text).map_err(Failure::Scenario)?;
+        inner.rewrite(&mut source);
+        let mut registry = Registry::new();
+        registry.algorithm::<Lcm<PyLcm>>(HOST_NAME);
+        let built = inner
+            .building(|| source.build(overrides, &registry))
+            .map_err(Failure::Scenario)?;
+        let codecs = built.codecs.clone();
+        let kept = Rc::new(RefCell::new(Kept {
+            log: nekosim::log::obstacle_lines(&built.world.obstacles),
+            ..Kept::default()
+        }));
+        let observe = {
+            let kept = kept.clone();
+            let mut neko = NekoLog::new();
+            Box::new(move |r: &Record| {
+                // Messages render through the stack's codecs, as in the trace and the log.
+                let _codecs = install(&codecs);
+                kept.borrow_mut().observe(&mut neko, r);
+            })
+        };
+        let summary = runner::run_observed(
+            built,
+            RunOptions {
+                recording: Target { rrd, connect: None },
+                stop: Some(inner.stop.clone()),
+                ..RunOptions::default()
+            },
+            Some(observe),
+        )
+        .map_err(Failure::Run)?;
+        let kept = std::mem::take(&mut *kept.borrow_mut());
+        Ok((summary, kept))
+    });
+    if let Some(e) = hosted.take_error() {
+        return Err(e);
+    }
+    match outcome {
+        Ok((summary, kept)) => Ok(RunCore { summary, kept }),
+        Err(Failure::Scenario(e)) => Err(crate::scenario_error(py, &e)),
+        Err(Failure::Run(e @ RunError::CreateOutput { .. })) => {
+            Err(crate::error(py, e.to_string(), None, None, None))
+        }
+        Err(Failure::Run(RunError::Recording(e))) if e.is_input_error() => {
+            Err(crate::error(py, e.to_string(), None, None, None))
+        }
+        Err(Failure::Run(e)) => Err(pyo3::exceptions::PyRuntimeError::new_err(e.to_string())),
+    }
+}
+
+#[pymethods]
+impl RunCore {
+    /// The figures `nekosim run` prints, as a dict.
+    #[getter]
+    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = &self.summary;
+        let d = PyDict::new(py);
+        d.set_item("name", &s.name)?;
+        d.set_item("seed", s.seed)?;
+        d.set_item("robots", s.robots)?;
+        d.set_item("events", s.events)?;
+        d.set_item("cancelled", s.cancelled)?;
+        d.set_item("collisions", s.collisions)?;
+        d.set_item("end_time", s.end_time)?;
+        d.set_item("wall_seconds", s.wall_seconds)?;
+        d.set_item("events_per_second", s.events_per_second())?;
+        d.set_item("interrupted", s.interrupted)?;
+        let c = &s.counts;
+        let counts = PyDict::new(py);
+        for (k, v) in [
+            ("sent", c.sent),
+            ("lost", c.lost),
+            ("received", c.received),
+            ("delivered", c.delivered),
+            ("decisions", c.decisions),
+            ("decided", c.decided),
+            ("suspicions", c.suspicions),
+            ("crashes", c.crashes),
+        ] {
+            counts.set_item(k, v)?;
+        }
+        d.set_item("counts", counts)?;
+        match &s.latency {
+            Some(l) => {
+                let ld = PyDict::new(py);
+                ld.set_item("deliveries", l.deliveries)?;
+                ld.set_item("mean", l.mean)?;
+                ld.set_item("p50", l.p50)?;
+                ld.set_item("p99", l.p99)?;
+                ld.set_item("throughput", l.throughput)?;
+                d.set_item("latency", ld)?;
+            }
+            None => d.set_item("latency", py.None())?,
+        }
+        let predicates: Vec<String> = s.predicates.iter().map(|p| p.text()).collect();
+        d.set_item("predicates", predicates)?;
+        Ok(d)
+    }
+
+    /// The Neko log's lines, as `nekosim run --log` writes them.
+    #[getter]
+    fn log(&self) -> Vec<String> {
+        self.kept.log.clone()
+    }
+
+    /// How many records the run made.
+    fn __len__(&self) -> usize {
+        self.kept.rows.len()
+    }
+
+    /// The trace as an Arrow IPC stream (one record batch; see the `columns` module).
+    fn trace_ipc<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
+        let rows = &self.kept.rows;
+        let bytes = py
+            .detach(|| crate::columns::batch(rows).and_then(|b| crate::columns::ipc(&b)))
+            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+        Ok(PyBytes::new(py, &bytes))
+    }
+
+    /// Every robot's position at simulated time `t`, from its last kinematic state at or
+    /// before `t`: `(robots, xs, ys)`, robots in increasing id order, robots not yet born
+    /// left out.
+    fn positions(&self, t: f64) -> (Vec<u32>, Vec<f64>, Vec<f64>) {
+        let mut out = (Vec::new(), Vec::new(), Vec::new());
+        for (robot, states) in &self.kept.states {
+            let k = states.partition_point(|s| s.t <= t);
+            let Some(s) = k.checked_sub(1).map(|k| states[k]) else {
+                continue;
+            };
+            let dt = t - s.t;
+            out.0.push(*robot);
+            out.1.push(s.pos.0 + s.vel.0 * dt);
+            out.2.push(s.pos.1 + s.vel.1 * dt);
+        }
+        out
+    }
+}
