@@ -458,3 +458,39 @@ fn spin_agrees_on_a_sample_of_tables_and_variants() {
         results.len()
     );
 }
+
+/// A lasso replays in the simulator: to-half under SSYNC, the stem once and the cycle twice
+/// through the scripted adversary, shows the robots apart after each repetition with the
+/// lights they had when it began; under ASYNC too (one phase a step, each a second), for
+/// Viglietta's two colours; and the replay is recorded with `--rrd`.
+#[test]
+fn a_lasso_replays_in_the_simulator() {
+    let dir = tempfile::tempdir().unwrap();
+    let rrd = dir.path().join("lasso.rrd");
+    for (example, synchrony, record) in [
+        ("to_half", "ssync", true),
+        ("viglietta_2", "async", false),
+        ("to_other", "async-lc-atomic", false),
+    ] {
+        let mut cmd = nekosim_bin();
+        cmd.args([
+            "check",
+            &format!("examples/lcm/{example}.ron"),
+            "--synchrony",
+            synchrony,
+        ]);
+        if record && cfg!(feature = "rerun") {
+            cmd.arg("--rrd").arg(&rrd);
+        }
+        let out = cmd.current_dir(root()).output().expect("runs");
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(1), "{example}: {text}");
+        assert!(
+            text.contains("the robots are apart after each repetition"),
+            "{example} under {synchrony}: {text}"
+        );
+        if record && cfg!(feature = "rerun") {
+            assert!(std::fs::metadata(&rrd).map(|m| m.len()).unwrap_or(0) > 1_000);
+        }
+    }
+}
