@@ -752,6 +752,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                     stop: Some(stop),
                     // `nekosim run` exits once the run is written.
                     exit_after: true,
+                    note: None,
                 },
             );
             if let Some(b) = bar {

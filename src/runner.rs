@@ -40,6 +40,9 @@ pub struct RunOptions {
     /// dropping a million robots' state frees millions of allocations for nothing). Never for
     /// a run that others follow in the same process, such as a sweep's.
     pub exit_after: bool,
+    /// A document shown beside the recording's drawings, in Markdown (what a replayed
+    /// counterexample is and where its cycle lies).
+    pub note: Option<String>,
 }
 
 impl std::fmt::Debug for RunOptions {
@@ -256,7 +259,10 @@ pub fn run_observed(
         }
     }
     let trace = create(&opts.trace)?;
-    let recorder = start_recording(&built, &opts.recording)?;
+    let mut recorder = start_recording(&built, &opts.recording)?;
+    if let (Some(r), Some(note)) = (recorder.as_mut(), &opts.note) {
+        crate::recording::Canvas::note(r.canvas_mut(), note);
+    }
     let outputs = Rc::new(RefCell::new((
         log,
         trace,

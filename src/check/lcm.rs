@@ -597,6 +597,10 @@ fn replay_lasso(
                     rrd: Some(path.to_path_buf()),
                     connect: None,
                 },
+                note: Some(format!(
+                    "### A lasso of the two-robot model, replayed\n\nThe stem runs from t = 0 to {from}; the cycle, which the adversary can repeat forever, from t = {from} to {first}, and again from {first} to {second}. Each step of the lasso is one simulated second.\n\n{}",
+                    reason(lasso, Liveness::EventuallyAlways)
+                )),
                 ..Default::default()
             },
         )

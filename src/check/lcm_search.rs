@@ -217,6 +217,11 @@ fn replay(
     replayed.scenario.until = v.schedule.0.len() as f64 * cycle;
     let built = replayed.build(Overrides::default(), registry)?;
     let options = crate::runner::RunOptions {
+        note: Some(format!(
+            "### {}: fails\n\n{}\n\nEach round is one simulated second.",
+            v.goal.name(),
+            v.reason
+        )),
         trace: args.trace.clone(),
         recording: crate::recording::Target {
             rrd: args.rrd.clone(),
