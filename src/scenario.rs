@@ -396,6 +396,25 @@ pub struct Built {
     pub predicates: Vec<nekosim_actors::lcm::predicate::Predicate>,
 }
 
+impl Built {
+    /// The engine's configuration of this run: the built world, robots, communication and
+    /// sensors, records kept in the output when `record` (for a caller that reads them, as
+    /// tests and replays do; a run that writes its outputs uses [`crate::runner::run`]).
+    pub fn into_config(self, record: bool) -> nekosim_actors::SimConfig {
+        nekosim_actors::SimConfig {
+            seed: self.seed,
+            until: self.until,
+            world: self.world,
+            robots: self.robots,
+            arbiters: self.arbiters,
+            record,
+            observers: Default::default(),
+            comms: self.comms,
+            sensors: self.sensors,
+        }
+    }
+}
+
 /// The text of the `what` file (scenario, sweep, cluster) at `path`, and its name for errors.
 pub fn read_file(path: &Path, what: &str) -> Result<(String, String), ScenarioError> {
     let file = path.display().to_string();

@@ -541,19 +541,9 @@ fn replay_lasso(
         Ok(built)
     };
     let built = build()?;
-    let records = nekosim_actors::run(nekosim_actors::SimConfig {
-        seed: built.seed,
-        until: built.until,
-        world: built.world,
-        robots: built.robots,
-        arbiters: 1,
-        record: true,
-        observers: Default::default(),
-        comms: built.comms,
-        sensors: built.sensors,
-    })
-    .map_err(|e| CheckError::Lcm(format!("the replay did not run: {e}")))?
-    .records;
+    let records = nekosim_actors::run(built.into_config(true))
+        .map_err(|e| CheckError::Lcm(format!("the replay did not run: {e}")))?
+        .records;
     let at = |t: f64| -> ([Point; 2], [Option<Light>; 2]) {
         let (mut pos, mut light) = (plan.born, [None, None]);
         for r in records.iter().take_while(|r| r.t < t) {

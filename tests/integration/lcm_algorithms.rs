@@ -14,19 +14,7 @@ fn records(text: &str) -> Vec<Record> {
     let built = source
         .build(Overrides::default(), &Registry::with_builtins())
         .expect("builds");
-    nekosim::run(nekosim::SimConfig {
-        seed: built.seed,
-        until: built.until,
-        world: built.world,
-        robots: built.robots,
-        arbiters: 1,
-        record: true,
-        observers: Default::default(),
-        comms: built.comms,
-        sensors: built.sensors,
-    })
-    .expect("runs")
-    .records
+    nekosim::run(built.into_config(true)).expect("runs").records
 }
 
 /// Where each robot waits after each of its cycles: `(robot, cycle, position)`.

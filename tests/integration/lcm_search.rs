@@ -119,19 +119,7 @@ fn the_search_finds_the_overshooting_robot_and_the_simulator_replays_it() {
         .expect("parses")
         .build(Overrides::default(), &registry)
         .expect("builds");
-    let records = nekosim::run(nekosim::SimConfig {
-        seed: built.seed,
-        until: built.until,
-        world: built.world,
-        robots: built.robots,
-        arbiters: 1,
-        record: true,
-        observers: Default::default(),
-        comms: built.comms,
-        sensors: built.sensors,
-    })
-    .expect("runs")
-    .records;
+    let records = nekosim::run(built.into_config(true)).expect("runs").records;
     let mut end: Vec<Point> = BORN.iter().map(|&(x, y)| Point::new(x, y)).collect();
     for r in &records {
         if let Observation::Lcm(LcmRecord::Wait { robot, at, .. }) = &r.obs {
@@ -174,19 +162,7 @@ fn a_searched_schedule_replays_exactly() {
         .expect("parses")
         .build(Overrides::default(), &Registry::with_builtins())
         .expect("builds");
-    let records = nekosim::run(nekosim::SimConfig {
-        seed: built.seed,
-        until: built.until,
-        world: built.world,
-        robots: built.robots,
-        arbiters: 1,
-        record: true,
-        observers: Default::default(),
-        comms: built.comms,
-        sensors: built.sensors,
-    })
-    .expect("runs")
-    .records;
+    let records = nekosim::run(built.into_config(true)).expect("runs").records;
     let mut at: Vec<Point> = BORN.iter().map(|&(x, y)| Point::new(x, y)).collect();
     let mut rounds: Vec<Vec<Point>> = Vec::new();
     let mut round = 0;

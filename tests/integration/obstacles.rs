@@ -23,18 +23,7 @@ fn built(text: &str, robot0: Option<Box<dyn nekosim::Algorithm>>) -> nekosim::sc
 
 /// Runs a built scenario in process, keeping its records.
 fn run(built: nekosim::scenario::Built) -> nekosim::scheduler::RunOutput {
-    nekosim::run(nekosim::SimConfig {
-        seed: built.seed,
-        until: built.until,
-        world: built.world,
-        robots: built.robots,
-        arbiters: 1,
-        record: true,
-        observers: Default::default(),
-        comms: built.comms,
-        sensors: built.sensors,
-    })
-    .expect("runs")
+    nekosim::run(built.into_config(true)).expect("runs")
 }
 
 /// Runs the scenario `text` in process: its records and obstacles.
