@@ -208,3 +208,76 @@ fn a_crashed_robot_stays_visible_where_it_stopped() {
         }
     }
 }
+
+/// Under `AsyncMoveAtomic` and `AsyncCmAtomic` no Look sees a robot in mid-move: the random
+/// adversary keeps Looks and moves in different slots (and, under `AsyncCmAtomic`, each
+/// Compute's end with its Move). The robots still act asynchronously (their Looks are at
+/// different instants) and converge.
+#[test]
+fn atomic_moves_are_never_seen_under_way() {
+    for synchrony in ["AsyncMoveAtomic", "AsyncCmAtomic"] {
+        let text = format!(
+            "Scenario(seed: 6, until: 30.0, world: (size: Infinite, ghost_mode: true),
+               lcm: (synchrony: {synchrony}, movement: NonRigid(delta: 2.0),
+                     predicates: [Converged(epsilon: 1.0)]),
+               robots: [Group(count: 5, radius: 0.5, born: Points([{}]),
+                              algorithm: CentreOfGravity())])",
+            born_points()
+        );
+        let records = records(&text);
+        let mut moves: Vec<(u32, f64, f64)> = Vec::new();
+        let mut looks: Vec<(u32, f64)> = Vec::new();
+        for r in &records {
+            match &r.obs {
+                Observation::Lcm(LcmRecord::Move { robot, end, .. }) => {
+                    moves.push((*robot, r.t, *end))
+                }
+                Observation::Lcm(LcmRecord::Look { robot, .. }) => looks.push((*robot, r.t)),
+                _ => {}
+            }
+        }
+        assert!(moves.len() > 20 && looks.len() > 40, "{synchrony}");
+        for &(robot, t) in &looks {
+            for &(other, start, end) in &moves {
+                assert!(
+                    other == robot || !(start < t && t < end),
+                    "{synchrony}: robot {robot} looked at {t} while robot {other} moved from {start} to {end}"
+                );
+            }
+        }
+        let distinct: std::collections::BTreeSet<u64> =
+            looks.iter().map(|(_, t)| t.to_bits()).collect();
+        assert_eq!(
+            distinct.len(),
+            looks.len(),
+            "{synchrony}: Looks at one instant"
+        );
+        // Looks in even half-second slots; under AsyncCmAtomic each Compute ends in the odd
+        // slot its Move fills.
+        let slot = |t: f64| (t / 0.5).floor() as i64;
+        for r in &records {
+            if let Observation::Lcm(LcmRecord::Activate {
+                look,
+                compute_end,
+                move_end,
+                ..
+            }) = &r.obs
+            {
+                assert_eq!(slot(*look) % 2, 0, "{synchrony}: a Look at {look}");
+                if synchrony == "AsyncCmAtomic" {
+                    assert_eq!(slot(*compute_end) % 2, 1, "{synchrony}: {compute_end}");
+                    assert!(*move_end <= (slot(*compute_end) + 1) as f64 * 0.5);
+                }
+            }
+        }
+        let last = waits(&records);
+        let end: Vec<Point> = (0..5u32)
+            .map(|r| last.iter().rev().find(|w| w.0 == r).map(|w| w.2).unwrap())
+            .collect();
+        assert!(
+            nekosim::lcm::predicate::diameter(&end) < 1.0,
+            "{synchrony}: diameter {}",
+            nekosim::lcm::predicate::diameter(&end)
+        );
+    }
+}

@@ -111,6 +111,9 @@ impl Adversary {
             });
         }
         let phase = |rng: &mut ChaCha8Rng| rng.gen_range(t / 6.0..t / 2.0);
+        if matches!(s, Synchrony::AsyncMoveAtomic | Synchrony::AsyncCmAtomic) {
+            return Some(self.atomic_moves(now));
+        }
         let look = now + phase(&mut self.own);
         let compute = match s {
             Synchrony::AsyncLcAtomic | Synchrony::AsyncLcStrict => 0.0,
@@ -125,6 +128,43 @@ impl Adversary {
             stop: None,
             round: None,
         })
+    }
+
+    /// An activation under `AsyncMoveAtomic` or `AsyncCmAtomic`: time is cut into slots of
+    /// half a cycle; every robot Looks in even slots only and moves in odd slots only, so no
+    /// Look ever sees a robot in mid-move, and moves (with the Compute before them, under
+    /// `AsyncCmAtomic`) are atomic to every observer while robots still act asynchronously. The
+    /// schedules are a part of what these models allow, as a random adversary samples.
+    fn atomic_moves(&mut self, now: f64) -> Plan {
+        let slot = self.settings.cycle / 2.0;
+        let rng = &mut self.own;
+        // A Look in the first even slot after a wait, anywhere in it.
+        let ready = now + rng.gen_range(0.0..slot);
+        let mut k = (ready / slot).ceil() as u64;
+        if k % 2 == 1 {
+            k += 1;
+        }
+        let look = (k as f64 + rng.gen_range(0.0..1.0)) * slot;
+        let compute_end = match self.settings.synchrony {
+            // Compute and Move together, in the next odd slot.
+            Synchrony::AsyncCmAtomic => (k as f64 + 1.0 + rng.gen_range(0.0..0.5)) * slot,
+            _ => look + rng.gen_range(0.0..slot),
+        };
+        let mut m = (compute_end / slot).floor() as u64;
+        if m % 2 == 0 {
+            m += 1;
+        }
+        let move_start = compute_end.max(m as f64 * slot);
+        let end = (m as f64 + 1.0) * slot;
+        let move_end = move_start + (end - move_start) * rng.gen_range(0.25..1.0);
+        Plan {
+            look,
+            compute_end,
+            move_start,
+            move_end,
+            stop: None,
+            round: None,
+        }
     }
 
     /// Whether round `k` activates this robot.

@@ -29,9 +29,11 @@ pub enum Synchrony {
     /// ASYNC where a robot's Look and Compute take no time and no other robot acts between
     /// them.
     AsyncLcStrict,
-    /// ASYNC where a robot's Compute and Move are one atomic step.
+    /// ASYNC where a robot's Compute and Move are one atomic step (simulated by Looks in even
+    /// half-cycle slots and Computes with Moves in odd ones).
     AsyncCmAtomic,
-    /// ASYNC where a robot's Move is one atomic step.
+    /// ASYNC where a robot's Move is one atomic step (simulated by Looks in even half-cycle
+    /// slots and Moves in odd ones).
     AsyncMoveAtomic,
 }
 
@@ -39,11 +41,6 @@ impl Synchrony {
     /// Whether robots act in rounds of the scenario's cycle length.
     pub fn in_rounds(self) -> bool {
         matches!(self, Self::Centralized | Self::Fsync | Self::Ssync)
-    }
-
-    /// Whether the simulator runs it: atomic moves jump, which exact motion does not.
-    pub fn simulated(self) -> bool {
-        !matches!(self, Self::AsyncCmAtomic | Self::AsyncMoveAtomic)
     }
 }
 
@@ -231,16 +228,6 @@ impl LcmSettings {
             message,
             expected: expected.into(),
         };
-        if !self.synchrony.simulated() {
-            return Err(err(
-                "synchrony",
-                format!(
-                    "{:?} makes moves atomic, which the simulator's exact motion does not run",
-                    self.synchrony
-                ),
-                "Centralized, Fsync, Ssync, Async, AsyncLcAtomic or AsyncLcStrict",
-            ));
-        }
         if let Movement::NonRigid { delta } = self.movement {
             if !(delta.is_finite() && delta > 0.0) {
                 return Err(err(
