@@ -666,3 +666,43 @@ fn lcm_lights_and_snapshots_read_back() {
     assert!(count_of(&out, " lights") >= 20, "{out}");
     assert!(count_of(&out, " looks") >= 10, "{out}");
 }
+
+/// A lasso replayed in the simulator is recorded with a document beside the drawings that
+/// marks where its stem ends and where each repetition of its cycle begins and ends, read
+/// back with the official reader.
+#[test]
+fn a_replayed_lasso_recording_marks_its_cycle() {
+    let py = python();
+    let dir = tempfile::tempdir().unwrap();
+    let rrd = dir.path().join("lasso.rrd");
+    let out = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .current_dir(root())
+        .args([
+            "check",
+            "examples/lcm/to_half.ron",
+            "--synchrony",
+            "ssync",
+            "--rrd",
+        ])
+        .arg(&rrd)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let doc = run(Command::new(&py)
+        .arg("-c")
+        .arg(
+            "import sys; sys.path.insert(0, sys.argv[1]); import verify_rrd as v; \
+             from pathlib import Path; \
+             print(v.Rows(Path(sys.argv[2])).static['/verdict']['TextDocument:text'][0])",
+        )
+        .arg(root().join("tests/rerun"))
+        .arg(&rrd));
+    assert!(
+        doc.contains("A lasso of the two-robot model, replayed"),
+        "{doc}"
+    );
+    assert!(
+        doc.contains("The stem runs from t = 0 to 2; the cycle, which the adversary can repeat forever, from t = 2 to 4, and again from 4 to 6"),
+        "{doc}"
+    );
+}
