@@ -17,6 +17,7 @@ import pyarrow.ipc
 from . import _nekosim
 from ._errors import ScenarioError
 from ._nekosim import Decision, Seen, View
+from ._sweep import SweepResult, sweep
 
 __all__ = [
     "Decision",
@@ -24,9 +25,11 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "Seen",
+    "SweepResult",
     "View",
     "register",
     "registered",
+    "sweep",
 ]
 
 _REGISTERED: Dict[str, Any] = {}

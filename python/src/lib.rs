@@ -7,6 +7,7 @@ mod algorithm;
 mod columns;
 mod run;
 mod scenario;
+mod sweep;
 
 use pyo3::prelude::*;
 
@@ -39,6 +40,7 @@ pub(crate) fn error(
 fn _nekosim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scenario::Scenario>()?;
     m.add_class::<run::RunCore>()?;
+    m.add_class::<sweep::SweepCore>()?;
     m.add_class::<algorithm::View>()?;
     m.add_class::<algorithm::Seen>()?;
     m.add_class::<algorithm::Decision>()?;
