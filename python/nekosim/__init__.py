@@ -17,9 +17,11 @@ import pyarrow.ipc
 from . import _nekosim
 from ._errors import ScenarioError
 from ._nekosim import Decision, Seen, View
+from ._check import Check, check
 from ._sweep import SweepResult, sweep
 
 __all__ = [
+    "Check",
     "Decision",
     "Run",
     "Scenario",
@@ -27,6 +29,7 @@ __all__ = [
     "Seen",
     "SweepResult",
     "View",
+    "check",
     "register",
     "registered",
     "sweep",

@@ -83,3 +83,19 @@ def sweep(
 ) -> SweepResult:
     """Runs a sweep file (or sweep text) as ``nekosim sweep`` does, here ``jobs`` at a
     time or on a Dask ``client``; returns its runs and summary tables."""
+
+class Check:
+    """A finished ``nekosim check``: verdicts, state counts, counterexample records."""
+
+    report: str
+    code: int
+    states: Dict[str, int]
+    verdicts: pd.DataFrame
+    counterexample: pd.DataFrame
+    @property
+    def holds(self) -> bool: ...
+    def record(self, path: Union[str, "os.PathLike[str]"]) -> "Check": ...
+
+def check(model: Union[str, "os.PathLike[str]"], **options: Any) -> Check:
+    """Model-checks a scenario's protocol stack or a shipped model as ``nekosim check``
+    does; ``options`` are the command's, with underscores."""

@@ -4,6 +4,7 @@
 //! trait. The package's Python modules (python/nekosim/) wrap these classes into pandas.
 
 mod algorithm;
+mod check;
 mod columns;
 mod run;
 mod scenario;
@@ -41,6 +42,8 @@ fn _nekosim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scenario::Scenario>()?;
     m.add_class::<run::RunCore>()?;
     m.add_class::<sweep::SweepCore>()?;
+    m.add_class::<check::CheckCore>()?;
+    m.add_function(wrap_pyfunction!(check::check_core, m)?)?;
     m.add_class::<algorithm::View>()?;
     m.add_class::<algorithm::Seen>()?;
     m.add_class::<algorithm::Decision>()?;
