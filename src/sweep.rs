@@ -32,7 +32,7 @@ use metric::Check;
 
 pub use execution::{run, Outcome, Progress, SweepOptions};
 pub use file::Sweep;
-pub use outputs::finish;
+pub use outputs::{finish, tables};
 pub use shard::{binary, finish_shard, merge, Manifest};
 
 /// One axis: a path into the scenario and the values (RON text) it takes.

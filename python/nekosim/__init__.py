@@ -17,16 +17,22 @@ import pyarrow.ipc
 from . import _nekosim
 from ._errors import ScenarioError
 from ._nekosim import Decision, Seen, View
+from ._check import Check, check
+from ._sweep import SweepResult, sweep
 
 __all__ = [
+    "Check",
     "Decision",
     "Run",
     "Scenario",
     "ScenarioError",
     "Seen",
+    "SweepResult",
     "View",
+    "check",
     "register",
     "registered",
+    "sweep",
 ]
 
 _REGISTERED: Dict[str, Any] = {}

@@ -62,3 +62,40 @@ class Scenario:
     def run(self, seed: Optional[int] = None, until: Optional[float] = None,
             algorithms: Optional[Mapping[str, Any]] = None,
             rrd: Optional[_Path] = None) -> Run: ...
+
+class SweepResult:
+    """The runs.csv and summary.csv of ``nekosim sweep`` as DataFrames and as text."""
+
+    runs: pd.DataFrame
+    summary: pd.DataFrame
+    runs_csv: str
+    summary_csv: str
+    @property
+    def failing(self) -> pd.DataFrame: ...
+    def __iter__(self) -> Any: ...
+
+def sweep(
+    sweep: Union[str, "os.PathLike[str]"],
+    jobs: Optional[int] = None,
+    client: Any = None,
+    tasks: Optional[int] = None,
+    base: Optional[Union[str, "os.PathLike[str]"]] = None,
+) -> SweepResult:
+    """Runs a sweep file (or sweep text) as ``nekosim sweep`` does, here ``jobs`` at a
+    time or on a Dask ``client``; returns its runs and summary tables."""
+
+class Check:
+    """A finished ``nekosim check``: verdicts, state counts, counterexample records."""
+
+    report: str
+    code: int
+    states: Dict[str, int]
+    verdicts: pd.DataFrame
+    counterexample: pd.DataFrame
+    @property
+    def holds(self) -> bool: ...
+    def record(self, path: Union[str, "os.PathLike[str]"]) -> "Check": ...
+
+def check(model: Union[str, "os.PathLike[str]"], **options: Any) -> Check:
+    """Model-checks a scenario's protocol stack or a shipped model as ``nekosim check``
+    does; ``options`` are the command's, with underscores."""

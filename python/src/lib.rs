@@ -4,9 +4,11 @@
 //! trait. The package's Python modules (python/nekosim/) wrap these classes into pandas.
 
 mod algorithm;
+mod check;
 mod columns;
 mod run;
 mod scenario;
+mod sweep;
 
 use pyo3::prelude::*;
 
@@ -39,6 +41,9 @@ pub(crate) fn error(
 fn _nekosim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scenario::Scenario>()?;
     m.add_class::<run::RunCore>()?;
+    m.add_class::<sweep::SweepCore>()?;
+    m.add_class::<check::CheckCore>()?;
+    m.add_function(wrap_pyfunction!(check::check_core, m)?)?;
     m.add_class::<algorithm::View>()?;
     m.add_class::<algorithm::Seen>()?;
     m.add_class::<algorithm::Decision>()?;

@@ -73,13 +73,24 @@ impl Sweep {
     /// metrics and the checks. Every problem is reported at FILE:LINE:COL before any run.
     pub fn load(path: &Path, registry: &Registry) -> Result<Self, ScenarioError> {
         let (file, text) = crate::scenario::read_file(path, "sweep")?;
+        Self::parse(path, file, &text, registry)
+    }
+
+    /// [`Sweep::load`] of sweep text already read: `file` names it in errors and `path` is
+    /// where it stands (its scenario is relative to `path`'s directory).
+    pub fn parse(
+        path: &Path,
+        file: String,
+        text: &str,
+        registry: &Registry,
+    ) -> Result<Self, ScenarioError> {
         let at = |pos: Option<Pos>, message: String| ScenarioError {
             file: file.clone(),
             pos,
             message,
         };
-        let raw: Raw = crate::scenario::read_ron(&file, &text)?;
-        let sp = spans(&text);
+        let raw: Raw = crate::scenario::read_ron(&file, text)?;
+        let sp = spans(text);
         let pos = |p: &str| sp.starts.get(p).copied();
 
         // The scenario, relative to the sweep file.

@@ -251,6 +251,15 @@ fn plots(plan: &Plan, rows: &[Row]) -> Result<Vec<(String, String)>, String> {
     Ok(out)
 }
 
+/// The texts of runs.csv and summary.csv, as [`finish`] writes them, without writing them.
+pub fn tables(plan: &Plan, rows: &[Row]) -> (Vec<u8>, Vec<u8>) {
+    let checks = plan.parsed_checks();
+    (
+        runs_csv(plan, rows, &checks),
+        summary_csv(plan, rows, &checks),
+    )
+}
+
 /// Writes the whole sweep's files into `out`: runs.csv, summary.csv, failures.txt and
 /// plots/METRIC.svg.
 pub fn finish(plan: &Plan, rows: &[Row], out: &Path) -> Result<(), SweepError> {

@@ -1,6 +1,6 @@
 //! The Python package (python/, docs/python.md) read by the tests nobody wrote in Rust:
 //! python/tests with pytest, in a virtual environment under target/ with the pinned versions
-//! of python/tests/requirements.txt (maturin, pytest, pandas, pyarrow, numpy), created on
+//! of python/tests/requirements.txt (maturin, pytest, pandas, pyarrow, numpy, Dask, matplotlib), created on
 //! first use, into which `pip install ./python` builds the package. The package is built as
 //! a debug build in this target directory, so it reuses the workspace's compiled crates.
 //!

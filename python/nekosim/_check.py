@@ -1,0 +1,87 @@
+"""Checks from Python (docs/check.md, docs/python.md): ``nekosim check`` of a scenario's
+protocol stack, its verdicts and state counts, and its counterexample as a DataFrame."""
+
+import os
+import re
+from typing import Any, Dict, Optional, Union
+
+import pandas as pd
+import pyarrow as pa
+import pyarrow.ipc
+
+from . import _nekosim
+
+# The report's lines `nekosim check` prints: "  FAILS  name (always): detail".
+_VERDICT = re.compile(r"^  (holds|FAILS|open)\s+ (.*) \((always|sometimes|eventually)\)(?:: (.*))?$")
+_STATES = re.compile(r"^states: (\d+), unique states: (\d+), depth: (\d+),")
+_TYPES = {pa.int64(): pd.Int64Dtype(), pa.bool_(): pd.BooleanDtype()}
+
+
+class Check:
+    """A finished check.
+
+    ``verdicts``: one row per property (``property``, ``verdict`` — ``"holds"``,
+    ``"fails"`` or ``"open"`` (not settled) —, ``expectation`` and ``detail``), as the
+    report lists them; ``states``: the states generated, the unique states and the depth
+    reached; ``counterexample``: the records ``nekosim check --trace`` writes for the first
+    counterexample (else a witness; empty when there is neither), one row per record as
+    :attr:`nekosim.Run.trace` has them; ``report``: the command's report; ``code``: its
+    exit code (0 every property holds, 1 one fails, 3 a budget stopped the search).
+    """
+
+    def __init__(self, core: Any, model: str, options: Dict[str, Any]) -> None:
+        self._core = core
+        self._model = model
+        self._options = options
+        self.report: str = core.report
+        self.code: int = core.code
+        rows = []
+        self.states: Dict[str, int] = {}
+        for line in self.report.splitlines():
+            m = _VERDICT.match(line)
+            if m:
+                verdict = {"holds": "holds", "FAILS": "fails", "open": "open"}[m.group(1)]
+                rows.append((m.group(2), verdict, m.group(3), m.group(4) or ""))
+            m = _STATES.match(line)
+            if m:
+                self.states = {"states": int(m.group(1)), "unique_states": int(m.group(2)),
+                               "depth": int(m.group(3))}
+        self.verdicts = pd.DataFrame(
+            rows, columns=["property", "verdict", "expectation", "detail"])
+        table = pa.ipc.open_stream(core.trace_ipc()).read_all()
+        self.counterexample: pd.DataFrame = table.to_pandas(types_mapper=_TYPES.get)
+
+    @property
+    def holds(self) -> bool:
+        """Whether every property holds on the whole space (exit code 0)."""
+        return self.code == 0
+
+    def record(self, path: Union[str, "os.PathLike[str]"]) -> "Check":
+        """Saves the counterexample (or witness) as a Rerun recording at ``path``: the same
+        check again with ``rrd``; returns that check."""
+        again = check(self._model, **dict(self._options, rrd=os.fspath(path)))
+        if again.report.splitlines()[-len(self.verdicts):] != \
+                self.report.splitlines()[-len(self.verdicts):]:
+            raise RuntimeError("the check recorded did not end as this one")
+        return again
+
+    def __repr__(self) -> str:
+        failing = list(self.verdicts.property[self.verdicts.verdict == "fails"])
+        return f"Check({self._model!r}, code={self.code}, fails={failing})"
+
+
+def check(model: Union[str, "os.PathLike[str]"], **options: Any) -> Check:
+    """Model-checks a scenario's protocol stack (a .ron file) or a shipped model (a name of
+    ``nekosim check --list``) as ``nekosim check`` does.
+
+    ``options`` are the command's, with underscores: ``layer``, ``processes``,
+    ``requests``, ``crashes``, ``network`` (``"unordered"``, ``"ordered"``, ``"lossy"``),
+    ``strategy`` (``"bfs"``, ``"dfs"``, ``"simulation"``), ``seed``, ``max_states``,
+    ``max_memory`` (``"512MiB"``), ``depth``, ``threads``, ``timers``, ``rounds``,
+    ``symmetry``, ``keep_going`` and ``rrd`` (save the counterexample as a recording).
+    A bad scenario raises :class:`nekosim.ScenarioError` at its place.
+    """
+    model = os.fspath(model)
+    core = _nekosim.check_core(model, **options)
+    options = {k: v for k, v in options.items() if k != "rrd"}
+    return Check(core, model, options)
