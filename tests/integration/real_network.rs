@@ -194,7 +194,10 @@ fn ctrl_c_stops_every_node_and_keeps_what_they_wrote() {
         .process_group(0)
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_millis(1500));
+    // Long enough for three nodes to start and deliver while the test binary's other tests
+    // (model checks, SPIN's compiles, the Python build) load both cores; still far short of
+    // the run's 60 s.
+    std::thread::sleep(Duration::from_millis(4000));
     // A terminal's Ctrl-C: SIGINT to the whole process group.
     let ok = Command::new("kill")
         .args(["-s", "INT", "--", &format!("-{}", child.id())])
