@@ -153,3 +153,17 @@ pub fn log_texts(out: &RunOutput) -> Vec<&str> {
         })
         .collect()
 }
+
+/// Runs `cmd`, which must succeed: its standard output and error, together.
+pub fn run_command(cmd: &mut std::process::Command) -> String {
+    let out = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start {cmd:?}: {e}"));
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{cmd:?} failed:\n{text}");
+    text
+}

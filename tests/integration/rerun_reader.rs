@@ -6,23 +6,12 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use crate::common::run_command as run;
+
 const RERUN_SDK: &str = "rerun-sdk==0.36.3";
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn run(cmd: &mut Command) -> String {
-    let out = cmd
-        .output()
-        .unwrap_or_else(|e| panic!("cannot start {cmd:?}: {e}"));
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(out.status.success(), "{cmd:?} failed:\n{text}");
-    text
 }
 
 /// The virtual environment's Python, with rerun-sdk installed (`NEKOSIM_PYTHON` picks the
