@@ -438,15 +438,18 @@ fn print_lasso(out: &mut dyn Write, lasso: &Lasso<State, Step>, table: &RuleTabl
     let _ = writeln!(out, "counterexample (a lasso):");
     let _ = writeln!(out, "  stem:");
     let _ = writeln!(out, "    0. start: {}", state_text(&lasso.start, table));
-    for (i, (step, s)) in lasso.stem.iter().enumerate() {
-        let _ = writeln!(
-            out,
-            "    {}. {} -> {}",
-            i + 1,
-            step_text(step),
-            state_text(s, table)
-        );
-    }
+    let steps = |out: &mut dyn Write, part: &[(Step, State)]| {
+        for (i, (step, s)) in part.iter().enumerate() {
+            let _ = writeln!(
+                out,
+                "    {}. {} -> {}",
+                i + 1,
+                step_text(step),
+                state_text(s, table)
+            );
+        }
+    };
+    steps(out, &lasso.stem);
     if lasso.cycle.is_empty() {
         let _ = writeln!(
             out,
@@ -458,15 +461,7 @@ fn print_lasso(out: &mut dyn Write, lasso: &Lasso<State, Step>, table: &RuleTabl
             "  cycle (repeats forever from stem state {}):",
             lasso.stem.len()
         );
-        for (i, (step, s)) in lasso.cycle.iter().enumerate() {
-            let _ = writeln!(
-                out,
-                "    {}. {} -> {}",
-                i + 1,
-                step_text(step),
-                state_text(s, table)
-            );
-        }
+        steps(out, &lasso.cycle);
     }
     let _ = writeln!(out, "  reason: {}", reason(lasso, kind));
 }
