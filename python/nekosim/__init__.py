@@ -1,5 +1,6 @@
 """nekosim from Python: load, edit and run scenarios, read their traces as pandas
-DataFrames, and write Look-Compute-Move algorithms in Python (docs/python.md).
+DataFrames, and write robot algorithms in Python: Look-Compute-Move ones, and seed-style
+ones that block on their robot's motions, sensors and messages (docs/python.md).
 
 >>> import nekosim
 >>> run = nekosim.Scenario.load("examples/lcm/cog.ron").run(seed=3, until=10)
@@ -16,14 +17,18 @@ import pyarrow.ipc
 
 from . import _nekosim
 from ._errors import ScenarioError
-from ._nekosim import Decision, Seen, View
+from ._nekosim import Decision, MotionResult, RunEnded, Seen, View
+from ._nekosim import RobotHandle as Robot
 from ._check import Check, check
 from ._sweep import SweepResult, sweep
 
 __all__ = [
     "Check",
     "Decision",
+    "MotionResult",
+    "Robot",
     "Run",
+    "RunEnded",
     "Scenario",
     "ScenarioError",
     "Seen",
@@ -39,13 +44,19 @@ _REGISTERED: Dict[str, Any] = {}
 
 
 def register(name: str, algorithm: Any) -> None:
-    """Registers a Python Look-Compute-Move algorithm under ``name`` for every run.
+    """Registers a Python robot algorithm under ``name`` for every run.
 
-    ``algorithm`` is a class, built with the scenario's configuration as keyword
-    arguments (``algorithm: Name(step: 0.5)`` calls ``Class(step=0.5)``), or an object
-    (then the scenario names it with no configuration). It has
+    A **Look-Compute-Move** algorithm is a class, built with the scenario's configuration
+    as keyword arguments (``algorithm: Name(step: 0.5)`` calls ``Class(step=0.5)``), or an
+    object (then the scenario names it with no configuration). It has
     ``compute(self, view: View) -> Decision``, and optionally ``colours`` (how many
     colours its lights take, default 1) and ``colour_name(self, light) -> str``.
+
+    A **seed-style** algorithm is a function ``algorithm(robot: Robot, **config)``, or a
+    class built from the configuration whose ``run(self, robot: Robot)`` does the work.
+    It calls the robot (``robot.move_to(...)``, ``robot.sleep(...)``,
+    ``robot.all_positions()``, ``robot.send(...)``, ``robot.receive()``, ...), and each call
+    returns when its result is there in virtual time, as the seed's Java algorithms do.
     """
     _REGISTERED[name] = algorithm
 
@@ -186,9 +197,10 @@ class Scenario:
         """Runs the scenario as ``nekosim run`` does.
 
         ``seed`` and ``until`` override the file's; ``algorithms`` maps names the scenario
-        uses to Python Look-Compute-Move algorithms (beside those :func:`register`
-        registered); ``rrd`` also saves a Rerun recording. An exception raised by an
-        algorithm's ``compute`` ends the run and is raised here.
+        uses to Python algorithms (beside those :func:`register` registered; see there);
+        ``rrd`` also saves a Rerun recording. An exception raised by an algorithm ends the
+        run and is raised here. When the run ends, a seed-style algorithm still waiting for
+        a call gets :class:`RunEnded` (not an ``Exception``) raised in its thread.
         """
         algos = dict(_REGISTERED)
         algos.update(algorithms or {})

@@ -8,6 +8,9 @@ import pyarrow as pa
 
 from ._errors import ScenarioError as ScenarioError
 from ._nekosim import Decision as Decision
+from ._nekosim import MotionResult as MotionResult
+from ._nekosim import RobotHandle as Robot
+from ._nekosim import RunEnded as RunEnded
 from ._nekosim import Seen as Seen
 from ._nekosim import View as View
 
@@ -18,9 +21,15 @@ class LookComputeMove(Protocol):
     ``colour_name`` are optional)."""
     def compute(self, view: View) -> Decision: ...
 
+class SeedStyle(Protocol):
+    """A seed-style algorithm's class: ``run`` calls the robot and blocks on each call.
+    A plain function ``algorithm(robot, **config)`` does as well."""
+    def run(self, robot: Robot) -> None: ...
+
 def register(name: str, algorithm: Any) -> None:
-    """Registers a Python Look-Compute-Move algorithm (a class or an object) under
-    ``name`` for every run."""
+    """Registers a Python algorithm under ``name`` for every run: a Look-Compute-Move one
+    (a class or an object with ``compute``) or a seed-style one (a function, or a class or
+    object with ``run``)."""
 
 def registered() -> Dict[str, Any]: ...
 

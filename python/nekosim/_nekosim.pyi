@@ -44,6 +44,62 @@ class Decision:
     @property
     def light(self) -> Optional[int]: ...
 
+class RunEnded(BaseException):
+    """The run ended while a seed-style algorithm waited for a call's result."""
+
+class MotionResult:
+    """How a motion ended."""
+    @property
+    def outcome(self) -> str:
+        """``"arrived"``, ``"collided"``, ``"replaced"``, ``"rejected"`` or ``"crashed"``."""
+    @property
+    def at(self) -> Tuple[float, float]:
+        """Where the robot stands."""
+    @property
+    def angle(self) -> float:
+        """Its heading [deg]."""
+    @property
+    def arrived(self) -> bool: ...
+
+_Area = Tuple[Tuple[float, float], Tuple[float, float]]
+
+class RobotHandle:
+    """The robot as a seed-style algorithm sees it; every call returns when its result is
+    there, in virtual time."""
+    @property
+    def id(self) -> int: ...
+    @property
+    def count(self) -> int:
+        """How many robots the run has."""
+    @property
+    def world(self) -> Optional[_Area]:
+        """``((min_x, min_y), (max_x, max_y))``, ``None`` in an infinite world."""
+    @property
+    def area(self) -> _Area:
+        """Where the seed's random movement draws destinations."""
+    def now(self) -> float:
+        """The virtual time [s]."""
+    def move_to(self, to: Tuple[float, float], move_speed: float,
+                turn_speed: float) -> MotionResult:
+        """MOVETO: turn the shortest way towards ``to``, then go there."""
+    def forward(self, distance: float, move_speed: float) -> MotionResult: ...
+    def turn(self, angle: float, turn_speed: float) -> MotionResult:
+        """Turn by ``angle`` degrees (positive: anticlockwise)."""
+    def sleep(self, duration: float) -> None: ...
+    def position(self, error: float = 0.0) -> Tuple[float, float]:
+        """The GPS: the robot's own position, perturbed by ``error`` x N(0, 1)."""
+    def all_positions(self, error: float = 0.0) -> List[Tuple[int, Tuple[float, float]]]: ...
+    def robots_in_view(self, range: float) -> List[Tuple[int, Tuple[float, float]]]: ...
+    def proximity(self, range: float) -> List[Tuple[int, float]]:
+        """Free distances to the robots within ``range``."""
+    def send(self, to: List[int], msg: Any) -> None:
+        """Send any value ``json.dumps`` accepts."""
+    def receive(self) -> Tuple[Optional[int], Any]:
+        """Wait for the next message: ``(sender, message)``."""
+    def log(self, text: str) -> None: ...
+    def random(self) -> float:
+        """Uniform in ``[0, 1)`` from the robot's own seeded stream."""
+
 class RunCore:
     @property
     def summary(self) -> Dict[str, Any]: ...

@@ -12,6 +12,7 @@
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
 
 use nekosim::lcm::{Decision as RustDecision, LcmConfigured, LookComputeMove, Multiplicity};
 use nekosim::protocols::{FieldError, Spec};
@@ -32,13 +33,18 @@ pub struct Hosted {
     pub algorithms: Arc<Vec<(String, Py<PyAny>)>>,
     /// The first exception a `compute` raised.
     pub error: Arc<Mutex<Option<PyErr>>>,
-    /// Set when `compute` raised: the run ends at the virtual time reached.
+    /// Set when an algorithm raised: the run ends at the virtual time reached.
     pub stop: Arc<AtomicBool>,
+    /// Set when the run has ended: the threads of seed-style algorithms still waiting for a
+    /// call's result end ([`crate::robot`]).
+    pub ended: Arc<AtomicBool>,
+    /// The threads of the run's seed-style algorithms.
+    threads: Arc<Mutex<Vec<JoinHandle<()>>>>,
 }
 
 thread_local! {
     /// The Python algorithms of the scenario being built on this thread.
-    static BUILDING: RefCell<Option<Hosted>> = const { RefCell::new(None) };
+    pub(crate) static BUILDING: RefCell<Option<Hosted>> = const { RefCell::new(None) };
 }
 
 impl Hosted {
@@ -47,10 +53,42 @@ impl Hosted {
             algorithms: Arc::new(algorithms),
             error: Arc::default(),
             stop: Arc::default(),
+            ended: Arc::default(),
+            threads: Arc::default(),
         }
     }
 
-    /// Points every robot entry that names one of the Python algorithms at the host.
+    /// Keeps `e`, the first exception an algorithm raised, and stops the run.
+    pub fn fail(&self, e: PyErr) {
+        if let Ok(mut slot) = self.error.lock() {
+            slot.get_or_insert(e);
+        }
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    /// Keeps the thread of a seed-style algorithm, to be joined when the run ends.
+    pub fn keep_thread(&self, thread: JoinHandle<()>) {
+        if let Ok(mut threads) = self.threads.lock() {
+            threads.push(thread);
+        }
+    }
+
+    /// After the run: ends the threads of seed-style algorithms and waits for them (call it
+    /// without the Python lock, which they take to unwind).
+    pub fn end(&self) {
+        self.ended.store(true, Ordering::Relaxed);
+        let threads = self
+            .threads
+            .lock()
+            .map(|mut t| std::mem::take(&mut *t))
+            .unwrap_or_default();
+        for t in threads {
+            let _ = t.join();
+        }
+    }
+
+    /// Points every robot entry that names one of the Python algorithms at its host: a
+    /// Look-Compute-Move one (it has `compute`) or a seed-style one ([`crate::robot`]).
     pub fn rewrite(&self, source: &mut Source) {
         for entry in &mut source.scenario.robots {
             let spec = match entry {
@@ -62,7 +100,19 @@ impl Hosted {
                 continue;
             };
             let config = spec.config_text().unwrap_or("()").to_string();
-            *spec = Spec::new(&format!("{HOST_NAME}(slot: {slot}, config: {config})"));
+            let lcm = Python::attach(|py| {
+                self.algorithms[slot]
+                    .1
+                    .bind(py)
+                    .hasattr("compute")
+                    .unwrap_or(false)
+            });
+            let host = if lcm {
+                HOST_NAME
+            } else {
+                crate::robot::ROBOT_HOST_NAME
+            };
+            *spec = Spec::new(&format!("{host}(slot: {slot}, config: {config})"));
         }
     }
 
@@ -85,9 +135,9 @@ impl Hosted {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct HostConfig {
-    slot: usize,
+    pub(crate) slot: usize,
     #[serde(default = "unit")]
-    config: ron::Value,
+    pub(crate) config: ron::Value,
 }
 
 fn unit() -> ron::Value {
@@ -184,27 +234,7 @@ impl LcmConfigured for PyLcm {
                 |e: PyErr| FieldError::new("", format!("{name}: {e}"), "what its class accepts");
             let bound = object.bind(py);
             let object = if bound.is_instance_of::<PyType>() {
-                let kwargs = PyDict::new(py);
-                match &config.config {
-                    ron::Value::Unit => {}
-                    ron::Value::Map(m) => {
-                        for (k, v) in m.iter() {
-                            let ron::Value::String(k) = k else {
-                                return Err(FieldError::new("", "a field without a name", ""));
-                            };
-                            kwargs
-                                .set_item(k, to_python(py, v).map_err(failed)?)
-                                .map_err(failed)?;
-                        }
-                    }
-                    other => {
-                        return Err(FieldError::new(
-                            "",
-                            format!("the configuration {other:?}"),
-                            "named fields, `Name(field: value, ...)`",
-                        ))
-                    }
-                }
+                let kwargs = kwargs(py, &config.config)?;
                 bound.call((), Some(&kwargs)).map_err(failed)?.unbind()
             } else {
                 if !matches!(config.config, ron::Value::Unit) {
@@ -238,6 +268,36 @@ impl LcmConfigured for PyLcm {
             })
         })
     }
+}
+
+/// A scenario's configuration `Name(field: value, ...)` as keyword arguments.
+pub(crate) fn kwargs<'py>(
+    py: Python<'py>,
+    config: &ron::Value,
+) -> Result<Bound<'py, PyDict>, FieldError> {
+    let failed = |e: PyErr| FieldError::new("", e.to_string(), "what the algorithm accepts");
+    let kwargs = PyDict::new(py);
+    match config {
+        ron::Value::Unit => {}
+        ron::Value::Map(m) => {
+            for (k, v) in m.iter() {
+                let ron::Value::String(k) = k else {
+                    return Err(FieldError::new("", "a field without a name", ""));
+                };
+                kwargs
+                    .set_item(k, to_python(py, v).map_err(failed)?)
+                    .map_err(failed)?;
+            }
+        }
+        other => {
+            return Err(FieldError::new(
+                "",
+                format!("the configuration {other:?}"),
+                "named fields, `Name(field: value, ...)`",
+            ))
+        }
+    }
+    Ok(kwargs)
 }
 
 /// A RON configuration value as a Python value.

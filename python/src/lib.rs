@@ -1,11 +1,13 @@
 //! The native part of the Python package `nekosim` (docs/python.md): scenarios loaded and
 //! edited as the command line does, runs whose records come back as Arrow columns, and
-//! Look-Compute-Move algorithms written in Python hosted by the engine's `LookComputeMove`
-//! trait. The package's Python modules (python/nekosim/) wrap these classes into pandas.
+//! algorithms written in Python: Look-Compute-Move ones hosted by the engine's
+//! `LookComputeMove` trait, and seed-style ones that block on their robot's calls. The
+//! package's Python modules (python/nekosim/) wrap these classes into pandas.
 
 mod algorithm;
 mod check;
 mod columns;
+mod robot;
 mod run;
 mod scenario;
 mod sweep;
@@ -47,5 +49,8 @@ fn _nekosim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<algorithm::View>()?;
     m.add_class::<algorithm::Seen>()?;
     m.add_class::<algorithm::Decision>()?;
+    m.add_class::<robot::RobotHandle>()?;
+    m.add_class::<robot::MotionResult>()?;
+    m.add("RunEnded", m.py().get_type::<robot::RunEnded>())?;
     Ok(())
 }

@@ -21,6 +21,7 @@ use pyo3::types::{PyBytes, PyDict};
 use serde_json::Value;
 
 use crate::algorithm::{Hosted, PyLcm, HOST_NAME};
+use crate::robot::{PyRobot, ROBOT_HOST_NAME};
 
 /// A robot's kinematic state from `t` on: `pos + vel (t' - t)`.
 #[derive(Clone, Copy, Debug)]
@@ -91,6 +92,7 @@ pub fn execute(
         inner.rewrite(&mut source);
         let mut registry = Registry::new();
         registry.algorithm::<Lcm<PyLcm>>(HOST_NAME);
+        registry.algorithm::<PyRobot>(ROBOT_HOST_NAME);
         let built = inner
             .building(|| source.build(overrides, &registry))
             .map_err(Failure::Scenario)?;
@@ -121,6 +123,9 @@ pub fn execute(
         let kept = std::mem::take(&mut *kept.borrow_mut());
         Ok((summary, kept))
     });
+    // The run is over: seed-style algorithms still waiting for a call end.
+    let ending = hosted.clone();
+    py.detach(move || ending.end());
     if let Some(e) = hosted.take_error() {
         return Err(e);
     }
