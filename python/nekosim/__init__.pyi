@@ -105,6 +105,7 @@ class Check:
     def holds(self) -> bool: ...
     def record(self, path: Union[str, "os.PathLike[str]"]) -> "Check": ...
 
-def check(model: Union[str, "os.PathLike[str]"], **options: Any) -> Check:
+def check(model: Union[str, "os.PathLike[str]"],
+          algorithms: Optional[Mapping[str, Any]] = None, **options: Any) -> Check:
     """Model-checks a scenario's protocol stack or a shipped model as ``nekosim check``
     does; ``options`` are the command's, with underscores."""

@@ -70,18 +70,27 @@ class Check:
         return f"Check({self._model!r}, code={self.code}, fails={failing})"
 
 
-def check(model: Union[str, "os.PathLike[str]"], **options: Any) -> Check:
+def check(model: Union[str, "os.PathLike[str]"],
+          algorithms: Optional[Dict[str, Any]] = None, **options: Any) -> Check:
     """Model-checks a scenario's protocol stack (a .ron file) or a shipped model (a name of
-    ``nekosim check --list``) as ``nekosim check`` does.
+    ``nekosim check --list``) as ``nekosim check`` does; on a Look-Compute-Move scenario,
+    checks its rule table or searches its algorithms' schedules (docs/model-checking.md).
 
     ``options`` are the command's, with underscores: ``layer``, ``processes``,
     ``requests``, ``crashes``, ``network`` (``"unordered"``, ``"ordered"``, ``"lossy"``),
     ``strategy`` (``"bfs"``, ``"dfs"``, ``"simulation"``), ``seed``, ``max_states``,
     ``max_memory`` (``"512MiB"``), ``depth``, ``threads``, ``timers``, ``rounds``,
-    ``symmetry``, ``keep_going`` and ``rrd`` (save the counterexample as a recording).
+    ``symmetry``, ``keep_going``, ``goals`` (a list of ``--goal`` values, such as
+    ``"diameter-never-grows"``) and ``rrd`` (save the counterexample as a recording).
+    ``algorithms`` maps names the scenario uses to Python Look-Compute-Move algorithms
+    (beside those :func:`nekosim.register` registered), which the search then runs.
     A bad scenario raises :class:`nekosim.ScenarioError` at its place.
     """
+    from . import _REGISTERED
+
     model = os.fspath(model)
-    core = _nekosim.check_core(model, **options)
+    algos = dict(_REGISTERED)
+    algos.update(algorithms or {})
+    core = _nekosim.check_core(model, algorithms=list(algos.items()), **options)
     options = {k: v for k, v in options.items() if k != "rrd"}
-    return Check(core, model, options)
+    return Check(core, model, dict(options, algorithms=algorithms))

@@ -8,7 +8,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use nekosim::check::{self, CheckArgs, CheckError, Conclusion, Live};
 use nekosim::models::{NetworkKind, Strategy};
-use nekosim::scenario::Registry;
+use nekosim::scenario::Source;
+
+use crate::algorithm::Hosted;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
@@ -56,7 +58,7 @@ fn bad(message: String) -> PyErr {
 #[pyo3(signature = (model, layer = None, processes = None, requests = None, crashes = None,
     network = None, strategy = "bfs", seed = 0, max_states = None, max_memory = None,
     depth = None, threads = 1, timers = None, rounds = None, symmetry = false,
-    keep_going = false, rrd = None))]
+    keep_going = false, rrd = None, goals = None, algorithms = Vec::new()))]
 #[allow(clippy::too_many_arguments)]
 pub fn check_core(
     py: Python<'_>,
@@ -77,7 +79,15 @@ pub fn check_core(
     symmetry: bool,
     keep_going: bool,
     rrd: Option<PathBuf>,
+    goals: Option<Vec<String>>,
+    algorithms: Vec<(String, Py<PyAny>)>,
 ) -> PyResult<CheckCore> {
+    let goals = goals
+        .unwrap_or_default()
+        .iter()
+        .map(|g| check::lcm_search::parse_goal(g))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| bad(format!("goals: {e}")))?;
     let network = match network {
         None => None,
         Some("unordered") => Some(NetworkKind::Unordered),
@@ -122,11 +132,28 @@ pub fn check_core(
         max_memory,
         symmetry,
         keep_going,
+        goals,
         ..CheckArgs::default()
     };
     let mut out = Vec::new();
-    let outcome =
-        py.detach(|| check::check_live(&args, &Registry::new(), &mut out, &Live::default()));
+    let hosted = Hosted::new(algorithms);
+    let outcome = py.detach(|| {
+        let registry = crate::run::registry();
+        // A Look-Compute-Move scenario naming Python algorithms is searched with them in
+        // place, through the very hosts a run uses.
+        if !hosted.algorithms.is_empty() && std::path::Path::new(&args.model).is_file() {
+            let mut source = Source::load(std::path::Path::new(&args.model))?;
+            hosted.rewrite(&mut source);
+            if source.scenario.lcm.is_some() && source.scenario.stack.is_empty() {
+                return hosted
+                    .building(|| check::lcm_search::check(&source, &registry, &args, &mut out));
+            }
+        }
+        check::check_live(&args, &registry, &mut out, &Live::default())
+    });
+    if let Some(e) = hosted.take_error() {
+        return Err(e);
+    }
     let conclusion = match outcome {
         Ok(c) => c,
         Err(CheckError::Scenario(e)) => return Err(crate::scenario_error(py, &e)),

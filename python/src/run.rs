@@ -74,6 +74,15 @@ pub struct RunCore {
     kept: Kept,
 }
 
+/// The registry of runs and checks from Python: the built-ins and the hosts of Python
+/// algorithms ([`Hosted::rewrite`] points a scenario's Python algorithms at them).
+pub fn registry() -> Registry {
+    let mut registry = Registry::new();
+    registry.algorithm::<Lcm<PyLcm>>(HOST_NAME);
+    registry.algorithm::<PyRobot>(ROBOT_HOST_NAME);
+    registry
+}
+
 /// Runs scenario `text` (named `file`) with the Python algorithms `algorithms`.
 pub fn execute(
     py: Python<'_>,
@@ -90,9 +99,7 @@ pub fn execute(
     let outcome = py.detach(move || -> Result<(Summary, Kept), Failure> {
         let mut source = Source::parse(&file, &text).map_err(Failure::Scenario)?;
         inner.rewrite(&mut source);
-        let mut registry = Registry::new();
-        registry.algorithm::<Lcm<PyLcm>>(HOST_NAME);
-        registry.algorithm::<PyRobot>(ROBOT_HOST_NAME);
+        let registry = registry();
         let built = inner
             .building(|| source.build(overrides, &registry))
             .map_err(Failure::Scenario)?;

@@ -82,3 +82,55 @@ def test_a_bad_check_raises_at_its_place(tmp_path):
     assert e.value.file == str(bad) and e.value.line is not None
     with pytest.raises(ValueError, match="strategy"):
         nekosim.check(LOSSY, strategy="sideways")
+
+
+THREE = """Scenario(seed: 11, until: 10.0, world: (size: Infinite, ghost_mode: true),
+  lcm: (synchrony: Ssync, movement: NonRigid(delta: 1.0)),
+  robots: [Group(count: 3, radius: 0.5,
+                 born: Points([(0.0, 0.0), (40.0, 10.0), (12.0, -31.0)]),
+                 algorithm: CentreOfGravity())])"""
+
+
+class PyCog:
+    """Cohen and Peleg's centre of gravity, in Python."""
+
+    def __init__(self, reach=1.0):
+        self.reach = reach
+
+    def compute(self, view):
+        sx, sy, n = 0.0, 0.0, 1.0
+        for s in view.others:
+            sx, sy, n = sx + s.at[0], sy + s.at[1], n + 1
+        return nekosim.Decision(to=(self.reach * sx / n, self.reach * sy / n))
+
+
+def test_a_python_algorithm_is_searched_as_the_rust_one_is(tmp_path):
+    """The search runs a Python Look-Compute-Move algorithm through the hosts a run uses:
+    the Python centre of gravity gives the Rust one's report, counterexample and replay, and
+    a Python one that overshoots is caught growing the diameter."""
+    rust_file = tmp_path / "three.ron"
+    rust_file.write_text(THREE)
+    py_file = tmp_path / "three_py.ron"
+    py_file.write_text(THREE.replace("CentreOfGravity()", "PyCog()"))
+    for goals in (["collision-free"], ["diameter-never-grows"]):
+        a = nekosim.check(rust_file, depth=2, goals=goals)
+        b = nekosim.check(py_file, depth=2, goals=goals, algorithms={"PyCog": PyCog})
+        assert a.report == b.report
+        assert a.code == b.code
+        assert list(a.counterexample.columns) == list(b.counterexample.columns)
+        assert a.counterexample.map(repr).equals(b.counterexample.map(repr))
+    assert a.code == 0 and "holds on every schedule searched (depth 2)" in a.report
+    over = nekosim.check(py_file, depth=2, goals=["diameter-never-grows"],
+                         algorithms={"PyCog": Overshoot})
+    assert over.code == 1, over.report
+    assert "diameter never grows: fails" in over.report
+    # The counterexample replays in the simulator: its trace has the rounds' Looks.
+    looks = over.counterexample[over.counterexample["kind"] == "look"]
+    assert len(looks) >= 1
+
+
+class Overshoot(PyCog):
+    """The seeded bug: four times as far as the centre of gravity."""
+
+    def __init__(self):
+        super().__init__(reach=4.0)
