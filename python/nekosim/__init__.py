@@ -9,6 +9,7 @@ ones that block on their robot's motions, sensors and messages (docs/python.md).
 """
 
 import os
+import tempfile
 from typing import Any, Dict, List, Mapping, Optional, Union
 
 import pandas as pd
@@ -64,6 +65,21 @@ def register(name: str, algorithm: Any) -> None:
 def registered() -> Dict[str, Any]:
     """The algorithms :func:`register` registered, by name."""
     return dict(_REGISTERED)
+
+
+def _viewer(rrd: str, width: Union[int, str], height: Union[int, str]) -> Any:
+    """Rerun's notebook viewer widget holding the recording at ``rrd``."""
+    try:
+        from rerun_notebook import Viewer
+    except ImportError as e:
+        raise ImportError(
+            "showing a run inline needs Rerun's notebook viewer: "
+            'pip install "rerun-notebook==0.36.3"') from e
+    with open(rrd, "rb") as f:
+        data = f.read()
+    viewer = Viewer(width=width, height=height)
+    viewer.send_rrd(data)
+    return viewer
 
 
 # Typed columns: integers and booleans stay integers and booleans where a column has
@@ -132,6 +148,16 @@ class Run:
                 f"the run recorded made {len(again)} records, not {len(self)}: "
                 "an algorithm is not deterministic")
         return again
+
+    def show(self, width: Union[int, str] = "auto", height: Union[int, str] = "auto") -> Any:
+        """Shows the run inline in Jupyter with Rerun's notebook viewer: records it (as
+        :meth:`record` does, to a temporary file) and returns the viewer widget holding the
+        recording; a notebook displays it as a cell's value. Needs ``rerun-notebook``
+        (``pip install "rerun-notebook==0.36.3"``, the Rerun version nekosim writes)."""
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "run.rrd")
+            self.record(path)
+            return _viewer(path, width, height)
 
     def __len__(self) -> int:
         return len(self._core)

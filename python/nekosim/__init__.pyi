@@ -48,6 +48,8 @@ class Run:
         """The trace: one row per record, one typed column per field."""
     def positions(self, t: float) -> pd.DataFrame:
         """Exact positions at simulated time ``t``, indexed by robot, columns x and y."""
+    def show(self, width: Union[int, str] = "auto", height: Union[int, str] = "auto") -> Any:
+        """The run in Rerun's notebook viewer (needs ``rerun-notebook``)."""
     def record(self, path: _Path) -> "Run":
         """Saves the run as a Rerun recording (the same run again)."""
     def __len__(self) -> int: ...
@@ -104,6 +106,8 @@ class Check:
     @property
     def holds(self) -> bool: ...
     def record(self, path: Union[str, "os.PathLike[str]"]) -> "Check": ...
+    def show(self, width: Union[int, str] = "auto", height: Union[int, str] = "auto") -> Any:
+        """The counterexample in Rerun's notebook viewer (needs ``rerun-notebook``)."""
 
 def check(model: Union[str, "os.PathLike[str]"],
           algorithms: Optional[Mapping[str, Any]] = None, **options: Any) -> Check:

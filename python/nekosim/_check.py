@@ -3,6 +3,7 @@ protocol stack, its verdicts and state counts, and its counterexample as a DataF
 
 import os
 import re
+import tempfile
 from typing import Any, Dict, Optional, Union
 
 import pandas as pd
@@ -64,6 +65,17 @@ class Check:
                 self.report.splitlines()[-len(self.verdicts):]:
             raise RuntimeError("the check recorded did not end as this one")
         return again
+
+    def show(self, width: Union[int, str] = "auto", height: Union[int, str] = "auto") -> Any:
+        """Shows the counterexample (or witness) inline in Jupyter with Rerun's notebook
+        viewer: records it (as :meth:`record` does) and returns the viewer widget. Needs
+        ``rerun-notebook`` (see :meth:`nekosim.Run.show`)."""
+        from . import _viewer
+
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "check.rrd")
+            self.record(path)
+            return _viewer(path, width, height)
 
     def __repr__(self) -> str:
         failing = list(self.verdicts.property[self.verdicts.verdict == "fails"])

@@ -10,6 +10,7 @@ import json
 import math
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -301,3 +302,28 @@ def test_a_run_records_itself(tmp_path):
     again = run.record(tmp_path / "run.rrd")
     assert (tmp_path / "run.rrd").stat().st_size > 10_000
     assert again.summary["events"] == run.summary["events"]
+
+
+def test_a_run_and_a_counterexample_show_in_rerun_notebook_viewer(tmp_path, monkeypatch):
+    """``show`` hands the run's recording to Rerun's notebook widget, which holds it until
+    a notebook's browser side connects; without the widget's package it says what to
+    install."""
+    from rerun_notebook import Viewer
+
+    run = nekosim.Scenario.load(ROOT / "examples/scenarios/collision.ron").run()
+    run.record(tmp_path / "run.rrd")
+    recorded = (tmp_path / "run.rrd").read_bytes()
+    viewer = run.show(width=640, height=360)
+    assert isinstance(viewer, Viewer)
+    [(event, [data])] = viewer._event_queue
+    assert event == {"type": "rrd"}
+    # The same run recorded again: the same size, only ids and clocks differ.
+    assert data[:4] == b"RRF2" and len(data) == len(recorded)
+
+    c = nekosim.check(ROOT / "tests/check/sequencer_on_lossy.ron")
+    [(event, [data])] = c.show()._event_queue
+    assert event == {"type": "rrd"} and data[:4] == b"RRF2" and len(data) > 1000
+
+    monkeypatch.setitem(sys.modules, "rerun_notebook", None)
+    with pytest.raises(ImportError, match="rerun-notebook==0.36.3"):
+        run.show()
