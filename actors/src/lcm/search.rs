@@ -103,6 +103,7 @@ impl Schedule {
                     start_move: None,
                     move_end: start + 3.0 * cycle / 4.0,
                     stop: Some(stop),
+                    read: None,
                 });
             }
         }
@@ -279,6 +280,7 @@ impl Problem {
                     move_start: 0.0,
                     move_end: 1.0,
                     stop: Some(stop),
+                    read: None,
                     round: None,
                 };
                 let reach = w.adversaries[i].stop(&plan, length);
