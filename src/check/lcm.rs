@@ -20,9 +20,13 @@ use super::{CheckArgs, CheckError, Conclusion};
 use crate::scenario::{RobotEntry, Source};
 
 pub mod abstraction;
+pub mod budget;
 pub mod replay;
 
 pub use abstraction::{Abstraction, Pending, Phase, Position, State, Step, Variant};
+pub use budget::{Budget, Halt, Open, Watch};
+
+use budget::Watched;
 
 /// Which runs the check judges (docs/model-checking.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -160,6 +164,26 @@ pub fn decide(
     kind: Liveness,
     limits: Limits,
 ) -> Result<Decided, Exceeded> {
+    let budget = Budget {
+        limits,
+        watch: Watch::default(),
+    };
+    decide_within(table, lights, variant, rigid, fairness, kind, &budget).map_err(|o| match o {
+        Open::Exceeded(e) => e,
+        Open::Halted { .. } => unreachable!("a watch of nothing never halts"),
+    })
+}
+
+/// [`decide`] within `budget`, its watch polled as the model is explored.
+pub fn decide_within(
+    table: &RuleTable,
+    lights: Lights,
+    variant: Variant,
+    rigid: bool,
+    fairness: RobotFairness,
+    kind: Liveness,
+    budget: &Budget,
+) -> Result<Decided, Open> {
     let (bound, fairness) = fairness.split(variant, table.lights.len());
     let model = Abstraction {
         table,
@@ -168,7 +192,11 @@ pub fn decide(
         rigid,
         bound,
     };
-    let graph = explore(&model, limits)?;
+    let watched = Watched::new(&model, &budget.watch);
+    let graph = explore(&watched, budget.limits).map_err(Open::Exceeded)?;
+    if let Some((halt, states)) = watched.halted() {
+        return Err(Open::Halted { halt, states });
+    }
     let verdict = graph.check(kind, fairness, |s| s.position == Position::Same);
     Ok(Decided {
         states: graph.len(),
@@ -312,11 +340,13 @@ pub fn reason(lasso: &Lasso<State, Step>, kind: Liveness) -> String {
     }
 }
 
-/// Runs the check of a rule-table scenario and prints its report on `out`.
+/// Runs the check of a rule-table scenario and prints its report on `out`; `watch` stops it
+/// (the resident memory, Ctrl-C).
 pub fn check(
     source: &Source,
     (table, lights): (RuleTable, Lights),
     args: &CheckArgs,
+    watch: Watch,
     out: &mut dyn Write,
 ) -> Result<Conclusion, CheckError> {
     let settings = source.scenario.lcm.clone().unwrap_or_default();
@@ -373,27 +403,48 @@ pub fn check(
             fairness.describe(variant, colours)
         ),
     );
-    let limits = Limits {
-        max_states: args.max_states,
-        max_memory: args.max_memory,
+    let budget = Budget {
+        limits: Limits {
+            max_states: args.max_states,
+            max_memory: watch.max_memory,
+        },
+        watch,
     };
     let mut conclusion = Conclusion::Holds;
     let mut first_lasso: Option<(Lasso<State, Step>, Liveness)> = None;
     for (name, kind) in kinds {
         let start = Instant::now();
         let formula = kind.formula("(position == SAME)");
-        match decide(&table, lights, variant, rigid, fairness, kind, limits) {
+        if conclusion == Conclusion::Interrupted {
+            w(
+                out,
+                format!("property {name:?} {formula}: open (not checked: Ctrl-C)"),
+            );
+            continue;
+        }
+        match decide_within(&table, lights, variant, rigid, fairness, kind, &budget) {
             Err(e) => {
                 let why = match e {
-                    Exceeded::States { limit } => format!("the state budget ({limit} states)"),
-                    Exceeded::Memory { limit, estimate } => format!(
-                        "the memory budget ({} of {})",
+                    Open::Exceeded(Exceeded::States { limit }) => {
+                        format!("the state budget ({limit} states)")
+                    }
+                    Open::Exceeded(Exceeded::Memory { limit, estimate }) => format!(
+                        "the memory budget (a graph of {} of {})",
                         super::size_text(estimate),
                         super::size_text(limit)
                     ),
+                    Open::Halted { halt, states } => {
+                        format!("{} after {states} states explored,", halt.text())
+                    }
                 };
                 w(out, format!("property {name:?} {formula}: open (stopped by {why} before the search was exhaustive)"));
-                if conclusion == Conclusion::Holds {
+                if let Open::Halted {
+                    halt: Halt::Interrupted,
+                    ..
+                } = e
+                {
+                    conclusion = Conclusion::Interrupted;
+                } else if conclusion == Conclusion::Holds {
                     conclusion = Conclusion::Unsettled;
                 }
             }

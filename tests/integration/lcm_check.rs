@@ -615,3 +615,99 @@ fn every_lasso_of_the_shipped_tables_replays_its_violation() {
     assert_eq!(replayed, fails);
     eprintln!("{replayed} lassos replayed, each showing its violation");
 }
+
+/// Runs `nekosim check ARGS` in the crate's root, sends it what a terminal's Ctrl-C sends
+/// once its report's first line (`first`) is out and `wait` has passed, and returns its exit
+/// code and report.
+pub(crate) fn interrupted(
+    args: &[&str],
+    first: &str,
+    wait: std::time::Duration,
+) -> (Option<i32>, String) {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let mut child = nekosim_bin()
+        .arg("check")
+        .args(args)
+        .current_dir(root())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let mut out = String::new();
+    for line in lines.by_ref() {
+        let line = line.unwrap();
+        out.push_str(&line);
+        out.push('\n');
+        if line.starts_with(first) {
+            break;
+        }
+    }
+    assert!(out.contains(first), "{out}");
+    std::thread::sleep(wait);
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    for line in lines {
+        out.push_str(&line.unwrap());
+        out.push('\n');
+    }
+    (child.wait().unwrap().code(), out)
+}
+
+/// The exhaustive check honours its budgets as a stack check does: a memory budget the
+/// process is already above stops it before its first state (exit 3, saying what stopped it
+/// and how far it went), and Ctrl-C during a long exploration (six colours under a safe
+/// register, up to 255 steps in a row) stops it too (exit 130), with what it covered. A
+/// budget of 1 GiB keeps a lost signal from running the test out of memory: it would end in
+/// exit 3, not 130.
+#[test]
+fn the_exhaustive_check_stops_at_its_memory_budget_and_at_ctrl_c() {
+    let out = nekosim_bin()
+        .args([
+            "check",
+            "examples/lcm/optimal_2.ron",
+            "--max-memory",
+            "1KiB",
+        ])
+        .current_dir(root())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(3), "{text}");
+    assert!(
+        text.contains("open (stopped by the memory budget (resident ")
+            && text.contains(
+                " of 1.0 KiB) after 0 states explored, before the search was exhaustive)"
+            ),
+        "{text}"
+    );
+    let (code, text) = interrupted(
+        &[
+            "examples/lcm/regular_6.ron",
+            "--synchrony",
+            "async",
+            "--register",
+            "safe",
+            "--movement",
+            "non-rigid",
+            "--fairness",
+            "bounded:255",
+            "--max-memory",
+            "1GiB",
+        ],
+        "model: ",
+        std::time::Duration::from_millis(500),
+    );
+    assert_eq!(code, Some(130), "{text}");
+    let explored: u64 = text
+        .split("open (stopped by Ctrl-C after ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{text}"));
+    assert!(explored > 0, "{text}");
+}
