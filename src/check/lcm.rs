@@ -612,6 +612,26 @@ fn replay_lasso(
                     "### A lasso of the two-robot model, replayed\n\nThe stem runs from t = 0 to {from}; the cycle, which the adversary can repeat forever, from t = {from} to {first}, and again from {first} to {second}. Each step of the lasso is one simulated second.\n\n{}",
                     reason(lasso, kind)
                 )),
+                milestones: vec![
+                    (
+                        from,
+                        format!(
+                            "lasso: the stem ends and the cycle begins (repetition 1 of 2, to t = {first})"
+                        ),
+                    ),
+                    (
+                        first,
+                        format!(
+                            "lasso: the cycle ends where it began at t = {from} and begins again (repetition 2 of 2, to t = {second})"
+                        ),
+                    ),
+                    (
+                        second,
+                        format!(
+                            "lasso: the cycle ends where it began at t = {first}; the adversary can repeat it forever"
+                        ),
+                    ),
+                ],
                 ..Default::default()
             },
         )
