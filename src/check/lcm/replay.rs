@@ -93,7 +93,7 @@ pub fn replay(model: &Abstraction, lasso: &Lasso<State, Step>) -> Option<Replay>
         .chain(&lasso.cycle)
         .collect();
     let mut open: [Option<Activation>; 2] = [None, None];
-    // Whether the open activation's Compute and Move have begun.
+    // Whether the open activation's Compute has ended.
     let mut computed = [false; 2];
     let mut activations = Vec::new();
     let mut expected = Vec::new();
@@ -133,9 +133,6 @@ pub fn replay(model: &Abstraction, lasso: &Lasso<State, Step>) -> Option<Replay>
                 Phase::EndMove => {
                     if let Some(mut a) = open[r].take() {
                         a.move_end = at;
-                        if a.start_move.is_none() {
-                            a.start_move = Some(at - 0.25);
-                        }
                         // The model ends every move from `Far` short of where it was going,
                         // and every other move where it was going (a script's stop left
                         // out is the random adversary's).
