@@ -461,12 +461,16 @@ pub fn check_live(
     let is_file = args.model.ends_with(".ron") || Path::new(&args.model).is_file();
     if is_file && !SHORTCUTS.iter().any(|(n, ..)| *n == args.model) {
         let source = Source::load(Path::new(&args.model))?;
+        let watch = || lcm::Watch {
+            max_memory: args.max_memory.or_else(default_memory_budget),
+            interrupt: live.interrupt.clone(),
+        };
         if let Some(table) = lcm::rule_table_of(&source) {
-            return lcm::check(&source, table?, args, out);
+            return lcm::check(&source, table?, args, watch(), out);
         }
         // Other Look-Compute-Move scenarios: the search beyond exhaustive checking.
         if source.scenario.lcm.is_some() && source.scenario.stack.is_empty() {
-            return lcm_search::check(&source, registry, args, out);
+            return lcm_search::check(&source, registry, args, &watch(), out);
         }
     }
     if args.lcm.any() {

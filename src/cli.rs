@@ -753,6 +753,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                     // `nekosim run` exits once the run is written.
                     exit_after: true,
                     note: None,
+                    milestones: Vec::new(),
                 },
             );
             if let Some(b) = bar {

@@ -43,6 +43,9 @@ pub struct RunOptions {
     /// A document shown beside the recording's drawings, in Markdown (what a replayed
     /// counterexample is and where its cycle lies).
     pub note: Option<String>,
+    /// Instants the recording marks on its timeline [s], each with a line saying what
+    /// happens there.
+    pub milestones: Vec<(f64, String)>,
 }
 
 impl std::fmt::Debug for RunOptions {
@@ -262,6 +265,12 @@ pub fn run_observed(
     let mut recorder = start_recording(&built, &opts.recording)?;
     if let (Some(r), Some(note)) = (recorder.as_mut(), &opts.note) {
         crate::recording::Canvas::note(r.canvas_mut(), note);
+    }
+    if let Some(r) = recorder.as_mut() {
+        for (t, text) in &opts.milestones {
+            let at = crate::recording::Stamp { t: *t, seq: None };
+            crate::recording::Canvas::milestone(r.canvas_mut(), at, text);
+        }
     }
     let outputs = Rc::new(RefCell::new((
         log,

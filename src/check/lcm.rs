@@ -11,12 +11,8 @@ use std::path::Path;
 use std::time::Instant;
 
 use nekosim_actors::lcm::predicate::Predicate;
-use nekosim_actors::lcm::record::LcmRecord;
 use nekosim_actors::lcm::rule_table::{RuleTable, RuleTableConfig};
-use nekosim_actors::lcm::settings::{AdversaryKind, Lights, Movement, Register, Synchrony};
-use nekosim_actors::lcm::Light;
-use nekosim_actors::world::geometry::Point;
-use nekosim_actors::world::observation::Observation;
+use nekosim_actors::lcm::settings::{Lights, Movement, Register, Synchrony};
 use nekosim_models::liveness::{explore, Exceeded, Fairness, Lasso, Limits, Liveness, Verdict};
 use serde_json::json;
 
@@ -24,9 +20,13 @@ use super::{CheckArgs, CheckError, Conclusion};
 use crate::scenario::{RobotEntry, Source};
 
 pub mod abstraction;
+pub mod budget;
 pub mod replay;
 
 pub use abstraction::{Abstraction, Pending, Phase, Position, State, Step, Variant};
+pub use budget::{Budget, Halt, Open, Watch};
+
+use budget::Watched;
 
 /// Which runs the check judges (docs/model-checking.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -164,6 +164,26 @@ pub fn decide(
     kind: Liveness,
     limits: Limits,
 ) -> Result<Decided, Exceeded> {
+    let budget = Budget {
+        limits,
+        watch: Watch::default(),
+    };
+    decide_within(table, lights, variant, rigid, fairness, kind, &budget).map_err(|o| match o {
+        Open::Exceeded(e) => e,
+        Open::Halted { .. } => unreachable!("a watch of nothing never halts"),
+    })
+}
+
+/// [`decide`] within `budget`, its watch polled as the model is explored.
+pub fn decide_within(
+    table: &RuleTable,
+    lights: Lights,
+    variant: Variant,
+    rigid: bool,
+    fairness: RobotFairness,
+    kind: Liveness,
+    budget: &Budget,
+) -> Result<Decided, Open> {
     let (bound, fairness) = fairness.split(variant, table.lights.len());
     let model = Abstraction {
         table,
@@ -172,7 +192,11 @@ pub fn decide(
         rigid,
         bound,
     };
-    let graph = explore(&model, limits)?;
+    let watched = Watched::new(&model, &budget.watch);
+    let graph = explore(&watched, budget.limits).map_err(Open::Exceeded)?;
+    if let Some((halt, states)) = watched.halted() {
+        return Err(Open::Halted { halt, states });
+    }
     let verdict = graph.check(kind, fairness, |s| s.position == Position::Same);
     Ok(Decided {
         states: graph.len(),
@@ -316,11 +340,13 @@ pub fn reason(lasso: &Lasso<State, Step>, kind: Liveness) -> String {
     }
 }
 
-/// Runs the check of a rule-table scenario and prints its report on `out`.
+/// Runs the check of a rule-table scenario and prints its report on `out`; `watch` stops it
+/// (the resident memory, Ctrl-C).
 pub fn check(
     source: &Source,
     (table, lights): (RuleTable, Lights),
     args: &CheckArgs,
+    watch: Watch,
     out: &mut dyn Write,
 ) -> Result<Conclusion, CheckError> {
     let settings = source.scenario.lcm.clone().unwrap_or_default();
@@ -377,27 +403,48 @@ pub fn check(
             fairness.describe(variant, colours)
         ),
     );
-    let limits = Limits {
-        max_states: args.max_states,
-        max_memory: args.max_memory,
+    let budget = Budget {
+        limits: Limits {
+            max_states: args.max_states,
+            max_memory: watch.max_memory,
+        },
+        watch,
     };
     let mut conclusion = Conclusion::Holds;
     let mut first_lasso: Option<(Lasso<State, Step>, Liveness)> = None;
     for (name, kind) in kinds {
         let start = Instant::now();
         let formula = kind.formula("(position == SAME)");
-        match decide(&table, lights, variant, rigid, fairness, kind, limits) {
+        if conclusion == Conclusion::Interrupted {
+            w(
+                out,
+                format!("property {name:?} {formula}: open (not checked: Ctrl-C)"),
+            );
+            continue;
+        }
+        match decide_within(&table, lights, variant, rigid, fairness, kind, &budget) {
             Err(e) => {
                 let why = match e {
-                    Exceeded::States { limit } => format!("the state budget ({limit} states)"),
-                    Exceeded::Memory { limit, estimate } => format!(
-                        "the memory budget ({} of {})",
+                    Open::Exceeded(Exceeded::States { limit }) => {
+                        format!("the state budget ({limit} states)")
+                    }
+                    Open::Exceeded(Exceeded::Memory { limit, estimate }) => format!(
+                        "the memory budget (a graph of {} of {})",
                         super::size_text(estimate),
                         super::size_text(limit)
                     ),
+                    Open::Halted { halt, states } => {
+                        format!("{} after {states} states explored,", halt.text())
+                    }
                 };
                 w(out, format!("property {name:?} {formula}: open (stopped by {why} before the search was exhaustive)"));
-                if conclusion == Conclusion::Holds {
+                if let Open::Halted {
+                    halt: Halt::Interrupted,
+                    ..
+                } = e
+                {
+                    conclusion = Conclusion::Interrupted;
+                } else if conclusion == Conclusion::Holds {
                     conclusion = Conclusion::Unsettled;
                 }
             }
@@ -422,8 +469,15 @@ pub fn check(
             }
         }
     }
-    if let Some((lasso, _)) = &first_lasso {
-        replay_lasso(source, lasso, rigid, args.rrd.as_deref(), out)?;
+    if let Some((lasso, kind)) = &first_lasso {
+        let model = Abstraction {
+            table: &table,
+            lights,
+            variant,
+            rigid,
+            bound: None,
+        };
+        replay_lasso(source, &model, (lasso, *kind), args.rrd.as_deref(), out)?;
     }
     if let (Some(path), Some((lasso, kind))) = (&args.trace, &first_lasso) {
         write_lasso(path, lasso, &table, *kind).map_err(|source| CheckError::Trace {
@@ -505,76 +559,48 @@ fn write_lasso(
 /// and records it to `rrd` if asked.
 fn replay_lasso(
     source: &Source,
-    lasso: &Lasso<State, Step>,
-    rigid: bool,
+    model: &Abstraction,
+    (lasso, kind): (&Lasso<State, Step>, Liveness),
     rrd: Option<&Path>,
     out: &mut dyn Write,
 ) -> Result<(), CheckError> {
-    let Some(plan) = replay::replay(lasso) else {
+    let Some(plan) = replay::replay(model, lasso) else {
         let _ = writeln!(out, "replay: the lasso has no cycle to repeat");
         return Ok(());
     };
-    let mut scenario = source.clone();
-    let lcm = scenario.scenario.lcm.get_or_insert_with(Default::default);
-    // The script fixes every instant; the synchrony model only names the schedule.
-    lcm.synchrony = Synchrony::Async;
-    lcm.adversary = AdversaryKind::Scripted(plan.activations.clone());
-    lcm.initial_lights = plan.lights.to_vec();
-    lcm.predicates.clear();
-    if rigid {
-        lcm.movement = Movement::Rigid;
-    } else if lcm.movement == Movement::Rigid {
-        lcm.movement = Movement::NonRigid { delta: 1.0 };
-    }
-    scenario.scenario.until = plan.until;
-    let registry = crate::scenario::Registry::with_builtins();
-    let build = || -> Result<crate::scenario::Built, CheckError> {
-        let mut built = scenario.build(crate::scenario::Overrides::default(), &registry)?;
-        for (i, (spec, _)) in built.robots.iter_mut().enumerate() {
-            spec.pose.pos = plan.born[i.min(1)];
-        }
-        Ok(built)
-    };
-    let built = build()?;
-    let records = nekosim_actors::run(built.into_config(true))
-        .map_err(|e| CheckError::Lcm(format!("the replay did not run: {e}")))?
-        .records;
-    let at = |t: f64| -> ([Point; 2], [Option<Light>; 2]) {
-        let (mut pos, mut light) = (plan.born, [None, None]);
-        for r in records.iter().take_while(|r| r.t < t) {
-            match &r.obs {
-                Observation::Lcm(LcmRecord::Wait { robot, at, .. }) => pos[*robot as usize] = *at,
-                Observation::Light {
-                    robot,
-                    light: l,
-                    pending: None,
-                } => light[*robot as usize] = Some(*l),
-                _ => {}
-            }
-        }
-        (pos, light)
-    };
+    let records = replay::simulate(source, model, &plan)?;
     let [from, first, second] = plan.marks;
-    let (_, lights) = at(from);
-    let shows = [first, second].iter().all(|&t| {
-        let (pos, l) = at(t);
-        pos[0] != pos[1] && l == lights
-    });
-    let (end, _) = at(second);
+    let text = match replay::shows(&plan, &records) {
+        Ok(s) => format!(
+            "it follows the lasso step by step (the lights, and whether the robots share a point, after each of its {} steps), and the robots are apart after {} and {} of the cycle's {} steps in its two repetitions; they end at ({}, {}) and ({}, {})",
+            s.steps,
+            s.apart[0],
+            s.apart[1],
+            lasso.cycle.len(),
+            s.end[0].x,
+            s.end[0].y,
+            s.end[1].x,
+            s.end[1].y
+        ),
+        Err(d) => format!(
+            "the simulated run does not show the violation: after step {} (t = {}) the lasso has lights {:?} and the robots {}, the run lights {:?} with the robots at ({}, {}) and ({}, {})",
+            d.step,
+            d.expected.at,
+            d.expected.lights,
+            if d.expected.together { "together" } else { "apart" },
+            d.seen.1,
+            d.seen.0[0].x,
+            d.seen.0[0].y,
+            d.seen.0[1].x,
+            d.seen.0[1].y
+        ),
+    };
     let _ = writeln!(
         out,
-        "replay in the simulator (the stem, then the cycle twice, from t = {from} to {first} and {second}): {}",
-        if shows {
-            format!(
-                "the robots are apart after each repetition, at ({}, {}) and ({}, {}), with the lights they had when it began",
-                end[0].x, end[0].y, end[1].x, end[1].y
-            )
-        } else {
-            "the simulated run does not show the violation (the model's steps between a Compute and its Move do not map onto the simulator's instants here)".to_string()
-        }
+        "replay in the simulator (the stem, then the cycle twice, from t = {from} to {first} and {second}): {text}"
     );
     if let Some(path) = rrd {
-        let built = build()?;
+        let built = replay::build(&replay::scenario(source, model, &plan), &plan)?;
         crate::runner::run(
             built,
             crate::runner::RunOptions {
@@ -584,8 +610,28 @@ fn replay_lasso(
                 },
                 note: Some(format!(
                     "### A lasso of the two-robot model, replayed\n\nThe stem runs from t = 0 to {from}; the cycle, which the adversary can repeat forever, from t = {from} to {first}, and again from {first} to {second}. Each step of the lasso is one simulated second.\n\n{}",
-                    reason(lasso, Liveness::EventuallyAlways)
+                    reason(lasso, kind)
                 )),
+                milestones: vec![
+                    (
+                        from,
+                        format!(
+                            "lasso: the stem ends and the cycle begins (repetition 1 of 2, to t = {first})"
+                        ),
+                    ),
+                    (
+                        first,
+                        format!(
+                            "lasso: the cycle ends where it began at t = {from} and begins again (repetition 2 of 2, to t = {second})"
+                        ),
+                    ),
+                    (
+                        second,
+                        format!(
+                            "lasso: the cycle ends where it began at t = {first}; the adversary can repeat it forever"
+                        ),
+                    ),
+                ],
                 ..Default::default()
             },
         )

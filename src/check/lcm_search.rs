@@ -4,13 +4,15 @@
 //! coverage stated exactly, and a violation replayed in the simulator through the scripted
 //! adversary (`--trace`, `--rrd`).
 
+use std::cell::Cell;
 use std::io::Write;
 use std::sync::Arc;
 
-use nekosim_actors::lcm::search::{self, Goal, Outcome, Problem, Violation};
+use nekosim_actors::lcm::search::{self, Goal, Limits, Outcome, Problem, Violation};
 use nekosim_actors::lcm::settings::AdversaryKind;
 use nekosim_actors::lcm::{LcmSettings, Movement};
 
+use super::lcm::{Halt, Watch};
 use super::{CheckArgs, CheckError, Conclusion, Registry};
 use crate::scenario::{Overrides, Source};
 use nekosim_models::model::Strategy;
@@ -87,11 +89,12 @@ fn problem(source: &Source, registry: &Registry, args: &CheckArgs) -> Result<Pro
     })
 }
 
-/// Searches and reports.
+/// Searches and reports; `watch` stops the search (the resident memory, Ctrl-C).
 pub fn check(
     source: &Source,
     registry: &Registry,
     args: &CheckArgs,
+    watch: &Watch,
     out: &mut dyn Write,
 ) -> Result<Conclusion, CheckError> {
     let p = problem(source, registry, args)?;
@@ -102,21 +105,11 @@ pub fn check(
     };
     let depth = args.depth.unwrap_or(DEPTH);
     let random = matches!(args.strategy, Strategy::Simulation { .. });
-    let outcome = if random {
-        let seed = match args.strategy {
-            Strategy::Simulation { seed } => seed,
-            _ => 0,
-        };
-        let runs = args.max_states.map_or(RUNS, |n| n as u64);
-        search::random(&p, &MENU, depth, runs, 3, seed, &goals)
-    } else {
-        let budget = args.max_states.map_or(u64::MAX, |n| n as u64);
-        search::bounded(&p, &MENU, depth, &goals, budget)
-    };
     let w = |out: &mut dyn Write, line: String| {
         let _ = writeln!(out, "{line}");
     };
     let names: Vec<String> = goals.iter().map(Goal::name).collect();
+    // Said before the search, which may be long, so the person waiting knows what runs.
     w(
         out,
         format!(
@@ -125,8 +118,49 @@ pub fn check(
             names.join(", ")
         ),
     );
+    let _ = out.flush();
+    let halted: Cell<Option<Halt>> = Cell::new(None);
+    let halt = || {
+        let h = watch.halt();
+        halted.set(h);
+        h.is_some()
+    };
+    let outcome = if random {
+        let seed = match args.strategy {
+            Strategy::Simulation { seed } => seed,
+            _ => 0,
+        };
+        let runs = args.max_states.map_or(RUNS, |n| n as u64);
+        search::random(&p, &MENU, depth, runs, 3, seed, &goals, &halt)
+    } else {
+        let max_rounds = args.max_states.map_or(u64::MAX, |n| n as u64);
+        search::bounded(
+            &p,
+            &MENU,
+            depth,
+            &goals,
+            Limits {
+                max_rounds,
+                halt: &halt,
+            },
+        )
+    };
     w(out, coverage_text(&outcome, random));
+    if let Some(h) = halted.get() {
+        w(
+            out,
+            format!("stopped by {} before the search was done", h.text()),
+        );
+    }
+    let interrupted = halted.get() == Some(Halt::Interrupted);
     let Some(v) = outcome.violation else {
+        if interrupted {
+            w(
+                out,
+                "no violation found before Ctrl-C; nothing is claimed".into(),
+            );
+            return Ok(Conclusion::Interrupted);
+        }
         return Ok(if !random && outcome.coverage.complete {
             w(
                 out,
@@ -161,7 +195,7 @@ fn coverage_text(o: &Outcome, random: bool) -> String {
             "searched: every schedule of non-empty subsets with stops {:?}, {} rounds deep{}, {} rounds played, {} configurations at the last depth",
             c.stops,
             c.depth,
-            if c.complete { "" } else { " (a budget stopped the next depth)" },
+            if c.complete { "" } else { " (stopped within the next depth)" },
             c.rounds,
             c.states
         )

@@ -113,6 +113,9 @@ pub trait Canvas {
     fn mark(&mut self, _at: Stamp, _robot: RobotId, _mark: Mark, _label: &str) {}
     /// A document shown beside the drawings (a check's verdict, in Markdown).
     fn note(&mut self, _markdown: &str) {}
+    /// A line of the log at an instant the recording marks (where a replayed lasso's stem
+    /// ends and its cycle's repetitions begin and end), so the instant is on the timeline.
+    fn milestone(&mut self, _at: Stamp, _text: &str) {}
     /// The messages in flight on `layer` as packets along their arrows, at `at`.
     fn packets(&mut self, _at: Stamp, _layer: &str, _colour: Rgb, _packets: &[Point]) {}
     /// The run's figures.

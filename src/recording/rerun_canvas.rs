@@ -836,6 +836,14 @@ impl Canvas for RerunCanvas {
         );
     }
 
+    fn milestone(&mut self, at: Stamp, text: &str) {
+        self.row(
+            "log/milestones",
+            Some(at),
+            &archetypes::TextLog::new(text).with_level(rerun::TextLogLevel::INFO),
+        );
+    }
+
     fn metrics(&mut self, at: Stamp, m: &Metrics) {
         self.metrics.push(at, *m);
         if self.metrics.len() >= FLUSH_ROWS {

@@ -915,17 +915,19 @@ fn check_phases(cycles: &[Vec<Cycle>], lights: &[(usize, f64, Light, Option<Ligh
         }
     }
     // A light changes at time 0 (the adversary's first colour), at a Look (the new colour
-    // being written) and at the end of a Compute (the new colour shown), to what was decided.
+    // being written) and at the end of a Compute (the new colour shown), to what was decided;
+    // under a safe register a Compute that keeps its colour writes it too.
+    let kept = |c: &Cycle| s.register == Register::Safe && c.computed == Some(None);
     for (k, &(r, t, l, pending)) in lights.iter().enumerate() {
         let cs = &cycles[r];
         let ok = match pending {
             Some(p) => cs
                 .iter()
-                .any(|c| c.look == t && c.computed == Some(Some(p))),
+                .any(|c| c.look == t && (c.computed == Some(Some(p)) || (kept(c) && p == l))),
             None if t == 0.0 && !lights[..k].iter().any(|x| x.0 == r) => true,
             None => cs
                 .iter()
-                .any(|c| c.compute_end == t && c.computed == Some(Some(l))),
+                .any(|c| c.compute_end == t && (c.computed == Some(Some(l)) || kept(c))),
         };
         assert!(
             ok,

@@ -6,8 +6,11 @@
 
 use std::path::PathBuf;
 use std::process::Command;
+use std::sync::{Mutex, OnceLock};
 
-use nekosim::check::lcm::{decide, rule_table_of, RobotFairness, Variant};
+use nekosim::check::lcm::{
+    decide, replay, rule_table_of, Abstraction, RobotFairness, State, Step, Variant,
+};
 use nekosim::lcm::rule_table::{Move, RuleConfig, RuleTable, RuleTableConfig};
 use nekosim::lcm::settings::Lights;
 use nekosim::scenario::Source;
@@ -58,15 +61,89 @@ fn gathers(t: &RuleTable, variant: Variant, rigid: bool, fairness: RobotFairness
     matches!(d.verdict, Verdict::Holds)
 }
 
-fn row(t: &RuleTable, rigid: bool) -> String {
-    Variant::ALL
-        .iter()
-        .map(|&v| {
-            if gathers(t, v, rigid, RobotFairness::SpinLight) {
-                'P'
-            } else {
-                '-'
+/// One shipped table under one variant and movement, decided under spin-light's fairness.
+struct Case {
+    name: String,
+    source: Source,
+    table: RuleTable,
+    lights: Lights,
+    variant: Variant,
+    rigid: bool,
+    verdict: Verdict<State, Step>,
+}
+
+/// Every shipped table under each of the 12 variants, rigid and non-rigid: decided once, on
+/// two threads, for every test that reads them (the largest models take seconds each in a
+/// debug build).
+fn every_case() -> &'static [Case] {
+    static CASES: OnceLock<Vec<Case>> = OnceLock::new();
+    CASES.get_or_init(|| {
+        let mut todo = Vec::new();
+        for (name, _) in shipped() {
+            let source = Source::load(&root().join(format!("examples/lcm/{name}.ron"))).unwrap();
+            let (table, lights) = rule_table_of(&source).unwrap().unwrap();
+            for variant in Variant::ALL {
+                for rigid in [true, false] {
+                    todo.push((
+                        name.clone(),
+                        source.clone(),
+                        table.clone(),
+                        lights,
+                        variant,
+                        rigid,
+                    ));
+                }
             }
+        }
+        let n = todo.len();
+        let todo = Mutex::new(todo.into_iter().enumerate().collect::<Vec<_>>());
+        let done = Mutex::new(Vec::with_capacity(n));
+        std::thread::scope(|scope| {
+            for _ in 0..2 {
+                scope.spawn(|| loop {
+                    let Some((i, (name, source, table, lights, variant, rigid))) =
+                        todo.lock().unwrap().pop()
+                    else {
+                        break;
+                    };
+                    let verdict = decide(
+                        &table,
+                        lights,
+                        variant,
+                        rigid,
+                        RobotFairness::SpinLight,
+                        Liveness::EventuallyAlways,
+                        Limits::default(),
+                    )
+                    .expect("small")
+                    .verdict;
+                    let case = Case {
+                        name,
+                        source,
+                        table,
+                        lights,
+                        variant,
+                        rigid,
+                        verdict,
+                    };
+                    done.lock().unwrap().push((i, case));
+                });
+            }
+        });
+        let mut done = done.into_inner().unwrap();
+        done.sort_by_key(|c| c.0);
+        done.into_iter().map(|c| c.1).collect()
+    })
+}
+
+/// The verdicts of `name`'s cases of one movement, in [`Variant::ALL`] order: `P` holds.
+fn row(name: &str, rigid: bool) -> String {
+    every_case()
+        .iter()
+        .filter(|c| c.name == name && c.rigid == rigid)
+        .map(|c| match c.verdict {
+            Verdict::Holds => 'P',
+            Verdict::Fails(_) => '-',
         })
         .collect()
 }
@@ -102,9 +179,9 @@ fn the_verdict_table_of_every_shipped_rule_table() {
         tables.iter().map(|(n, _)| n.as_str()).collect::<Vec<_>>(),
         TABLE.map(|r| r.0).to_vec()
     );
-    for ((name, t), (_, rigid, non_rigid)) in tables.iter().zip(TABLE) {
-        assert_eq!(row(t, true), rigid, "{name}, rigid");
-        assert_eq!(row(t, false), non_rigid, "{name}, non-rigid");
+    for ((name, _), (_, rigid, non_rigid)) in tables.iter().zip(TABLE) {
+        assert_eq!(row(name, true), rigid, "{name}, rigid");
+        assert_eq!(row(name, false), non_rigid, "{name}, non-rigid");
     }
 }
 
@@ -460,9 +537,9 @@ fn spin_agrees_on_a_sample_of_tables_and_variants() {
 }
 
 /// A lasso replays in the simulator: to-half under SSYNC, the stem once and the cycle twice
-/// through the scripted adversary, shows the robots apart after each repetition with the
-/// lights they had when it began; under ASYNC too (one phase a step, each a second), for
-/// Viglietta's two colours; and the replay is recorded with `--rrd`.
+/// through the scripted adversary, follows the lasso step by step with the robots apart in
+/// each repetition; under ASYNC too (one phase a step, each a second), for Viglietta's two
+/// colours; and the replay is recorded with `--rrd`.
 #[test]
 fn a_lasso_replays_in_the_simulator() {
     let dir = tempfile::tempdir().unwrap();
@@ -486,11 +563,151 @@ fn a_lasso_replays_in_the_simulator() {
         let text = String::from_utf8_lossy(&out.stdout);
         assert_eq!(out.status.code(), Some(1), "{example}: {text}");
         assert!(
-            text.contains("the robots are apart after each repetition"),
+            text.contains("it follows the lasso step by step")
+                && text.contains("and the robots are apart after"),
             "{example} under {synchrony}: {text}"
         );
         if record && cfg!(feature = "rerun") {
             assert!(std::fs::metadata(&rrd).map(|m| m.len()).unwrap_or(0) > 1_000);
         }
     }
+}
+
+/// Every lasso of every shipped table, under each of the 12 variants, rigid and non-rigid,
+/// replays in the simulator and shows its violation: after each step of the stem and of the
+/// cycle's two repetitions the simulated run has the model's lights, and its robots share a
+/// point exactly when the model's do, and in each repetition the robots are apart.
+#[test]
+fn every_lasso_of_the_shipped_tables_replays_its_violation() {
+    let mut replayed = 0;
+    let mut failing = Vec::new();
+    for c in every_case() {
+        let Verdict::Fails(lasso) = &c.verdict else {
+            continue;
+        };
+        let case = format!("{} under {:?}, rigid {}", c.name, c.variant, c.rigid);
+        let model = Abstraction {
+            table: &c.table,
+            lights: c.lights,
+            variant: c.variant,
+            rigid: c.rigid,
+            bound: None,
+        };
+        let plan = replay::replay(&model, lasso)
+            .unwrap_or_else(|| panic!("{case}: the lasso has a cycle"));
+        let records = replay::simulate(&c.source, &model, &plan).expect("the replay runs");
+        match replay::shows(&plan, &records) {
+            Ok(s) if s.apart.iter().all(|&n| n > 0) => {}
+            other => failing.push((case, other)),
+        }
+        replayed += 1;
+    }
+    assert!(
+        failing.is_empty(),
+        "{} of {replayed} replays do not show their violation: {failing:#?}",
+        failing.len()
+    );
+    // Every `-` of the verdict table is a lasso replayed here.
+    let fails: usize = TABLE
+        .iter()
+        .map(|(_, r, n)| r.matches('-').count() + n.matches('-').count())
+        .sum();
+    assert_eq!(replayed, fails);
+    eprintln!("{replayed} lassos replayed, each showing its violation");
+}
+
+/// Runs `nekosim check ARGS` in the crate's root, sends it what a terminal's Ctrl-C sends
+/// once its report's first line (`first`) is out and `wait` has passed, and returns its exit
+/// code and report.
+pub(crate) fn interrupted(
+    args: &[&str],
+    first: &str,
+    wait: std::time::Duration,
+) -> (Option<i32>, String) {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let mut child = nekosim_bin()
+        .arg("check")
+        .args(args)
+        .current_dir(root())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let mut out = String::new();
+    for line in lines.by_ref() {
+        let line = line.unwrap();
+        out.push_str(&line);
+        out.push('\n');
+        if line.starts_with(first) {
+            break;
+        }
+    }
+    assert!(out.contains(first), "{out}");
+    std::thread::sleep(wait);
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    for line in lines {
+        out.push_str(&line.unwrap());
+        out.push('\n');
+    }
+    (child.wait().unwrap().code(), out)
+}
+
+/// The exhaustive check honours its budgets as a stack check does: a memory budget the
+/// process is already above stops it before its first state (exit 3, saying what stopped it
+/// and how far it went), and Ctrl-C during a long exploration (six colours under a safe
+/// register, up to 255 steps in a row) stops it too (exit 130), with what it covered. A
+/// budget of 1 GiB keeps a lost signal from running the test out of memory: it would end in
+/// exit 3, not 130.
+#[test]
+fn the_exhaustive_check_stops_at_its_memory_budget_and_at_ctrl_c() {
+    let out = nekosim_bin()
+        .args([
+            "check",
+            "examples/lcm/optimal_2.ron",
+            "--max-memory",
+            "1KiB",
+        ])
+        .current_dir(root())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(3), "{text}");
+    assert!(
+        text.contains("open (stopped by the memory budget (resident ")
+            && text.contains(
+                " of 1.0 KiB) after 0 states explored, before the search was exhaustive)"
+            ),
+        "{text}"
+    );
+    let (code, text) = interrupted(
+        &[
+            "examples/lcm/regular_6.ron",
+            "--synchrony",
+            "async",
+            "--register",
+            "safe",
+            "--movement",
+            "non-rigid",
+            "--fairness",
+            "bounded:255",
+            "--max-memory",
+            "1GiB",
+        ],
+        "model: ",
+        std::time::Duration::from_millis(500),
+    );
+    assert_eq!(code, Some(130), "{text}");
+    let explored: u64 = text
+        .split("open (stopped by Ctrl-C after ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{text}"));
+    assert!(explored > 0, "{text}");
 }

@@ -10,7 +10,7 @@ use nekosim::config::Setting;
 use nekosim::lcm::algorithms::{CentreOfGravity, NoConfig};
 use nekosim::lcm::predicate::diameter;
 use nekosim::lcm::record::LcmRecord;
-use nekosim::lcm::search::{self, Goal, Problem};
+use nekosim::lcm::search::{self, Goal, Limits, Problem};
 use nekosim::lcm::settings::Movement;
 use nekosim::lcm::{Decision, Lcm, LcmConfigured, LcmSettings, LookComputeMove, Synchrony, View};
 use nekosim::protocols::FieldError;
@@ -62,6 +62,14 @@ fn problem(buggy: bool) -> Problem {
 
 const MENU: [f64; 2] = [0.5, 1.0];
 
+/// A search's limits of `max_rounds` rounds, never halted otherwise.
+fn rounds(max_rounds: u64) -> Limits<'static> {
+    Limits {
+        max_rounds,
+        halt: &|| false,
+    }
+}
+
 /// The correct centre of gravity keeps every robot inside the others' hull: no schedule of
 /// the menu to depth 3 makes the diameter grow, and the search says it covered them all.
 #[test]
@@ -71,7 +79,7 @@ fn the_correct_centre_of_gravity_never_grows_its_diameter() {
         &MENU,
         3,
         &[Goal::DiameterNeverGrows],
-        1_000_000,
+        rounds(1_000_000),
     );
     assert_eq!(out.violation, None);
     assert!(out.coverage.complete);
@@ -84,13 +92,15 @@ fn the_correct_centre_of_gravity_never_grows_its_diameter() {
 #[test]
 fn the_search_finds_the_overshooting_robot_and_the_simulator_replays_it() {
     let p = problem(true);
-    let found = search::bounded(&p, &MENU, 3, &[Goal::DiameterNeverGrows], 1_000_000)
+    let found = search::bounded(&p, &MENU, 3, &[Goal::DiameterNeverGrows], rounds(1_000_000))
         .violation
         .expect("a violation");
     assert_eq!(found.goal, Goal::DiameterNeverGrows);
     assert_eq!(found.schedule.0.len(), 1, "{found:?}");
     assert!(found.schedule.0[0].active.contains(&0), "{found:?}");
-    let random = search::random(&p, &MENU, 4, 50, 2, 7, &[Goal::DiameterNeverGrows]);
+    let random = search::random(&p, &MENU, 4, 50, 2, 7, &[Goal::DiameterNeverGrows], &|| {
+        false
+    });
     assert!(random.violation.is_some(), "{:?}", random.coverage);
 
     // The replay: the same robots, the schedule as a scripted adversary.
@@ -137,14 +147,23 @@ fn the_search_finds_the_overshooting_robot_and_the_simulator_replays_it() {
 #[test]
 fn a_searched_schedule_replays_exactly() {
     let p = problem(false);
-    let out = search::random(&p, &MENU, 5, 1, 1, 3, &[]);
+    let out = search::random(&p, &MENU, 5, 1, 1, 3, &[], &|| false);
     assert_eq!(out.violation, None);
     assert_eq!(out.coverage.rounds, 5);
     // Rebuild the run's schedule the way the search drew it: a random run with no goals
     // reports none, so search again with a goal that breaks at the end.
-    let last = search::random(&p, &MENU, 5, 1, 1, 3, &[Goal::GatheredWithin { cycles: 0 }])
-        .violation
-        .expect("not gathered at once");
+    let last = search::random(
+        &p,
+        &MENU,
+        5,
+        1,
+        1,
+        3,
+        &[Goal::GatheredWithin { cycles: 0 }],
+        &|| false,
+    )
+    .violation
+    .expect("not gathered at once");
     let schedule = last.schedule;
     let expected = search::positions(&p, &schedule);
     let born: Vec<String> = BORN
@@ -252,4 +271,102 @@ fn the_check_command_searches_and_replays() {
 
     let out = check(&["--goal", "gathered-within:x"]);
     assert_eq!(out.status.code(), Some(2));
+}
+
+/// A search asks its halt before its first round and every `POLL_EVERY` rounds after, and
+/// stops when told: a halt that says stop at its second question ends the bounded search
+/// after exactly `POLL_EVERY` rounds, incomplete, and the random one before its next run.
+#[test]
+fn a_search_stops_when_its_halt_says_so() {
+    let p = problem(false);
+    let asked = std::cell::Cell::new(0);
+    let halt = || {
+        asked.set(asked.get() + 1);
+        asked.get() >= 2
+    };
+    let limits = Limits {
+        max_rounds: u64::MAX,
+        halt: &halt,
+    };
+    let out = search::bounded(&p, &MENU, 8, &[Goal::DiameterNeverGrows], limits);
+    assert_eq!(out.violation, None);
+    assert!(
+        out.coverage.halted && !out.coverage.complete,
+        "{:?}",
+        out.coverage
+    );
+    assert_eq!(out.coverage.rounds, search::POLL_EVERY);
+    assert_eq!(asked.get(), 2);
+    asked.set(0);
+    let out = search::random(
+        &p,
+        &MENU,
+        5,
+        10_000,
+        2,
+        1,
+        &[Goal::DiameterNeverGrows],
+        &halt,
+    );
+    assert_eq!(out.violation, None);
+    assert!(out.coverage.halted, "{:?}", out.coverage);
+    // Runs of 5 rounds: the second question comes at the first run that starts at or after
+    // round POLL_EVERY.
+    assert_eq!(out.coverage.rounds, search::POLL_EVERY.next_multiple_of(5));
+    assert_eq!(out.coverage.runs, out.coverage.rounds / 5);
+}
+
+/// `nekosim check` on a search honours its budgets: a memory budget the process is already
+/// above stops the bounded and the random search before their first round (exit 3, saying
+/// what stopped them and what they covered), and Ctrl-C stops a deep bounded search
+/// (exit 130) with what it covered. A budget of 1 GiB keeps a lost signal from running the
+/// test out of memory: it would end in exit 3, not 130.
+#[test]
+fn the_search_stops_at_its_memory_budget_and_at_ctrl_c() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = dir.path().join("three.ron");
+    std::fs::write(
+        &scenario,
+        "Scenario(seed: 11, until: 10.0, world: (size: Infinite, ghost_mode: true),
+           lcm: (synchrony: Ssync, movement: NonRigid(delta: 1.0)),
+           robots: [Group(count: 3, radius: 0.5,
+                          born: Points([(0.0, 0.0), (40.0, 10.0), (12.0, -31.0)]),
+                          algorithm: CentreOfGravity())])",
+    )
+    .unwrap();
+    let path = scenario.to_str().unwrap();
+    for strategy in [&[][..], &["--strategy", "simulation"][..]] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_nekosim"))
+            .args(["check", path, "--max-memory", "1KiB"])
+            .args(strategy)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(3), "{strategy:?}: {text}");
+        assert!(text.contains(" 0 rounds played"), "{strategy:?}: {text}");
+        assert!(
+            text.contains("stopped by the memory budget (resident ")
+                && text.contains(" of 1.0 KiB) before the search was done"),
+            "{strategy:?}: {text}"
+        );
+    }
+    let (code, text) = crate::lcm_check::interrupted(
+        &[
+            path,
+            "--goal",
+            "diameter-never-grows",
+            "--depth",
+            "12",
+            "--max-memory",
+            "1GiB",
+        ],
+        "searching 3 robots",
+        std::time::Duration::from_millis(500),
+    );
+    assert_eq!(code, Some(130), "{text}");
+    assert!(
+        text.contains("stopped by Ctrl-C before the search was done"),
+        "{text}"
+    );
+    assert!(text.contains("(stopped within the next depth)"), "{text}");
 }

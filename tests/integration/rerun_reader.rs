@@ -657,8 +657,9 @@ fn lcm_lights_and_snapshots_read_back() {
 }
 
 /// A lasso replayed in the simulator is recorded with a document beside the drawings that
-/// marks where its stem ends and where each repetition of its cycle begins and ends, read
-/// back with the official reader.
+/// marks where its stem ends and where each repetition of its cycle begins and ends, and with
+/// a log line at each of those instants (`log/milestones`), so they are on the viewer's
+/// timeline; both read back with the official reader.
 #[test]
 fn a_replayed_lasso_recording_marks_its_cycle() {
     let py = python();
@@ -693,5 +694,41 @@ fn a_replayed_lasso_recording_marks_its_cycle() {
     assert!(
         doc.contains("The stem runs from t = 0 to 2; the cycle, which the adversary can repeat forever, from t = 2 to 4, and again from 4 to 6"),
         "{doc}"
+    );
+    // The milestones: one log row at each mark, on sim_time, as `sim_ns<TAB>level<TAB>text`.
+    let rows = run(Command::new(&py)
+        .arg("-c")
+        .arg(
+            "import sys; sys.path.insert(0, sys.argv[1]); import verify_rrd as v; \
+             from pathlib import Path; \
+             rows = v.Rows(Path(sys.argv[2])).by_entity['/log/milestones']; \
+             [print(f\"{t}\\t{c['TextLog:level'][0]}\\t{c['TextLog:text'][0]}\") for t, _, _, c in sorted(rows, key=lambda r: r[0])]",
+        )
+        .arg(root().join("tests/rerun"))
+        .arg(&rrd));
+    let rows: Vec<(i64, &str, &str)> = rows
+        .lines()
+        .map(|l| {
+            let mut f = l.splitn(3, '\t');
+            let t = f.next().unwrap().parse().unwrap();
+            (t, f.next().unwrap(), f.next().unwrap())
+        })
+        .collect();
+    let at: Vec<i64> = rows.iter().map(|r| r.0).collect();
+    assert_eq!(
+        at,
+        [2_000_000_000, 4_000_000_000, 6_000_000_000],
+        "{rows:?}"
+    );
+    assert!(rows.iter().all(|r| r.1 == "INFO"), "{rows:?}");
+    assert!(
+        rows[0]
+            .2
+            .contains("the stem ends and the cycle begins (repetition 1 of 2, to t = 4)")
+            && rows[1]
+                .2
+                .contains("begins again (repetition 2 of 2, to t = 6)")
+            && rows[2].2.contains("the adversary can repeat it forever"),
+        "{rows:?}"
     );
 }

@@ -26,6 +26,8 @@ pub struct Plan {
     pub move_start: f64,
     pub move_end: f64,
     pub stop: Option<f64>,
+    /// What the Look reads of a light being written, where the register allows it.
+    pub read: Option<super::view::Light>,
     /// The round it belongs to, under a synchrony model of rounds.
     pub round: Option<u64>,
 }
@@ -81,6 +83,7 @@ impl Adversary {
                         move_start: a.start_move.unwrap_or(a.compute),
                         move_end: a.move_end,
                         stop: a.stop,
+                        read: a.read,
                         round: None,
                     });
                 }
@@ -107,6 +110,7 @@ impl Adversary {
                 move_start: start + t / 4.0,
                 move_end: start + 3.0 * t / 4.0,
                 stop: None,
+                read: None,
                 round: Some(k),
             });
         }
@@ -126,6 +130,7 @@ impl Adversary {
             move_start: look + compute,
             move_end: look + compute + moving,
             stop: None,
+            read: None,
             round: None,
         })
     }
@@ -163,6 +168,7 @@ impl Adversary {
             move_start,
             move_end,
             stop: None,
+            read: None,
             round: None,
         }
     }

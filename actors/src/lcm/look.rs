@@ -2,7 +2,7 @@
 //! exact positions at that instant (robots in mid-move included, from the motion formulas) and
 //! their lights. A light being written is read through the scenario's register: its shown
 //! colour (atomic), the old or the new one (regular), or any colour (safe); the choice is the
-//! sensor's own seeded stream's.
+//! sensor's own seeded stream's, unless a scripted adversary names the colour.
 
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -18,12 +18,15 @@ use crate::world::RobotId;
 pub const LOOK: &str = "look";
 
 /// What a Look asks: how far it sees (`None`: everything), which register lights are read
-/// through, and how many colours a safe register may return.
+/// through, how many colours a safe register may return, and the colour a scripted adversary
+/// has a light being written read as, where the register allows it.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LookQuery {
     pub range: Option<f64>,
     pub register: Register,
     pub colours: u8,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub read: Option<Light>,
 }
 
 /// One robot as the world holds it at the Look instant.
@@ -93,16 +96,19 @@ impl SensorModel for Look {
 
     fn reply(q: &LookQuery, (me, others): Self::Reading, rng: &mut ChaCha8Rng) -> Snapshot {
         let read = |l: Option<LightState>, rng: &mut ChaCha8Rng| {
-            l.map(|l| match (l.pending, q.register) {
-                (None, _) | (Some(_), Register::Atomic) => l.shown,
-                (Some(new), Register::Regular) => {
+            l.map(|l| match (l.pending, q.register, q.read) {
+                (None, _, _) | (Some(_), Register::Atomic, _) => l.shown,
+                // A scripted adversary's choice, among what the register may return.
+                (Some(new), Register::Regular, Some(c)) if c == new || c == l.shown => c,
+                (Some(_), Register::Safe, Some(c)) if c < q.colours => c,
+                (Some(new), Register::Regular, _) => {
                     if rng.gen_bool(0.5) {
                         new
                     } else {
                         l.shown
                     }
                 }
-                (Some(_), Register::Safe) => rng.gen_range(0..q.colours),
+                (Some(_), Register::Safe, _) => rng.gen_range(0..q.colours),
             })
         };
         Snapshot {

@@ -21,7 +21,7 @@ use super::frame::Frame;
 use super::glide::Glide;
 use super::look::{Look, LookQuery, Snapshot, LOOK};
 use super::record::LcmRecord;
-use super::settings::{Detection, LcmSettings, Roster};
+use super::settings::{Detection, LcmSettings, Register, Roster};
 use super::view::{snap, Light, LightState, LookComputeMove, Multiplicity, Seen, View};
 use crate::config::{Configured, Setting};
 use crate::robot::{Algorithm, AlgorithmFuture, Robot};
@@ -123,6 +123,7 @@ async fn cycles<A: LookComputeMove + ?Sized>(
         range: settings.visibility,
         register: settings.register,
         colours,
+        read: None,
     };
     let mut cycle = 0u64;
     while let Some(plan) = adversary.next(robot.now()) {
@@ -135,6 +136,10 @@ async fn cycles<A: LookComputeMove + ?Sized>(
             round: plan.round,
         }));
         wait_until(&robot, plan.look).await;
+        let query = LookQuery {
+            read: plan.read,
+            ..query
+        };
         let snapshot = match robot.read::<Look>(LOOK, &query).await {
             Ok(s) => s,
             Err(e) => {
@@ -171,7 +176,11 @@ async fn cycles<A: LookComputeMove + ?Sized>(
             to,
             light: new,
         }));
-        compute(&robot, &plan, &mut light, new).await;
+        // A Compute writes the light even when it keeps its colour (spin-light's Robots.pml);
+        // only a safe register, whose reads during a write may return any colour, tells such
+        // a write from none, so only there is it made.
+        let writes = new.or((settings.register == Register::Safe && colours > 1).then_some(light));
+        compute(&robot, &plan, &mut light, writes).await;
         let at = go(&robot, &mut adversary, &plan, snapshot.me, to, cycle).await;
         robot.record(Observation::Lcm(LcmRecord::Wait {
             robot: id,

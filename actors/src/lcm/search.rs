@@ -103,6 +103,7 @@ impl Schedule {
                     start_move: None,
                     move_end: start + 3.0 * cycle / 4.0,
                     stop: Some(stop),
+                    read: None,
                 });
             }
         }
@@ -155,6 +156,40 @@ pub struct Coverage {
     /// Whether the bounded search went through its whole menu to its depth (false when a
     /// budget stopped it).
     pub complete: bool,
+    /// Whether the caller's [`Limits::halt`] stopped it.
+    pub halted: bool,
+}
+
+/// What a bounded search may spend: at most `max_rounds` rounds; and either search stops as
+/// soon as `halt`, asked before the first round and every [`POLL_EVERY`] rounds after, says so
+/// (the caller's memory budget, Ctrl-C).
+#[derive(Clone, Copy)]
+pub struct Limits<'a> {
+    pub max_rounds: u64,
+    pub halt: &'a dyn Fn() -> bool,
+}
+
+impl std::fmt::Debug for Limits<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Limits")
+            .field("max_rounds", &self.max_rounds)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Rounds between two questions to [`Limits::halt`].
+pub const POLL_EVERY: u64 = 1024;
+
+impl Coverage {
+    /// Whether the caller's halt stops the search before the next round: asked once the
+    /// rounds played reach `*next`, which then moves [`POLL_EVERY`] rounds on.
+    fn halt(&mut self, next: &mut u64, halt: &dyn Fn() -> bool) -> bool {
+        if !self.halted && self.rounds >= *next {
+            *next = self.rounds + POLL_EVERY;
+            self.halted = halt();
+        }
+        self.halted
+    }
 }
 
 /// A search's outcome.
@@ -279,6 +314,7 @@ impl Problem {
                     move_start: 0.0,
                     move_end: 1.0,
                     stop: Some(stop),
+                    read: None,
                     round: None,
                 };
                 let reach = w.adversaries[i].stop(&plan, length);
@@ -423,17 +459,10 @@ fn key(w: &World, depth: usize) -> Key {
     )
 }
 
-/// Every schedule of the menu's rounds up to `depth` rounds, until a goal breaks or
-/// `max_rounds` rounds have been played (at most 12 robots: every subset is a round). The
-/// depth grows one round at a time (iterative deepening), so a violation found is one of the
-/// shortest.
-pub fn bounded(
-    p: &Problem,
-    menu: &[f64],
-    depth: usize,
-    goals: &[Goal],
-    max_rounds: u64,
-) -> Outcome {
+/// Every schedule of the menu's rounds up to `depth` rounds, until a goal breaks or `limits`
+/// stop it (at most 12 robots: every subset is a round). The depth grows one round at a time
+/// (iterative deepening), so a violation found is one of the shortest.
+pub fn bounded(p: &Problem, menu: &[f64], depth: usize, goals: &[Goal], limits: Limits) -> Outcome {
     let stops = p.stops(menu);
     let all = rounds(p.start.len().min(12), &stops);
     let mut coverage = Coverage {
@@ -453,7 +482,7 @@ pub fn bounded(
             &first,
             limit,
             goals,
-            max_rounds,
+            limits,
             &mut path,
             &mut seen,
             &mut coverage,
@@ -480,7 +509,7 @@ fn dfs(
     w: &World,
     left: usize,
     goals: &[Goal],
-    max_rounds: u64,
+    limits: Limits,
     path: &mut Vec<Round>,
     seen: &mut HashSet<Key>,
     coverage: &mut Coverage,
@@ -490,7 +519,9 @@ fn dfs(
         return None;
     }
     for round in all {
-        if coverage.rounds >= max_rounds {
+        // Rounds are played one at a time: the halt is asked at each multiple of POLL_EVERY.
+        let mut ask = coverage.rounds.next_multiple_of(POLL_EVERY);
+        if coverage.rounds >= limits.max_rounds || coverage.halt(&mut ask, limits.halt) {
             coverage.complete = false;
             return None;
         }
@@ -507,17 +538,7 @@ fn dfs(
             });
         }
         if seen.insert(key(&next, left - 1)) {
-            if let Some(v) = dfs(
-                p,
-                all,
-                &next,
-                left - 1,
-                goals,
-                max_rounds,
-                path,
-                seen,
-                coverage,
-            ) {
+            if let Some(v) = dfs(p, all, &next, left - 1, goals, limits, path, seen, coverage) {
                 return Some(v);
             }
         }
@@ -527,7 +548,8 @@ fn dfs(
 }
 
 /// `runs` random schedules of `depth` rounds with `d - 1` priority changes each, seeded with
-/// `seed`, until a goal breaks.
+/// `seed`, until a goal breaks or `halt` stops it (asked as [`Limits::halt`] is).
+#[allow(clippy::too_many_arguments)]
 pub fn random(
     p: &Problem,
     menu: &[f64],
@@ -536,6 +558,7 @@ pub fn random(
     d: usize,
     seed: u64,
     goals: &[Goal],
+    halt: &dyn Fn() -> bool,
 ) -> Outcome {
     let stops = p.stops(menu);
     let n = p.start.len();
@@ -546,7 +569,11 @@ pub fn random(
         ..Coverage::default()
     };
     let mut chooser = ChaCha8Rng::seed_from_u64(seed);
+    let mut ask = 0;
     for _ in 0..runs {
+        if coverage.halt(&mut ask, halt) {
+            break;
+        }
         coverage.runs += 1;
         let mut priority: Vec<usize> = (0..n).collect();
         priority.shuffle(&mut chooser);

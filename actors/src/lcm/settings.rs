@@ -101,8 +101,10 @@ pub enum Detection {
 }
 
 /// One activation of a scripted adversary: when `robot` Looks, when its Compute ends, when its
-/// Move starts (`start_move`, at the end of the Compute when omitted) and ends, and where a
-/// non-rigid move stops (the fraction of the way, 1 when omitted).
+/// Move starts (`start_move`, at the end of the Compute when omitted) and ends, where a
+/// non-rigid move stops (the fraction of the way, 1 when omitted), and what the Look reads of a
+/// light being written (`read`, where the register allows that colour; the register's draw when
+/// omitted).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Activation {
@@ -115,6 +117,8 @@ pub struct Activation {
     pub move_end: f64,
     #[serde(default)]
     pub stop: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub read: Option<super::view::Light>,
 }
 
 /// Who schedules the robots.

@@ -224,6 +224,42 @@ impl Abstraction<'_> {
         }
     }
 
+    /// The colours robot `me`'s Look in `s` may read of the other's light: the one it shows,
+    /// or, while the other computes, what the variant's register returns.
+    pub fn readable(&self, s: &State, me: usize) -> Vec<Light> {
+        let o = s.robots[1 - me];
+        if !o.computing {
+            return vec![o.light];
+        }
+        match self.variant.register() {
+            Register::Atomic => vec![o.light],
+            Register::Regular => vec![o.pending_light, o.light],
+            Register::Safe => (0..self.colours()).collect(),
+        }
+    }
+
+    /// Robot `me`'s Look in `s` having read `seen` of the other's light: the state after it.
+    pub fn look(&self, s: &State, me: usize, seen: Light) -> State {
+        let o = s.robots[1 - me];
+        let mut t = *s;
+        let same = t.position == Position::Same;
+        let (go, light) = self.compute(t.robots[me].light, seen, same);
+        let go = match go {
+            Move::Stay => Pending::Stay,
+            Move::ToHalf => Pending::ToHalf,
+            Move::ToOther => Pending::ToOther,
+        };
+        t.robots[me].command = (go, light);
+        t.robots[me].pending = if same && !o.moving {
+            Pending::Stay
+        } else if o.moving && go != Pending::Stay {
+            Pending::Miss
+        } else {
+            go
+        };
+        t
+    }
+
     /// Robot `me` runs `phase` in `s`; a Look under a regular or safe register may read
     /// several colours, so each outcome is pushed onto `out`.
     fn run(&self, s: &State, me: usize, phase: Phase, out: &mut Vec<State>) {
@@ -231,34 +267,9 @@ impl Abstraction<'_> {
         let mut s = *s;
         match phase {
             Phase::Look => {
-                let o = s.robots[other];
-                let seen: Vec<Light> = if o.computing {
-                    match self.variant.register() {
-                        Register::Atomic => vec![o.light],
-                        Register::Regular => vec![o.pending_light, o.light],
-                        Register::Safe => (0..self.colours()).collect(),
-                    }
-                } else {
-                    vec![o.light]
-                };
                 let mut outcomes: Vec<State> = Vec::new();
-                for c in seen {
-                    let mut t = s;
-                    let same = t.position == Position::Same;
-                    let (go, light) = self.compute(t.robots[me].light, c, same);
-                    let go = match go {
-                        Move::Stay => Pending::Stay,
-                        Move::ToHalf => Pending::ToHalf,
-                        Move::ToOther => Pending::ToOther,
-                    };
-                    t.robots[me].command = (go, light);
-                    t.robots[me].pending = if same && !o.moving {
-                        Pending::Stay
-                    } else if o.moving && go != Pending::Stay {
-                        Pending::Miss
-                    } else {
-                        go
-                    };
+                for c in self.readable(&s, me) {
+                    let t = self.look(&s, me, c);
                     if !outcomes.contains(&t) {
                         outcomes.push(t);
                     }
