@@ -145,8 +145,13 @@ pub fn check_core(
             let mut source = Source::load(std::path::Path::new(&args.model))?;
             hosted.rewrite(&mut source);
             if source.scenario.lcm.is_some() && source.scenario.stack.is_empty() {
-                return hosted
-                    .building(|| check::lcm_search::check(&source, &registry, &args, &mut out));
+                let watch = check::lcm::Watch {
+                    max_memory: args.max_memory.or_else(check::default_memory_budget),
+                    interrupt: None,
+                };
+                return hosted.building(|| {
+                    check::lcm_search::check(&source, &registry, &args, &watch, &mut out)
+                });
             }
         }
         check::check_live(&args, &registry, &mut out, &Live::default())
