@@ -185,6 +185,13 @@ fn broken_variants_fail_the_same_properties() {
             ("reliable-broadcast", 32, 32),
         ]
     );
+    // A wrong composition: reliable broadcast on a lossy network, where the reduction does
+    // not take effect.
+    let lossy = network(NetworkKind::Lossy, opts(3, 1));
+    let (model, on, off) = both("reliable-broadcast", &lossy, |_, _| {});
+    assert!(!off.verdict("agreement").unwrap().holds);
+    same_verdicts("lossy reliable-broadcast", &model, &on, &off);
+    assert_eq!(on.unique_states, off.unique_states);
 }
 
 /// Chandra-Toueg deciding on a minority, with a false suspicion, fails agreement either way;
