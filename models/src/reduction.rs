@@ -13,7 +13,7 @@
 //! enter a reduced set.
 //!
 //! **Persistence** (Godefroid 1996, *Partial-Order Methods for the Verification of Concurrent
-//! Systems*, LNCS 1032, def. 4.1): the steps of a set `S` of processes form a persistent set
+//! Systems*, LNCS 1032, ch. 4): the steps of a set `S` of processes form a persistent set
 //! at `s` when no path from `s` made of other processes' steps can enable a step of `S`
 //! before `S` moves. Other processes' steps never touch the state of `S`; they can only send
 //! to it. On an **ordered** network a message to `p` waits behind the head of its channel, so
@@ -30,7 +30,7 @@
 //! may undo each discovery):
 //!
 //! - A property judged **at rest** fails only in a state where no delivery or timer step is
-//!   left. Persistent sets keep every such state (Godefroid 1996, thm. 4.3): a path from `s`
+//!   left. Persistent sets keep every such state (Godefroid 1996, ch. 4): a path from `s`
 //!   to one must take a step of the set, or that step would still be possible at its end.
 //! - Every other property's discovery (an `always` property's violation, a `sometimes`
 //!   property's witness) is kept by a step that does not undo it. For a path `w` from `s` to
@@ -43,10 +43,11 @@
 //! - **Cycle proviso.** Each time the argument above moves `t` ahead of `w`, the remaining
 //!   path does not get shorter; that must not go on around a cycle. The search fully
 //!   expands a state when a step of its set leads to a state already seen at the depth being
-//!   explored or before (Bošnački and Holzmann 2005, *Improving Spin's partial-order
-//!   reduction for breadth-first search*): around any cycle of the reduced graph, depth goes
-//!   back down somewhere, and that edge leads to a state seen no later than its source, so
-//!   every cycle holds a fully expanded state (Clarke, Grumberg and Peled's condition C3).
+//!   explored or before, a breadth-first form of the proviso after Bošnački and Holzmann
+//!   (2005, *Improving Spin's partial-order reduction for breadth-first search*): around any
+//!   cycle of the reduced graph, depth goes back down somewhere, and that edge leads to a
+//!   state seen no later than its source, so every cycle holds a fully expanded state
+//!   (Clarke, Grumberg and Peled's condition C3).
 //!
 //! The search takes the reduction only on an ordered network, and there, only at a state
 //! where some process set is persistent; elsewhere it expands as without it.
