@@ -100,6 +100,10 @@ pub struct CheckArgs {
     pub max_memory: Option<u64>,
     /// Symmetry reduction (also on when the scenario's `check` section asks for it).
     pub symmetry: bool,
+    /// No partial-order reduction ([`nekosim_models::reduction`]; on by default).
+    pub no_reduction: bool,
+    /// Also search without partial-order reduction and report both counts.
+    pub compare_reduction: bool,
     /// Explore on after a counterexample, to settle every property; by default the search
     /// stops at the first.
     pub keep_going: bool,
@@ -307,6 +311,7 @@ pub fn resolve(args: &CheckArgs, registry: &Registry) -> Result<Resolved, CheckE
             .unwrap_or(defaults.max_round),
         partial_multicasts: defaults.partial_multicasts,
         symmetry: args.symmetry || settings.symmetry.unwrap_or(false),
+        reduction: !args.no_reduction,
     };
     if options.symmetry && args.strategy != Strategy::Bfs {
         return Err(CheckError::SymmetryStrategy);
@@ -316,6 +321,81 @@ pub fn resolve(args: &CheckArgs, registry: &Registry) -> Result<Resolved, CheckE
         target,
         options,
     })
+}
+
+/// Why partial-order reduction does not take effect in a check, if it does not: it works
+/// with the breadth-first search, without a depth bound, on an ordered network (on a network
+/// that reorders messages, any process's step may send a message that another takes first,
+/// so no smaller set of steps is enough: docs/model-checking.md).
+pub fn reduction_off(opts: &Options, args: &CheckArgs) -> Option<&'static str> {
+    if !opts.reduction {
+        Some("turned off")
+    } else if args.strategy != Strategy::Bfs {
+        Some("bfs only")
+    } else if args.depth.is_some() {
+        Some("not with a depth bound")
+    } else if opts.network != NetworkKind::Ordered {
+        Some("the network reorders messages")
+    } else {
+        None
+    }
+}
+
+/// Searches the model again without partial-order reduction and prints both counts, or
+/// why the reduction did not take effect.
+fn compare_reduction(
+    out: &mut dyn Write,
+    protocols: &nekosim_protocols::Protocols,
+    (target, opts, args): (&Target, &Options, &CheckArgs),
+    (how, live): (Exploration, &Live),
+    with: &nekosim_models::Outcome,
+) -> Result<(), CheckError> {
+    /// Ctrl-C stops the second search as it stops the first.
+    struct Interrupt<'a>(&'a Live);
+    impl Watch for Interrupt<'_> {
+        fn interrupted(&self) -> bool {
+            self.0
+                .interrupt
+                .as_ref()
+                .is_some_and(|i| i.load(Ordering::Relaxed))
+        }
+    }
+    if let Some(why) = reduction_off(opts, args) {
+        let _ = writeln!(out, "partial-order reduction: not in effect ({why})");
+        return Ok(());
+    }
+    let plain = Options {
+        reduction: false,
+        ..opts.clone()
+    };
+    let start = Instant::now();
+    let model = build_in(protocols, target, &plain, |_, _| {})?;
+    let without = run_watched(model, how, &mut Interrupt(live));
+    let settled = |o: &nekosim_models::Outcome| {
+        if o.stopped.is_some() {
+            ", stopped by its budget"
+        } else {
+            ""
+        }
+    };
+    let _ = writeln!(
+        out,
+        "without partial-order reduction: states: {}, unique states: {}, depth: {}, seconds: {:.3}{}",
+        without.states,
+        without.unique_states,
+        without.max_depth,
+        start.elapsed().as_secs_f64(),
+        settled(&without),
+    );
+    let _ = writeln!(
+        out,
+        "partial-order reduction: {} unique states instead of {} ({:.2}x fewer){}",
+        with.unique_states,
+        without.unique_states,
+        without.unique_states as f64 / with.unique_states.max(1) as f64,
+        settled(with),
+    );
+    Ok(())
 }
 
 /// `bytes` in the largest binary unit that keeps it at least 1.
@@ -535,9 +615,14 @@ pub fn check_live(
     w(
         out,
         format!(
-            "search: {strategy}{}, {} thread{}, budget {} states, {} memory",
+            "search: {strategy}{}{}, {} thread{}, budget {} states, {} memory",
             if opts.symmetry {
                 " with symmetry reduction"
+            } else {
+                ""
+            },
+            if reduction_off(&opts, args).is_none() {
+                " with partial-order reduction"
             } else {
                 ""
             },
@@ -559,17 +644,14 @@ pub fn check_live(
         max_memory: budget.max_memory,
         drawn: false,
     };
-    let outcome = run_watched(
-        model.clone(),
-        Exploration {
-            threads: args.threads,
-            depth: args.depth,
-            first_counterexample: !args.keep_going,
-            strategy: args.strategy,
-            budget,
-        },
-        &mut reporter,
-    );
+    let how = Exploration {
+        threads: args.threads,
+        depth: args.depth,
+        first_counterexample: !args.keep_going,
+        strategy: args.strategy,
+        budget,
+    };
+    let outcome = run_watched(model.clone(), how, &mut reporter);
     reporter.clear();
     let seconds = start.elapsed().as_secs_f64();
     w(
@@ -583,6 +665,10 @@ pub fn check_live(
             outcome.states as f64 / seconds.max(1e-9)
         ),
     );
+    if args.compare_reduction {
+        let again = (&target, &opts, args);
+        compare_reduction(out, &registry.protocols, again, (how, live), &outcome)?;
+    }
     if let Some(spent) = outcome.stopped {
         let what = match spent {
             Stopped::Interrupted => "Ctrl-C".to_string(),

@@ -190,6 +190,13 @@ enum Command {
         /// processes (every layer must declare symmetry; bfs only).
         #[arg(long)]
         symmetry: bool,
+        /// No partial-order reduction (with bfs on an ordered network it explores only the
+        /// steps of a few processes where that keeps every verdict).
+        #[arg(long)]
+        no_reduction: bool,
+        /// Also search without partial-order reduction and print both state counts.
+        #[arg(long, conflicts_with = "no_reduction")]
+        compare_reduction: bool,
         /// Explore on after a counterexample to settle every property [default: stop at the
         /// first counterexample].
         #[arg(long)]
@@ -379,6 +386,8 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             timers,
             rounds,
             symmetry,
+            no_reduction,
+            compare_reduction,
             keep_going,
             quiet,
             synchrony,
@@ -417,6 +426,8 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 timers,
                 rounds,
                 symmetry,
+                no_reduction,
+                compare_reduction,
                 keep_going,
                 lcm: check::lcm::LcmOverrides {
                     synchrony,

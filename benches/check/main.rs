@@ -4,7 +4,9 @@
 //!   simulator runs, hosted by the adapter), and
 //! - `check/paxos 2 clients 3 servers`: stateright's own Single Decree Paxos example, in the
 //!   same run for comparison, checked by stateright's BFS and (for context) by the compact
-//!   search our models use.
+//!   search our models use;
+//! - `check/lamport-abcast n=3 k=3 ordered`, with and without partial-order reduction (which
+//!   takes effect on an ordered network only): the time of the whole check each way.
 //!
 //! Criterion's throughput line (elem/s) is the states/s figure; the element count is the
 //! number of states one check generates (duplicates included, as stateright counts them).
@@ -13,13 +15,25 @@ mod paxos;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nekosim_models::compact::CompactBfs;
-use nekosim_models::{build, find, run, Exploration, Options};
+use nekosim_models::{build, find, run, Exploration, NetworkKind, Options};
 use stateright::actor::Network;
 use stateright::{Checker, Model};
 
 fn lamport() -> nekosim_models::CheckModel {
     let def = find("lamport-abcast").expect("registered");
     build(&def.target(), &Options::default(), |_, _| {}).expect("valid")
+}
+
+/// Lamport with 3 broadcasts on an ordered network, with or without the reduction.
+fn lamport_ordered(reduction: bool) -> nekosim_models::CheckModel {
+    let def = find("lamport-abcast").expect("registered");
+    let o = Options {
+        requests: 3,
+        network: NetworkKind::Ordered,
+        reduction,
+        ..Options::default()
+    };
+    build(&def.target(), &o, |_, _| {}).expect("valid")
 }
 
 fn paxos() -> paxos::PaxosModel {
@@ -57,10 +71,30 @@ fn bench(c: &mut Criterion) {
     // for our models), so the checkers can be told apart from the models.
     g.bench_function("paxos 2 clients 3 servers, compact bfs", |b| {
         b.iter(|| {
-            let c = CompactBfs::spawn(paxos(), 1, None, false, None, None).join();
+            let c = CompactBfs::spawn(paxos(), 1, None, false, None, None, None).join();
             assert_eq!(c.unique_state_count(), 16_668);
         })
     });
+
+    // Partial-order reduction: the same check's time with and without it (the throughput
+    // line counts the states the search without it generates, for both).
+    let states = run(lamport_ordered(false), Exploration::default()).states;
+    g.throughput(Throughput::Elements(states as u64));
+    for (name, reduction, unique) in [
+        ("lamport-abcast n=3 k=3 ordered, reduction", true, 84_924),
+        (
+            "lamport-abcast n=3 k=3 ordered, no reduction",
+            false,
+            182_017,
+        ),
+    ] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let o = run(lamport_ordered(reduction), Exploration::default());
+                assert_eq!(o.unique_states, unique);
+            })
+        });
+    }
     g.finish();
 }
 

@@ -14,7 +14,8 @@
 //! same counts (generated, unique, depth) and, on one thread, the same first discovery of each
 //! property, reconstructed into a [`Path`] by replaying the model along the parents'
 //! fingerprints. It implements stateright's [`Checker`], so budgets and verdicts treat it like
-//! stateright's checkers.
+//! stateright's checkers. With a partial-order reduction ([`crate::reduction`]) it explores
+//! fewer states, reaching the same verdicts.
 
 use std::collections::{HashMap, VecDeque};
 use std::fmt::Debug;
@@ -30,6 +31,8 @@ use stateright::actor::{
 };
 use stateright::{Checker, Expectation, Model, Path};
 
+use crate::reduction::{self, Invisible};
+
 /// One process's part of a state: its state, timers, random choices, crash flag and storage.
 type ProcPart<A> = (
     Arc<<A as Actor>::State>,
@@ -44,8 +47,11 @@ type ProcPart<A> = (
 pub type Images<A, H> =
     Arc<dyn Fn(&ActorModelState<A, H>) -> Vec<ActorModelState<A, H>> + Send + Sync>;
 
+/// A step of an actor model.
+type ModelAction<A, C, H> = <ActorModel<A, C, H> as Model>::Action;
+
 /// A path of an actor model.
-type ModelPath<A, C, H> = Path<ActorModelState<A, H>, <ActorModel<A, C, H> as Model>::Action>;
+type ModelPath<A, C, H> = Path<ActorModelState<A, H>, ModelAction<A, C, H>>;
 
 /// Records per frontier block: the unit of work a thread takes.
 const BLOCK: usize = 1024;
@@ -125,8 +131,32 @@ impl Hasher for Identity {
     }
 }
 
-/// Fingerprint → parent's fingerprint (`None` for an initial state).
-type Visited = DashMap<u64, Option<u64>, BuildHasherDefault<Identity>>;
+/// What the visited set keeps of a state: its parent's fingerprint and the depth it was
+/// first reached at (1 for an initial state, whose parent field means nothing).
+#[derive(Clone, Copy)]
+struct Seen {
+    parent: u64,
+    depth: u32,
+}
+
+/// Fingerprint → how the state was first reached.
+type Visited = DashMap<u64, Seen, BuildHasherDefault<Identity>>;
+
+/// A step's successor while a state is expanded with a partial-order reduction.
+#[derive(Clone, Copy)]
+enum Slot {
+    /// Not made yet.
+    Unknown,
+    /// The step changes nothing or leaves the model.
+    Gone,
+    /// Its record is `arena[at..at + len]`; `visible` when it may undo a discovery.
+    Packed {
+        at: usize,
+        len: usize,
+        fp: u64,
+        visible: bool,
+    },
+}
 
 /// The fingerprint of a record (a fixed-key hash: the same on every run).
 fn fingerprint(record: &[u32]) -> u64 {
@@ -313,6 +343,8 @@ where
     model: Arc<ActorModel<A, C, H>>,
     packer: Packer<A, H>,
     images: Option<Images<A, H>>,
+    /// The partial-order reduction, when on: which steps may undo a discovery.
+    reduction: Option<Invisible<A, H>>,
     closed: Option<Arc<AtomicBool>>,
     visited: Visited,
     unique: AtomicUsize,
@@ -392,7 +424,9 @@ where
     /// `finish_on_failure`, the search ends at the first `always` counterexample. With
     /// `images`, one state of each symmetry class is explored. Once `closed` is set (a budget
     /// ran out, and the model's boundary takes no new state), the states held are still
-    /// checked but no longer expanded: every successor would be outside.
+    /// checked but no longer expanded: every successor would be outside. With `reduction`,
+    /// a state is expanded by a persistent set of steps where one is proven
+    /// ([`crate::reduction`]); it is ignored with a depth bound, which it would not respect.
     ///
     /// # Panics
     /// If `!supports(&model)`.
@@ -402,6 +436,7 @@ where
         target_max_depth: Option<usize>,
         finish_on_failure: bool,
         images: Option<Images<A, H>>,
+        reduction: Option<Invisible<A, H>>,
         closed: Option<Arc<AtomicBool>>,
     ) -> Self {
         assert!(supports(&model), "compact search: unsupported model");
@@ -424,6 +459,7 @@ where
             },
             model: Arc::new(model),
             images,
+            reduction: reduction.filter(|_| ordered && target_max_depth.is_none()),
             closed,
             visited: Visited::default(),
             unique: AtomicUsize::new(0),
@@ -445,7 +481,11 @@ where
                 .packer
                 .pack_least(s, None, search.images.as_ref(), &mut rec, &mut tmp);
             let fp = fingerprint(&rec);
-            if search.visited.insert(fp, None).is_none() {
+            let root = Seen {
+                parent: fp,
+                depth: 1,
+            };
+            if search.visited.insert(fp, root).is_none() {
                 search.unique.fetch_add(1, Ordering::Relaxed);
                 first.push(&rec);
             }
@@ -464,6 +504,16 @@ where
             })
             .collect();
         Self { search, handles }
+    }
+
+    /// Whether the search reached `s` (with symmetry, a state of its class).
+    pub fn reached(&self, s: &ActorModelState<A, H>) -> bool {
+        let (mut rec, mut tmp) = (Vec::new(), Vec::new());
+        let search = &self.search;
+        search
+            .packer
+            .pack_least(s.clone(), None, search.images.as_ref(), &mut rec, &mut tmp);
+        search.visited.contains_key(&fingerprint(&rec))
     }
 
     /// The tables' sizes: distinct histories, process parts and envelopes.
@@ -527,6 +577,8 @@ where
         let properties = model.properties();
         let mut actions = Vec::new();
         let (mut rec, mut tmp) = (Vec::new(), Vec::new());
+        let mut slots = Vec::new();
+        let mut arena = Vec::new();
         self.max_depth.fetch_max(depth, Ordering::Relaxed);
         if self.target_max_depth.is_some_and(|d| depth >= d) {
             return;
@@ -567,6 +619,49 @@ where
                 continue;
             }
             model.actions(state, &mut actions);
+            let sets = match &self.reduction {
+                Some(_) if reduction::reducible(&actions) => {
+                    let owners: Vec<Option<usize>> = actions.iter().map(reduction::owner).collect();
+                    reduction::process_sets(state, &owners)
+                }
+                _ => Vec::new(),
+            };
+            if let (Some(invisible), false) = (&self.reduction, sets.is_empty()) {
+                slots.clear();
+                slots.resize(actions.len(), Slot::Unknown);
+                arena.clear();
+                let chosen = self.persistent(
+                    invisible,
+                    (parent, &unpacked),
+                    (&actions, &sets),
+                    depth,
+                    (&mut slots, &mut arena),
+                );
+                for (i, action) in actions.iter().enumerate() {
+                    if chosen.is_some_and(|mask| {
+                        reduction::owner(action).is_none_or(|p| mask & (1 << p) == 0)
+                    }) {
+                        continue;
+                    }
+                    if let Slot::Unknown = slots[i] {
+                        slots[i] = self.make(
+                            (parent, &unpacked),
+                            action,
+                            None,
+                            &mut arena,
+                            (&mut rec, &mut tmp),
+                        );
+                    }
+                    if let Slot::Packed {
+                        at, len, fp: next, ..
+                    } = slots[i]
+                    {
+                        self.admit(&arena[at..at + len], next, fp, depth, out);
+                    }
+                }
+                actions.clear();
+                continue;
+            }
             for action in actions.drain(..) {
                 let Some(next) = model.next_state(state, action) else {
                     continue;
@@ -574,7 +669,6 @@ where
                 if !Model::within_boundary(model, &next) {
                     continue;
                 }
-                self.generated.fetch_add(1, Ordering::Relaxed);
                 self.packer.pack_least(
                     next,
                     Some((parent, &unpacked)),
@@ -583,17 +677,102 @@ where
                     &mut tmp,
                 );
                 let next_fp = fingerprint(&rec);
-                if let Entry::Vacant(e) = self.visited.entry(next_fp) {
-                    e.insert(Some(fp));
-                    self.unique.fetch_add(1, Ordering::Relaxed);
-                    out.push(&rec);
-                    if out.count >= BLOCK {
-                        let full = std::mem::take(out);
-                        self.next.lock().expect("next lock").push(full);
-                    }
-                }
+                self.admit(&rec, next_fp, fp, depth, out);
             }
         }
+    }
+
+    /// Counts the successor `rec` (fingerprint `fp`) of the state `parent` at `depth`, and
+    /// adds it to `out` if it is new.
+    fn admit(&self, rec: &[u32], fp: u64, parent: u64, depth: usize, out: &mut Block) {
+        self.generated.fetch_add(1, Ordering::Relaxed);
+        if let Entry::Vacant(e) = self.visited.entry(fp) {
+            e.insert(Seen {
+                parent,
+                depth: u32::try_from(depth + 1).expect("a depth fits in u32"),
+            });
+            self.unique.fetch_add(1, Ordering::Relaxed);
+            out.push(rec);
+            if out.count >= BLOCK {
+                let full = std::mem::take(out);
+                self.next.lock().expect("next lock").push(full);
+            }
+        }
+    }
+
+    /// The successor of `parent` by `action`, packed at the end of `arena`, and (with
+    /// `invisible`) whether the step may undo a discovery.
+    fn make(
+        &self,
+        (rec, parent): (&[u32], &Unpacked<A, H>),
+        action: &ModelAction<A, C, H>,
+        invisible: Option<&Invisible<A, H>>,
+        arena: &mut Vec<u32>,
+        (packed, tmp): (&mut Vec<u32>, &mut Vec<u32>),
+    ) -> Slot {
+        let model = &*self.model;
+        let Some(next) = model.next_state(&parent.state, action.clone()) else {
+            return Slot::Gone;
+        };
+        if !Model::within_boundary(model, &next) {
+            return Slot::Gone;
+        }
+        let visible = match (invisible, reduction::owner(action)) {
+            (Some(f), Some(p)) => !f(&parent.state, p, &next),
+            _ => true,
+        };
+        self.packer
+            .pack_least(next, Some((rec, parent)), self.images.as_ref(), packed, tmp);
+        let fp = fingerprint(packed);
+        let at = arena.len();
+        arena.extend_from_slice(packed);
+        Slot::Packed {
+            at,
+            len: packed.len(),
+            fp,
+            visible,
+        }
+    }
+
+    /// The first of `sets` (processes as bit masks, persistent at `parent`, at `depth`)
+    /// that passes the other conditions of [`crate::reduction`]: it holds a step, none that
+    /// may undo a discovery, and none leading to a state seen at `depth` or before (the cycle
+    /// proviso). The successors made on the way are kept in `slots`.
+    fn persistent(
+        &self,
+        invisible: &Invisible<A, H>,
+        parent: (&[u32], &Unpacked<A, H>),
+        (actions, sets): (&[ModelAction<A, C, H>], &[u64]),
+        depth: usize,
+        (slots, arena): (&mut [Slot], &mut Vec<u32>),
+    ) -> Option<u64> {
+        let (mut rec, mut tmp) = (Vec::new(), Vec::new());
+        'sets: for &mask in sets {
+            let mut any = false;
+            for (i, action) in actions.iter().enumerate() {
+                if reduction::owner(action).is_none_or(|p| mask & (1 << p) == 0) {
+                    continue;
+                }
+                if let Slot::Unknown = slots[i] {
+                    slots[i] =
+                        self.make(parent, action, Some(invisible), arena, (&mut rec, &mut tmp));
+                }
+                if let Slot::Packed { fp, visible, .. } = slots[i] {
+                    let seen_before = self
+                        .visited
+                        .get(&fp)
+                        .is_some_and(|s| s.depth as usize <= depth);
+                    if visible || seen_before {
+                        continue 'sets;
+                    }
+                    any = true;
+                }
+            }
+            if any {
+                return Some(mask);
+            }
+        }
+        None
     }
 
     /// Records the first discovery of property `i`.
@@ -613,8 +792,12 @@ where
     /// successor has the next fingerprint.
     fn path(&self, fp: u64) -> Option<ModelPath<A, C, H>> {
         let mut fps = VecDeque::from([fp]);
-        while let Some(parent) = *self.visited.get(fps.front()?)? {
-            fps.push_front(parent);
+        loop {
+            let seen = *self.visited.get(fps.front()?)?;
+            if seen.depth <= 1 {
+                break;
+            }
+            fps.push_front(seen.parent);
         }
         let model = &*self.model;
         let (mut rec, mut tmp) = (Vec::new(), Vec::new());

@@ -10,7 +10,7 @@ use nekosim_protocols::{Protocols, Rounds};
 use stateright::actor::{ActorModel, ActorModelAction};
 use stateright::Expectation;
 
-use crate::adapter::{ModelTimer, NetMsg, ProcessActor, State};
+use crate::adapter::{ModelTimer, NetMsg, ProcessActor, ProcessState, State};
 use crate::family::Family;
 use crate::symmetry::Symmetry;
 
@@ -70,6 +70,10 @@ pub struct Options {
     /// of the processes ([`crate::symmetry`]). Needs every layer to declare symmetry, the
     /// same stack at every process and multicasts that leave at once; breadth-first only.
     pub symmetry: bool,
+    /// Partial-order reduction ([`crate::reduction`]): where a set of processes' steps is
+    /// provably enough, explore only those. Breadth-first without a depth bound only; it
+    /// takes effect on an ordered network.
+    pub reduction: bool,
 }
 
 impl Default for Options {
@@ -83,6 +87,7 @@ impl Default for Options {
             max_round: 1,
             partial_multicasts: true,
             symmetry: false,
+            reduction: true,
         }
     }
 }
@@ -109,6 +114,11 @@ pub struct ModelCfg {
     /// Every property's expectation and condition, in the model's order; the model's own
     /// conditions report only the first discovery of each.
     pub conditions: Vec<(Expectation, Condition)>,
+    /// Every property's [`Undo`], in the model's order: which steps the partial-order
+    /// reduction must not leave to later.
+    pub undo: Vec<Undo>,
+    /// Partial-order reduction is on ([`Options::reduction`]).
+    pub reduction: bool,
     /// Whether property `i` has had its discovery (reset by [`crate::model::run`]).
     pub found: Arc<Vec<AtomicBool>>,
     /// The renamings that map the model onto itself, when symmetry reduction is on
@@ -118,3 +128,10 @@ pub struct ModelCfg {
 
 /// A property's condition.
 pub type Condition = fn(&CheckModel, &State) -> bool;
+
+/// Whether one step of a process, from its state `before` to `after`, may undo a discovery
+/// of a property wherever the other processes stand: make an `always` property hold again
+/// after it failed, or a `sometimes` property fail again after it held
+/// ([`crate::reduction`]). A crash is never judged: states where one can happen are fully
+/// expanded.
+pub type Undo = fn(&ModelCfg, before: &ProcessState, after: &ProcessState) -> bool;

@@ -15,6 +15,8 @@
 //!   (`nekosim check NAME` reads the same stacks from `examples/check/*.ron`; a test keeps
 //!   the two equal).
 //! - [`symmetry`]: symmetry reduction for stacks whose processes are alike.
+//! - [`reduction`]: partial-order reduction, exploring the steps of a few processes only
+//!   where that provably keeps every verdict.
 //! - [`explain`]: a path of the checker as a sequence of messages, deliveries and decisions.
 //!
 //! See docs/model-checking.md for what is checked and under which assumptions.
@@ -28,6 +30,7 @@ pub mod liveness;
 pub mod model;
 pub mod property;
 pub mod reason;
+pub mod reduction;
 pub mod registry;
 pub mod symmetry;
 

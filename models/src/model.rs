@@ -14,11 +14,12 @@ use nekosim_protocols::{
 use stateright::actor::{ActorModel, LossyNetwork, Network};
 use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChooser};
 
-use crate::adapter::{ClientRequest, NetMsg, ProcessActor, Shared, State};
+use crate::adapter::{ClientRequest, NetMsg, ProcessActor, ProcessState, Shared, State};
 use crate::compact::{self, CompactBfs};
 use crate::config::{Action, CheckModel, Condition, ModelCfg, NetworkKind, Options};
 use crate::family::Family;
 use crate::property::properties;
+use crate::reduction::Invisible;
 use crate::symmetry::Symmetry;
 
 /// A check that cannot be built from its parameters.
@@ -256,6 +257,8 @@ pub fn build_in(
         stop: Arc::new(AtomicBool::new(false)),
         stated,
         conditions: Vec::new(),
+        undo: Vec::new(),
+        reduction: opts.reduction,
         found: Arc::new(Vec::new()),
         symmetry,
     };
@@ -267,14 +270,15 @@ pub fn build_in(
         } else {
             Expectation::Sometimes
         };
-        props.push((expectation, p.name, STATED[i]));
+        props.push((expectation, p.name, STATED[i], stack_changed));
     }
     assert!(
         props.len() <= FIRST.len(),
         "at most {} properties",
         FIRST.len()
     );
-    cfg.conditions = props.iter().map(|(e, _, c)| (e.clone(), *c)).collect();
+    cfg.conditions = props.iter().map(|(e, _, c, _)| (e.clone(), *c)).collect();
+    cfg.undo = props.iter().map(|(.., u)| *u).collect();
     cfg.found = Arc::new(props.iter().map(|_| AtomicBool::new(false)).collect());
     let network = match opts.network {
         NetworkKind::Ordered => Network::new_ordered([]),
@@ -291,7 +295,7 @@ pub fn build_in(
         .lossy_network(lossy)
         .max_crashes(opts.crashes as usize)
         .within_boundary(within_boundary);
-    for (i, (expectation, name, _)) in props.into_iter().enumerate() {
+    for (i, (expectation, name, ..)) in props.into_iter().enumerate() {
         model = model.property(expectation, name, FIRST[i]);
     }
     Ok(model)
@@ -388,6 +392,11 @@ const FIRST: [Condition; 24] = [
     first::<22>,
     first::<23>,
 ];
+
+/// A stated property reads the protocol's state, which any change of a stack may undo.
+fn stack_changed(_: &ModelCfg, before: &ProcessState, after: &ProcessState) -> bool {
+    before.stack != after.stack
+}
 
 /// Property `I` a protocol states ([`ModelCfg::stated`]), of every process's stack.
 fn stated<const I: usize>(m: &CheckModel, s: &State) -> bool {
@@ -644,12 +653,14 @@ pub fn run_watched(model: CheckModel, how: Exploration, watch: &mut dyn Watch) -
         let images = model.cfg.symmetry.clone().map(|sym| {
             Arc::new(move |s: &State| sym.images(s)) as compact::Images<ProcessActor, ()>
         });
+        let reduction = model.cfg.reduction.then(|| invisible(&model));
         let checker = CompactBfs::spawn(
             model,
             how.threads,
             how.depth,
             how.first_counterexample,
             images,
+            reduction,
             Some(Arc::clone(&stop)),
         );
         return outcome(supervise(checker, &stop, how.budget, watch), &props);
@@ -687,6 +698,16 @@ pub fn run_watched(model: CheckModel, how: Exploration, watch: &mut dyn Watch) -
             outcome((checker, spent), &props)
         }
     }
+}
+
+/// The partial-order reduction's test of a step of `model` ([`crate::reduction`]): no
+/// property's [`crate::config::Undo`] says it may undo a discovery.
+pub fn invisible(model: &CheckModel) -> Invisible<ProcessActor, ()> {
+    let cfg = model.cfg.clone();
+    Arc::new(move |before: &State, p: usize, after: &State| {
+        let (b, a) = (&*before.actor_states[p], &*after.actor_states[p]);
+        !cfg.undo.iter().any(|undo| undo(&cfg, b, a))
+    })
 }
 
 /// The figures and verdicts of a finished checker.

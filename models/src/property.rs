@@ -7,6 +7,14 @@
 //! timer budget, the round bound of Chandra-Toueg) is never at rest, so a bound never produces
 //! a false counterexample; it only narrows what is explored. The `sometimes` properties give a
 //! witness that the good outcome is reachable at all.
+//!
+//! Each property also says which steps of one process may undo its discovery ([`Undo`]), so
+//! that the partial-order reduction ([`crate::reduction`]) never leaves such a step to later.
+//! The sequences a process records (deliveries, decisions, receipts, detections) only grow,
+//! so a violation read in them stays; a client request can make a past delivery proper (its
+//! message is then issued), and a witness of a last value (a leader, a suspicion, a length)
+//! can be undone by a change of that value. Properties judged at rest undo nothing: no step
+//! is left in the states where they fail.
 
 use std::borrow::Cow;
 use std::collections::BTreeSet;
@@ -15,12 +23,13 @@ use nekosim_protocols::{MsgId, Payload, Pid, Request};
 use stateright::actor::{Network, Out};
 use stateright::Expectation;
 
-use crate::adapter::{ModelTimer, State};
-use crate::config::{CheckModel, Condition, NetworkKind, Options};
+use crate::adapter::{ModelTimer, ProcessState, State};
+use crate::config::{CheckModel, Condition, ModelCfg, NetworkKind, Options, Undo};
 use crate::family::Family;
 
-/// A property: how it is checked, its name and its condition.
-pub type Prop = (Expectation, &'static str, Condition);
+/// A property: how it is checked, its name, its condition and which steps may undo its
+/// discovery.
+pub type Prop = (Expectation, &'static str, Condition, Undo);
 
 /// The properties of a family for a model with the options `opts` (crashes allowed, the
 /// network, the timer budget) and the given proposers (consensus only).
@@ -30,51 +39,91 @@ pub fn properties(family: Family, n: u32, opts: &Options, proposers: u32) -> Vec
     match family {
         Family::P2p { fifo } => {
             let mut v: Vec<Prop> = vec![
-                (Always, "no creation", no_creation),
-                (Always, "no duplication", no_duplication),
+                (Always, "no creation", no_creation, received_or_issued),
+                (Always, "no duplication", no_duplication, received_rewritten),
             ];
             if fifo {
-                v.push((Always, "FIFO order", fifo_order));
+                v.push((Always, "FIFO order", fifo_order, received_or_issued));
             }
             if opts.network != NetworkKind::Lossy {
-                v.push((Always, "reliable delivery", reliable_delivery));
+                v.push((Always, "reliable delivery", reliable_delivery, at_rest_only));
             }
-            v.push((Sometimes, "everything delivered", everything_received));
+            v.push((
+                Sometimes,
+                "everything delivered",
+                everything_received,
+                received_rewritten_or_unissued,
+            ));
             v
         }
         Family::FailureDetector => {
-            let mut v: Vec<Prop> = vec![(Always, "well-formed suspicions", well_formed)];
+            let mut v: Vec<Prop> = vec![(
+                Always,
+                "well-formed suspicions",
+                well_formed,
+                detections_rewritten,
+            )];
             if crashes > 0 {
-                v.push((Sometimes, "completeness", completeness));
+                v.push((Sometimes, "completeness", completeness, detections_changed));
             }
             if opts.timer_budget >= 2 {
-                v.push((Sometimes, "false suspicion revoked", suspicion_revoked));
+                v.push((
+                    Sometimes,
+                    "false suspicion revoked",
+                    suspicion_revoked,
+                    detections_rewritten,
+                ));
             }
             v
         }
         Family::Leader => vec![
-            (Always, "leader is a process", leader_valid),
-            (Sometimes, "common live leader", common_leader),
+            (Always, "leader is a process", leader_valid, leader_changed),
+            (
+                Sometimes,
+                "common live leader",
+                common_leader,
+                leader_changed,
+            ),
         ],
         Family::Abcast => vec![
-            (Always, "total order", total_order),
-            (Always, "integrity", broadcast_integrity),
-            (Always, "uniform agreement", uniform_agreement),
-            (Always, "validity", validity),
-            (Sometimes, "everything delivered", everything_delivered),
+            (Always, "total order", total_order, delivered_rewritten),
+            (
+                Always,
+                "integrity",
+                broadcast_integrity,
+                delivered_or_issued,
+            ),
+            (Always, "uniform agreement", uniform_agreement, at_rest_only),
+            (Always, "validity", validity, at_rest_only),
+            (
+                Sometimes,
+                "everything delivered",
+                everything_delivered,
+                delivered_past_all,
+            ),
         ],
         Family::Broadcast => vec![
-            (Always, "integrity", broadcast_integrity),
-            (Always, "agreement", agreement),
-            (Always, "validity", validity),
-            (Sometimes, "everything delivered", everything_delivered),
+            (
+                Always,
+                "integrity",
+                broadcast_integrity,
+                delivered_or_issued,
+            ),
+            (Always, "agreement", agreement, at_rest_only),
+            (Always, "validity", validity, at_rest_only),
+            (
+                Sometimes,
+                "everything delivered",
+                everything_delivered,
+                delivered_past_all,
+            ),
         ],
         Family::Consensus => {
             let mut v: Vec<Prop> = vec![
-                (Always, "agreement", consensus_agreement),
-                (Always, "validity", consensus_validity),
-                (Always, "integrity", consensus_integrity),
-                (Sometimes, "termination", termination),
+                (Always, "agreement", consensus_agreement, decided_rewritten),
+                (Always, "validity", consensus_validity, decided_or_issued),
+                (Always, "integrity", consensus_integrity, decided_rewritten),
+                (Sometimes, "termination", termination, decided_rewritten),
             ];
             if crashes > 0 {
                 let majority = n / 2 + 1;
@@ -83,7 +132,7 @@ pub fn properties(family: Family, n: u32, opts: &Options, proposers: u32) -> Vec
                     let live_proposers = proposers - u32::from(p < proposers);
                     if live_proposers >= majority {
                         let (name, f) = TERMINATION_WITHOUT[p as usize];
-                        v.push((Sometimes, name, f));
+                        v.push((Sometimes, name, f, decided_rewritten));
                     }
                 }
             }
@@ -116,6 +165,72 @@ pub fn statement(name: &str) -> Option<&'static str> {
         }
         _ => return None,
     })
+}
+
+/// An at-rest property: it fails only where no step is left, so no step undoes it.
+fn at_rest_only(_: &ModelCfg, _: &ProcessState, _: &ProcessState) -> bool {
+    false
+}
+
+/// `after` is not `before` with entries appended.
+fn rewritten<T: PartialEq>(before: &[T], after: &[T]) -> bool {
+    !after.starts_with(before)
+}
+
+/// Delivery sequences are read as they grow (total order).
+fn delivered_rewritten(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    rewritten(&b.delivered, &a.delivered)
+}
+
+/// Deliveries, and whether their messages were issued (integrity).
+fn delivered_or_issued(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    rewritten(&b.delivered, &a.delivered) || a.issued != b.issued
+}
+
+/// Every process delivered exactly every request: undone by a process that had delivered
+/// them all and delivers again.
+fn delivered_past_all(m: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    b.delivered.len() == m.requests.len() && a.delivered.len() != b.delivered.len()
+}
+
+/// Decisions are read as they grow (agreement, integrity, termination).
+fn decided_rewritten(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    rewritten(&b.decided, &a.decided)
+}
+
+/// Decisions, and whether their values were proposed (validity).
+fn decided_or_issued(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    rewritten(&b.decided, &a.decided) || a.issued != b.issued
+}
+
+/// Receipts are read as they grow (no duplication).
+fn received_rewritten(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    rewritten(&b.received, &a.received)
+}
+
+/// Receipts, and whether their messages were sent (no creation, FIFO order).
+fn received_or_issued(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    rewritten(&b.received, &a.received) || a.issued != b.issued
+}
+
+/// Receipts and requests that only grow (everything received).
+fn received_rewritten_or_unissued(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    rewritten(&b.received, &a.received) || a.issued < b.issued
+}
+
+/// Detections are read as they grow (well-formed suspicions, a revoked suspicion).
+fn detections_rewritten(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    rewritten(&b.detections, &a.detections)
+}
+
+/// The last detection about each process is read (completeness).
+fn detections_changed(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    a.detections != b.detections
+}
+
+/// The last leader is read.
+fn leader_changed(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    a.leader != b.leader
 }
 
 pub(crate) fn live(s: &State) -> impl Iterator<Item = usize> + '_ {

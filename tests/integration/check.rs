@@ -187,6 +187,100 @@ fn each_shortcut_is_its_scenario_file_with_the_models_pinned_counts() {
     }
 }
 
+/// Every line but the figures' timing.
+fn untimed(out: &str) -> Vec<&str> {
+    out.lines()
+        .map(|l| l.split(", seconds").next().unwrap_or(l))
+        .collect()
+}
+
+#[test]
+fn partial_order_reduction_is_reported_compared_and_can_be_turned_off() {
+    // On an ordered network it takes effect: fewer states, the same verdicts; the counts are
+    // the models crate's pins (models/tests/check/reduction.rs).
+    let on = nekosim(&[
+        "check",
+        "lamport-abcast",
+        "--network",
+        "ordered",
+        "--compare-reduction",
+    ]);
+    let out = stdout(&on);
+    assert_eq!(on.status.code(), Some(0), "{out}");
+    assert!(
+        out.contains("search: bfs with partial-order reduction, 1 thread"),
+        "{out}"
+    );
+    assert!(figures(&out).contains("unique states: 1597,"), "{out}");
+    assert!(
+        out.contains("without partial-order reduction: states: 7377, unique states: 2754, depth: 15, seconds: "),
+        "{out}"
+    );
+    assert!(
+        out.contains("partial-order reduction: 1597 unique states instead of 2754 (1.72x fewer)"),
+        "{out}"
+    );
+    let off = nekosim(&[
+        "check",
+        "lamport-abcast",
+        "--network",
+        "ordered",
+        "--no-reduction",
+    ]);
+    let plain = stdout(&off);
+    assert_eq!(off.status.code(), Some(0), "{plain}");
+    assert!(plain.contains("search: bfs, 1 thread"), "{plain}");
+    assert!(figures(&plain).contains("unique states: 2754,"), "{plain}");
+    let verdicts = |o: &str| -> Vec<String> {
+        o.lines()
+            .filter(|l| l.starts_with("  holds") || l.starts_with("  FAILS"))
+            .map(String::from)
+            .collect()
+    };
+    assert_eq!(verdicts(&out), verdicts(&plain));
+    // On a network that reorders messages it does not take effect, and the report is the
+    // same as with it off.
+    let unordered = nekosim(&["check", "lamport-abcast"]);
+    let turned_off = nekosim(&["check", "lamport-abcast", "--no-reduction"]);
+    assert_eq!(untimed(&stdout(&unordered)), untimed(&stdout(&turned_off)));
+    let compared = stdout(&nekosim(&[
+        "check",
+        "lamport-abcast",
+        "--compare-reduction",
+    ]));
+    assert!(
+        compared.contains("partial-order reduction: not in effect (the network reorders messages)"),
+        "{compared}"
+    );
+    // A counterexample found with it is one of the same property, ending at rest.
+    let args = [
+        "check",
+        "lamport-abcast",
+        "--network",
+        "ordered",
+        "--crashes",
+        "1",
+    ];
+    let with = stdout(&nekosim(&args));
+    let without = stdout(&nekosim(&[&args[..], &["--no-reduction"]].concat()));
+    assert!(
+        with.contains("FAILS  validity (always): counterexample in 8 steps"),
+        "{with}"
+    );
+    assert_eq!(reason(&with, "validity"), reason(&without, "validity"));
+    assert!(
+        nekosim(&[
+            "check",
+            "lamport-abcast",
+            "--no-reduction",
+            "--compare-reduction"
+        ])
+        .status
+        .code()
+            == Some(2)
+    );
+}
+
 #[test]
 fn a_scenario_gives_processes_crashes_and_network_and_the_command_line_overrides_them() {
     let file = format!(

@@ -1,13 +1,17 @@
 //! The compact breadth-first search against stateright's own breadth-first checker on the
 //! same models: the same generated, unique and depth figures, the same verdicts and
 //! counterexamples of the same length, on every network kind, with crashes, and on two
-//! threads.
+//! threads (without partial-order reduction, which stateright does not have).
 
 use nekosim_models::{build, find, run, Exploration, NetworkKind, Options};
 use stateright::{Checker, Expectation, Model};
 
 fn compare(name: &str, opts: &Options, threads: usize) {
     let def = find(name).expect("registered");
+    let opts = &Options {
+        reduction: false,
+        ..opts.clone()
+    };
     let model = || build(&def.target(), opts, |_, _| {}).expect("valid");
     let ours = run(
         model(),
