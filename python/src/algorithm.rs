@@ -44,7 +44,7 @@ pub struct Hosted {
 
 thread_local! {
     /// The Python algorithms of the scenario being built on this thread.
-    pub(crate) static BUILDING: RefCell<Option<Hosted>> = const { RefCell::new(None) };
+    static BUILDING: RefCell<Option<Hosted>> = const { RefCell::new(None) };
 }
 
 impl Hosted {
@@ -122,6 +122,20 @@ impl Hosted {
         let out = f();
         BUILDING.with(|b| *b.borrow_mut() = None);
         out
+    }
+
+    /// The scenario's Python algorithm at `slot` in the build in progress on this thread:
+    /// the run's algorithms, and its name and object.
+    pub(crate) fn slot(slot: usize) -> Result<(Self, String, Py<PyAny>), FieldError> {
+        let hosted = BUILDING.with(|b| b.borrow().clone()).ok_or_else(|| {
+            FieldError::new("", "a Python algorithm outside a run from Python", "")
+        })?;
+        let (name, object) = hosted
+            .algorithms
+            .get(slot)
+            .map(|(n, o)| (n.clone(), Python::attach(|py| o.clone_ref(py))))
+            .ok_or_else(|| FieldError::new("slot", "no such Python algorithm", ""))?;
+        Ok((hosted, name, object))
     }
 
     /// The exception a `compute` raised, if any.
@@ -221,14 +235,7 @@ impl LcmConfigured for PyLcm {
     type Config = HostConfig;
 
     fn configure(config: HostConfig, _: &Setting) -> Result<Self, FieldError> {
-        let hosted = BUILDING.with(|b| b.borrow().clone()).ok_or_else(|| {
-            FieldError::new("", "a Python algorithm outside a run from Python", "")
-        })?;
-        let (name, object) = hosted
-            .algorithms
-            .get(config.slot)
-            .ok_or_else(|| FieldError::new("slot", "no such Python algorithm", ""))?;
-        let name = name.clone();
+        let (hosted, name, object) = Hosted::slot(config.slot)?;
         Python::attach(|py| {
             let failed =
                 |e: PyErr| FieldError::new("", format!("{name}: {e}"), "what its class accepts");

@@ -28,7 +28,7 @@ use nekosim::world::virtual_world::WorldSize;
 use pyo3::prelude::*;
 use pyo3::types::PyType;
 
-use crate::algorithm::{kwargs, HostConfig, Hosted, BUILDING};
+use crate::algorithm::{kwargs, HostConfig, Hosted};
 
 /// The name the host is registered under (never a name a user's scenario uses).
 pub const ROBOT_HOST_NAME: &str = "PythonRobot";
@@ -169,15 +169,7 @@ impl Configured for PyRobot {
     type Config = HostConfig;
 
     fn configure(config: HostConfig, _: &Setting) -> Result<Self, FieldError> {
-        let hosted = BUILDING.with(|b| b.borrow().clone()).ok_or_else(|| {
-            FieldError::new("", "a Python algorithm outside a run from Python", "")
-        })?;
-        let (name, object) = hosted
-            .algorithms
-            .get(config.slot)
-            .ok_or_else(|| FieldError::new("slot", "no such Python algorithm", ""))?;
-        let name = name.clone();
-        let object = Python::attach(|py| object.clone_ref(py));
+        let (hosted, name, object) = Hosted::slot(config.slot)?;
         Python::attach(|py| {
             let failed =
                 |e: PyErr| FieldError::new("", format!("{name}: {e}"), "what its class accepts");
