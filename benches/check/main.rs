@@ -71,7 +71,7 @@ fn bench(c: &mut Criterion) {
     // for our models), so the checkers can be told apart from the models.
     g.bench_function("paxos 2 clients 3 servers, compact bfs", |b| {
         b.iter(|| {
-            let c = CompactBfs::spawn(paxos(), 1, None, false, None, None, None).join();
+            let c = CompactBfs::spawn(paxos(), 1, None, false, Default::default(), None).join();
             assert_eq!(c.unique_state_count(), 16_668);
         })
     });

@@ -47,6 +47,43 @@ type ProcPart<A> = (
 pub type Images<A, H> =
     Arc<dyn Fn(&ActorModelState<A, H>) -> Vec<ActorModelState<A, H>> + Send + Sync>;
 
+/// Whether a message in flight is spent: its delivery changes nothing now and in any state
+/// its receiver reaches later (given every process's state and crash flag). The search
+/// forgets such a message, on an unordered network, as if it had been delivered.
+pub type Spent<A> =
+    Arc<dyn Fn(&[Arc<<A as Actor>::State>], &[bool], &Envelope<<A as Actor>::Msg>) -> bool + Send + Sync>;
+
+/// The reductions a search applies; the default applies none.
+pub struct Reductions<A: Actor, H> {
+    /// Symmetry ([`crate::symmetry`]): the images of a state; one state of each class is
+    /// explored.
+    pub images: Option<Images<A, H>>,
+    /// Partial-order reduction ([`crate::reduction`]): which steps may undo a discovery.
+    pub invisible: Option<Invisible<A, H>>,
+    /// Spent messages are forgotten.
+    pub spent: Option<Spent<A>>,
+}
+
+impl<A: Actor, H> Debug for Reductions<A, H> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Reductions")
+            .field("images", &self.images.is_some())
+            .field("invisible", &self.invisible.is_some())
+            .field("spent", &self.spent.is_some())
+            .finish()
+    }
+}
+
+impl<A: Actor, H> Default for Reductions<A, H> {
+    fn default() -> Self {
+        Self {
+            images: None,
+            invisible: None,
+            spent: None,
+        }
+    }
+}
+
 /// A step of an actor model.
 type ModelAction<A, C, H> = <ActorModel<A, C, H> as Model>::Action;
 
@@ -171,6 +208,7 @@ struct Packer<A: Actor, H> {
     history: Table<History<H>>,
     procs: Table<ProcPart<A>>,
     envelopes: Table<Envelope<A::Msg>>,
+    spent: Option<Spent<A>>,
 }
 
 impl<A, H> Packer<A, H>
@@ -190,6 +228,12 @@ where
         out: &mut Vec<u32>,
     ) {
         out.clear();
+        if let (Some(spent), Network::UnorderedNonDuplicating(multiset)) =
+            (&self.spent, &mut s.network)
+        {
+            let (states, crashed) = (&s.actor_states, &s.crashed);
+            multiset.retain(|env, _| !spent(states, crashed, env));
+        }
         match parent {
             Some((rec, p)) if p.state.history == s.history => out.push(rec[0]),
             _ => out.push(self.history.intern(History(s.history.clone()))),
@@ -422,11 +466,12 @@ where
     /// Starts the search on `threads` threads. States at depth `target_max_depth` and
     /// deeper are not checked (stateright's meaning; initial states are at depth 1). With
     /// `finish_on_failure`, the search ends at the first `always` counterexample. With
-    /// `images`, one state of each symmetry class is explored. Once `closed` is set (a budget
-    /// ran out, and the model's boundary takes no new state), the states held are still
-    /// checked but no longer expanded: every successor would be outside. With `reduction`,
-    /// a state is expanded by a persistent set of steps where one is proven
-    /// ([`crate::reduction`]); it is ignored with a depth bound, which it would not respect.
+    /// `reductions.images`, one state of each symmetry class is explored. Once `closed` is set
+    /// (a budget ran out, and the model's boundary takes no new state), the states held are
+    /// still checked but no longer expanded: every successor would be outside. With
+    /// `reductions.invisible`, a state is expanded by a persistent set of steps where one is
+    /// proven ([`crate::reduction`]); it is ignored with a depth bound, which it would not
+    /// respect. With `reductions.spent`, spent messages are forgotten.
     ///
     /// # Panics
     /// If `!supports(&model)`.
@@ -435,10 +480,14 @@ where
         threads: usize,
         target_max_depth: Option<usize>,
         finish_on_failure: bool,
-        images: Option<Images<A, H>>,
-        reduction: Option<Invisible<A, H>>,
+        reductions: Reductions<A, H>,
         closed: Option<Arc<AtomicBool>>,
     ) -> Self {
+        let Reductions {
+            images,
+            invisible: reduction,
+            spent,
+        } = reductions;
         assert!(supports(&model), "compact search: unsupported model");
         let init: Vec<_> = model
             .init_states()
@@ -456,6 +505,7 @@ where
                 history: Table::default(),
                 procs: Table::default(),
                 envelopes: Table::default(),
+                spent,
             },
             model: Arc::new(model),
             images,

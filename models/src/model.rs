@@ -8,7 +8,7 @@ use std::time::Duration;
 #[cfg(doc)]
 use nekosim_protocols::Microprotocol;
 use nekosim_protocols::{
-    AppMsg, Content, Layer, LayerSpec, Payload, Pid, Protocols, Rename, Request, Round, Rounds,
+    AppMsg, Content, Ctx, Layer, LayerSpec, Payload, Pid, Protocols, Rename, Request, Round, Rounds,
     Service, Stack, StackProperty, Wiring,
 };
 use stateright::actor::{ActorModel, LossyNetwork, Network};
@@ -653,14 +653,17 @@ pub fn run_watched(model: CheckModel, how: Exploration, watch: &mut dyn Watch) -
         let images = model.cfg.symmetry.clone().map(|sym| {
             Arc::new(move |s: &State| sym.images(s)) as compact::Images<ProcessActor, ()>
         });
-        let reduction = model.cfg.reduction.then(|| invisible(&model));
+        let reductions = compact::Reductions {
+            images,
+            invisible: model.cfg.reduction.then(|| invisible(&model)),
+            spent: model.cfg.reduction.then(|| spent(&model)),
+        };
         let checker = CompactBfs::spawn(
             model,
             how.threads,
             how.depth,
             how.first_counterexample,
-            images,
-            reduction,
+            reductions,
             Some(Arc::clone(&stop)),
         );
         return outcome(supervise(checker, &stop, how.budget, watch), &props);
@@ -707,6 +710,25 @@ pub fn invisible(model: &CheckModel) -> Invisible<ProcessActor, ()> {
     Arc::new(move |before: &State, p: usize, after: &State| {
         let (b, a) = (&*before.actor_states[p], &*after.actor_states[p]);
         !cfg.undo.iter().any(|undo| undo(&cfg, b, a))
+    })
+}
+
+/// Which messages in flight the search of `model` may forget ([`compact::Spent`]): one to a
+/// crashed process, which the protocols here never deliver (they are crash-stop), and one
+/// its receiver's layer declares spent ([`Microprotocol::spent`]).
+pub fn spent(model: &CheckModel) -> compact::Spent<ProcessActor> {
+    let n = model.cfg.n;
+    Arc::new(move |states, crashed, env| {
+        let to = usize::from(env.dst);
+        let receiver: &ProcessState = &states[to];
+        crashed[to]
+            || receiver.zombie
+            || receiver.stack.spent(
+                &Ctx { me: to as Pid, n },
+                env.msg.layer,
+                usize::from(env.src) as Pid,
+                &env.msg.msg,
+            )
     })
 }
 

@@ -211,11 +211,13 @@ impl ChandraToueg {
         if self.decided.contains_key(&k) {
             return;
         }
-        self.instances
-            .entry(k)
-            .or_default()
-            .proposals
-            .insert(r, value);
+        let inst = self.instances.entry(k).or_default();
+        // Only the proposal of the round being waited in is ever read, and rounds only go
+        // up: a proposal of a round already left is dropped.
+        if r < inst.round {
+            return;
+        }
+        inst.proposals.insert(r, value);
         self.check_wait(ctx, k, out);
     }
 
@@ -332,6 +334,33 @@ impl Microprotocol for ChandraToueg {
             CtMsg::Ack { k, r } => self.on_reply(ctx, k, r, from, true, out),
             CtMsg::Nack { k, r } => self.on_reply(ctx, k, r, from, false, out),
             CtMsg::Decide { k, value } => self.decide(ctx, k, value, Some(from), out),
+        }
+    }
+
+    // Decisions, rounds, a coordinator's proposals and its quorums of replies only grow, and
+    // each handler ignores what they already settle.
+    fn spent(&self, ctx: &Ctx, _from: Pid, m: &CtMsg) -> bool {
+        let k = match m {
+            CtMsg::Estimate { k, .. }
+            | CtMsg::Propose { k, .. }
+            | CtMsg::Ack { k, .. }
+            | CtMsg::Nack { k, .. }
+            | CtMsg::Decide { k, .. } => *k,
+        };
+        if self.decided.contains_key(&k) {
+            return true;
+        }
+        let Some(inst) = self.instances.get(&k) else {
+            return false;
+        };
+        match m {
+            CtMsg::Estimate { r, .. } => inst.proposed_in.contains_key(r),
+            CtMsg::Propose { r, .. } => *r < inst.round,
+            CtMsg::Ack { r, .. } | CtMsg::Nack { r, .. } => inst
+                .replies
+                .get(r)
+                .is_some_and(|replies| replies.len() >= self.quorum(ctx)),
+            CtMsg::Decide { .. } => false,
         }
     }
 

@@ -237,6 +237,17 @@ pub trait Microprotocol: Clone + Debug + Eq + Hash + Send + Sync + 'static {
     fn round(_msg: &Self::Msg) -> Round {
         Round::None
     }
+
+    /// Spent messages: whether `msg` from `from` can no longer change this layer. Delivering
+    /// it now, or in any state this layer reaches later, leaves the layer as it is and makes
+    /// it do nothing. A model checker then forgets the message instead of keeping it in flight
+    /// for ever, so states that differ only by such messages become one. The default, `false`,
+    /// keeps every message; a protocol that says `true` where a delivery would still act gets
+    /// wrong verdicts, so the answer must hold for every later state too (a set that only
+    /// grows, a round already left).
+    fn spent(&self, _ctx: &Ctx, _from: Pid, _msg: &Self::Msg) -> bool {
+        false
+    }
 }
 
 /// Collects a handler's effects, encoding the protocol's own messages and timers.
@@ -367,6 +378,7 @@ trait DynProtocol: Debug + Send + Sync {
     fn renamed_dyn(&self, r: &Rename) -> Option<Box<dyn DynProtocol>>;
     fn rounds(&self) -> Rounds;
     fn round_dyn(&self, msg: &Payload) -> Option<Round>;
+    fn spent_dyn(&self, ctx: &Ctx, from: Pid, msg: &Payload) -> bool;
 }
 
 impl<P: Microprotocol> DynProtocol for P {
@@ -404,6 +416,10 @@ impl<P: Microprotocol> DynProtocol for P {
 
     fn round_dyn(&self, msg: &Payload) -> Option<Round> {
         Some(P::round(&msg.decode().ok()?))
+    }
+
+    fn spent_dyn(&self, ctx: &Ctx, from: Pid, msg: &Payload) -> bool {
+        msg.decode().is_ok_and(|m| self.spent(ctx, from, &m))
     }
 }
 
@@ -453,6 +469,12 @@ impl Layer {
     /// if it does not decode as one.
     pub fn round(&self, msg: &Payload) -> Option<Round> {
         self.0.round_dyn(msg)
+    }
+
+    /// Whether `msg` from `from`, one of this layer's messages, is spent here
+    /// ([`Microprotocol::spent`]); `false` if it does not decode as one.
+    pub fn spent(&self, ctx: &Ctx, from: Pid, msg: &Payload) -> bool {
+        self.0.spent_dyn(ctx, from, msg)
     }
 }
 

@@ -93,6 +93,11 @@ impl Microprotocol for ReliableBroadcast {
         out.up(Indication::BDeliver { id, msg: m.payload });
     }
 
+    // A message is relayed and delivered once; its later copies change nothing.
+    fn spent(&self, _ctx: &Ctx, _from: Pid, m: &RbMsg) -> bool {
+        self.delivered.contains(&m.id)
+    }
+
     fn renamed(&self, r: &Rename) -> Option<Self> {
         Some(Self {
             delivered: self.delivered.iter().map(|id| r.msg_id(*id)).collect(),

@@ -246,6 +246,14 @@ impl Stack {
         Ok(out)
     }
 
+    /// Whether `msg` from `from`, arriving at `layer`, can no longer change this stack
+    /// ([`Microprotocol::spent`]).
+    pub fn spent(&self, ctx: &Ctx, layer: LayerIx, from: Pid, msg: &Payload) -> bool {
+        self.layers
+            .get(layer as usize)
+            .is_some_and(|l| l.spent(ctx, from, msg))
+    }
+
     /// Starts every layer, bottom-up in stack order.
     pub fn start_all(&mut self, wiring: &Wiring, ctx: &Ctx) -> Vec<Routed> {
         let mut out = Vec::new();

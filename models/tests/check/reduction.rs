@@ -6,7 +6,7 @@
 //! force: every state at rest of the full space is reached. The reduction factor of each
 //! model is pinned.
 
-use nekosim_models::compact::CompactBfs;
+use nekosim_models::compact::{CompactBfs, Reductions};
 use nekosim_models::model::invisible;
 use nekosim_models::property::at_rest;
 use nekosim_models::{
@@ -228,8 +228,10 @@ fn keeps_every_state_at_rest(name: &str, o: &Options) -> usize {
         1,
         None,
         false,
-        None,
-        Some(invisible(&model)),
+        Reductions {
+            invisible: Some(invisible(&model)),
+            ..Default::default()
+        },
         None,
     )
     .join();
