@@ -100,9 +100,9 @@ pub struct CheckArgs {
     pub max_memory: Option<u64>,
     /// Symmetry reduction (also on when the scenario's `check` section asks for it).
     pub symmetry: bool,
-    /// No partial-order reduction ([`nekosim_models::reduction`]; on by default).
+    /// No reduction ([`Reduction`]; on by default).
     pub no_reduction: bool,
-    /// Also search without partial-order reduction and report both counts.
+    /// Also search without the reduction and report both counts.
     pub compare_reduction: bool,
     /// Explore on after a counterexample, to settle every property; by default the search
     /// stops at the first.
@@ -323,26 +323,44 @@ pub fn resolve(args: &CheckArgs, registry: &Registry) -> Result<Resolved, CheckE
     })
 }
 
-/// Why partial-order reduction does not take effect in a check, if it does not: it works
-/// with the breadth-first search, without a depth bound, on an ordered network (on a network
-/// that reorders messages, any process's step may send a message that another takes first,
-/// so no smaller set of steps is enough: docs/model-checking.md).
-pub fn reduction_off(opts: &Options, args: &CheckArgs) -> Option<&'static str> {
-    if !opts.reduction {
-        Some("turned off")
-    } else if args.strategy != Strategy::Bfs {
-        Some("bfs only")
-    } else if args.depth.is_some() {
-        Some("not with a depth bound")
-    } else if opts.network != NetworkKind::Ordered {
-        Some("the network reorders messages")
-    } else {
-        None
+/// The reduction a breadth-first check applies (docs/model-checking.md), by network: on an
+/// ordered one, partial-order reduction; on one that reorders or loses messages, where no
+/// smaller set of steps is enough (any process's step may send a message that another
+/// takes first), forgetting spent messages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reduction {
+    PartialOrder,
+    SpentMessages,
+}
+
+impl Reduction {
+    /// Its name in the report.
+    pub fn label(self) -> &'static str {
+        match self {
+            Reduction::PartialOrder => "partial-order reduction",
+            Reduction::SpentMessages => "forgetting spent messages",
+        }
     }
 }
 
-/// Searches the model again without partial-order reduction and prints both counts, or
-/// why the reduction did not take effect.
+/// The reduction that takes effect in a check, or why none does: both need the
+/// breadth-first search, and partial-order reduction no depth bound.
+pub fn reduction_in_effect(opts: &Options, args: &CheckArgs) -> Result<Reduction, &'static str> {
+    if !opts.reduction {
+        Err("turned off")
+    } else if args.strategy != Strategy::Bfs {
+        Err("bfs only")
+    } else if opts.network != NetworkKind::Ordered {
+        Ok(Reduction::SpentMessages)
+    } else if args.depth.is_some() {
+        Err("not with a depth bound")
+    } else {
+        Ok(Reduction::PartialOrder)
+    }
+}
+
+/// Searches the model again without its reduction and prints both counts, or why no
+/// reduction took effect.
 fn compare_reduction(
     out: &mut dyn Write,
     protocols: &nekosim_protocols::Protocols,
@@ -360,10 +378,13 @@ fn compare_reduction(
                 .is_some_and(|i| i.load(Ordering::Relaxed))
         }
     }
-    if let Some(why) = reduction_off(opts, args) {
-        let _ = writeln!(out, "partial-order reduction: not in effect ({why})");
-        return Ok(());
-    }
+    let reduction = match reduction_in_effect(opts, args) {
+        Ok(r) => r.label(),
+        Err(why) => {
+            let _ = writeln!(out, "reduction: not in effect ({why})");
+            return Ok(());
+        }
+    };
     let plain = Options {
         reduction: false,
         ..opts.clone()
@@ -380,7 +401,7 @@ fn compare_reduction(
     };
     let _ = writeln!(
         out,
-        "without partial-order reduction: states: {}, unique states: {}, depth: {}, seconds: {:.3}{}",
+        "without {reduction}: states: {}, unique states: {}, depth: {}, seconds: {:.3}{}",
         without.states,
         without.unique_states,
         without.max_depth,
@@ -389,7 +410,7 @@ fn compare_reduction(
     );
     let _ = writeln!(
         out,
-        "partial-order reduction: {} unique states instead of {} ({:.2}x fewer){}",
+        "{reduction}: {} unique states instead of {} ({:.2}x fewer){}",
         with.unique_states,
         without.unique_states,
         without.unique_states as f64 / with.unique_states.max(1) as f64,
@@ -621,10 +642,10 @@ pub fn check_live(
             } else {
                 ""
             },
-            if reduction_off(&opts, args).is_none() {
-                " with partial-order reduction"
-            } else {
-                ""
+            match reduction_in_effect(&opts, args) {
+                Ok(Reduction::PartialOrder) => " with partial-order reduction",
+                Ok(Reduction::SpentMessages) => " forgetting spent messages",
+                Err(_) => "",
             },
             args.threads.max(1),
             if args.threads > 1 { "s" } else { "" },

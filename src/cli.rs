@@ -190,11 +190,12 @@ enum Command {
         /// processes (every layer must declare symmetry; bfs only).
         #[arg(long)]
         symmetry: bool,
-        /// No partial-order reduction (with bfs on an ordered network it explores only the
-        /// steps of a few processes where that keeps every verdict).
+        /// No reduction (with bfs: on an ordered network, partial-order reduction explores
+        /// only the steps of a few processes where that keeps every verdict; on others, the
+        /// search forgets messages that can no longer change their receiver).
         #[arg(long)]
         no_reduction: bool,
-        /// Also search without partial-order reduction and print both state counts.
+        /// Also search without the reduction and print both state counts.
         #[arg(long, conflicts_with = "no_reduction")]
         compare_reduction: bool,
         /// Explore on after a counterexample to settle every property [default: stop at the

@@ -50,8 +50,11 @@ pub type Images<A, H> =
 /// Whether a message in flight is spent: its delivery changes nothing now and in any state
 /// its receiver reaches later (given every process's state and crash flag). The search
 /// forgets such a message, on an unordered network, as if it had been delivered.
-pub type Spent<A> =
-    Arc<dyn Fn(&[Arc<<A as Actor>::State>], &[bool], &Envelope<<A as Actor>::Msg>) -> bool + Send + Sync>;
+pub type Spent<A> = Arc<
+    dyn Fn(&[Arc<<A as Actor>::State>], &[bool], &Envelope<<A as Actor>::Msg>) -> bool
+        + Send
+        + Sync,
+>;
 
 /// The reductions a search applies; the default applies none.
 pub struct Reductions<A: Actor, H> {

@@ -70,9 +70,11 @@ pub struct Options {
     /// of the processes ([`crate::symmetry`]). Needs every layer to declare symmetry, the
     /// same stack at every process and multicasts that leave at once; breadth-first only.
     pub symmetry: bool,
-    /// Partial-order reduction ([`crate::reduction`]): where a set of processes' steps is
-    /// provably enough, explore only those. Breadth-first without a depth bound only; it
-    /// takes effect on an ordered network.
+    /// The breadth-first search's reductions. Partial-order reduction ([`crate::reduction`]):
+    /// where a set of processes' steps is provably enough, explore only those; without a
+    /// depth bound, on an ordered network. Spent messages ([`crate::model::spent`]): on a
+    /// network that reorders messages, forget those that can no longer change their
+    /// receiver.
     pub reduction: bool,
 }
 
@@ -117,7 +119,7 @@ pub struct ModelCfg {
     /// Every property's [`Undo`], in the model's order: which steps the partial-order
     /// reduction must not leave to later.
     pub undo: Vec<Undo>,
-    /// Partial-order reduction is on ([`Options::reduction`]).
+    /// The reductions are on ([`Options::reduction`]).
     pub reduction: bool,
     /// Whether property `i` has had its discovery (reset by [`crate::model::run`]).
     pub found: Arc<Vec<AtomicBool>>,

@@ -8,8 +8,8 @@ use std::time::Duration;
 #[cfg(doc)]
 use nekosim_protocols::Microprotocol;
 use nekosim_protocols::{
-    AppMsg, Content, Ctx, Layer, LayerSpec, Payload, Pid, Protocols, Rename, Request, Round, Rounds,
-    Service, Stack, StackProperty, Wiring,
+    AppMsg, Content, Ctx, Layer, LayerSpec, Payload, Pid, Protocols, Rename, Request, Round,
+    Rounds, Service, Stack, StackProperty, Wiring,
 };
 use stateright::actor::{ActorModel, LossyNetwork, Network};
 use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChooser};

@@ -6,6 +6,7 @@ mod correct_models_hold;
 mod reduction;
 mod rounds;
 mod services;
+mod spent;
 mod state_counts;
 mod symmetry;
 
