@@ -235,7 +235,17 @@ where
             (&self.spent, &mut s.network)
         {
             let (states, crashed) = (&s.actor_states, &s.crashed);
-            multiset.retain(|env, _| !spent(states, crashed, env));
+            // A message the parent kept, to a receiver whose state and crash flag the step
+            // left alone, is still not spent: only the rest need asking.
+            let kept = |env: &Envelope<A::Msg>| {
+                parent.is_some_and(|(_, p)| {
+                    let to = usize::from(env.dst);
+                    Arc::ptr_eq(&p.state.actor_states[to], &states[to])
+                        && p.state.crashed[to] == crashed[to]
+                        && p.envelopes.iter().any(|(_, e)| e == env)
+                })
+            };
+            multiset.retain(|env, _| kept(env) || !spent(states, crashed, env));
         }
         match parent {
             Some((rec, p)) if p.state.history == s.history => out.push(rec[0]),
