@@ -49,9 +49,9 @@ pub type Images<A, H> =
 
 /// Whether a message in flight is spent: its delivery changes nothing now and in any state
 /// its receiver reaches later (given every process's state and crash flag). The search
-/// forgets such a message, on an unordered network, as if it had been delivered.
+/// forgets such a message, on a network that reorders messages, as if it had been delivered.
 pub type Spent<A> = Arc<
-    dyn Fn(&[Arc<<A as Actor>::State>], &[bool], &Envelope<<A as Actor>::Msg>) -> bool
+    dyn Fn(&[Arc<<A as Actor>::State>], &[bool], Envelope<&<A as Actor>::Msg>) -> bool
         + Send
         + Sync,
 >;
@@ -231,21 +231,34 @@ where
         out: &mut Vec<u32>,
     ) {
         out.clear();
-        if let (Some(spent), Network::UnorderedNonDuplicating(multiset)) =
-            (&self.spent, &mut s.network)
-        {
+        if let Some(spent) = &self.spent {
             let (states, crashed) = (&s.actor_states, &s.crashed);
             // A message the parent kept, to a receiver whose state and crash flag the step
             // left alone, is still not spent: only the rest need asking.
-            let kept = |env: &Envelope<A::Msg>| {
+            let kept = |env: &Envelope<&A::Msg>| {
                 parent.is_some_and(|(_, p)| {
                     let to = usize::from(env.dst);
                     Arc::ptr_eq(&p.state.actor_states[to], &states[to])
                         && p.state.crashed[to] == crashed[to]
-                        && p.envelopes.iter().any(|(_, e)| e == env)
+                        && p.envelopes
+                            .iter()
+                            .any(|(_, e)| e.src == env.src && e.dst == env.dst && e.msg == *env.msg)
                 })
             };
-            multiset.retain(|env, _| kept(env) || !spent(states, crashed, env));
+            let keep = |env: Envelope<&A::Msg>| kept(&env) || !spent(states, crashed, env);
+            match &mut s.network {
+                Network::UnorderedNonDuplicating(multiset) => multiset.retain(|env, _| {
+                    keep(Envelope {
+                        src: env.src,
+                        dst: env.dst,
+                        msg: &env.msg,
+                    })
+                }),
+                // On an ordered network partial-order reduction applies instead: its
+                // persistent sets read the channels as they are.
+                Network::Ordered(_) => {}
+                Network::UnorderedDuplicating(..) => {}
+            }
         }
         match parent {
             Some((rec, p)) if p.state.history == s.history => out.push(rec[0]),

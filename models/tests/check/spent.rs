@@ -10,6 +10,7 @@
 use std::collections::HashSet;
 use std::hash::{DefaultHasher, Hash, Hasher};
 
+use nekosim_models::adapter::NetMsg;
 use nekosim_models::compact::{CompactBfs, Reductions};
 use nekosim_models::model::spent;
 use nekosim_models::{
@@ -18,7 +19,7 @@ use nekosim_models::{
 use nekosim_protocols::consensus::ChandraToueg;
 use nekosim_protocols::rbroadcast::ReliableBroadcast;
 use nekosim_protocols::{Layer, Pid, Stack};
-use stateright::actor::{ActorModelAction, Network};
+use stateright::actor::{ActorModelAction, Envelope, Network};
 use stateright::{Checker, Expectation, Model, StateRecorder};
 
 use super::opts;
@@ -28,10 +29,26 @@ fn forgotten(model: &CheckModel, s: &State) -> State {
     let is_spent = spent(model);
     let mut s = s.clone();
     let (states, crashed) = (s.actor_states.clone(), s.crashed.clone());
-    if let Network::UnorderedNonDuplicating(multiset) = &mut s.network {
-        multiset.retain(|env, _| !is_spent(&states, &crashed, env));
+    match &mut s.network {
+        Network::UnorderedNonDuplicating(multiset) => {
+            multiset.retain(|env, _| !is_spent(&states, &crashed, by_ref(env)))
+        }
+        Network::Ordered(channels) => {
+            for (&(src, dst), queue) in channels.iter_mut() {
+                queue.retain(|msg| !is_spent(&states, &crashed, Envelope { src, dst, msg }));
+            }
+        }
+        Network::UnorderedDuplicating(..) => unreachable!("no model duplicates"),
     }
     s
+}
+
+fn by_ref(e: &Envelope<NetMsg>) -> Envelope<&NetMsg> {
+    Envelope {
+        src: e.src,
+        dst: e.dst,
+        msg: &e.msg,
+    }
 }
 
 fn hash(s: &State) -> u64 {
@@ -62,7 +79,7 @@ fn spent_messages_are_inert(
             .collect();
         for env in in_flight
             .iter()
-            .filter(|e| is_spent(&s.actor_states, &s.crashed, e))
+            .filter(|e| is_spent(&s.actor_states, &s.crashed, by_ref(e)))
         {
             pairs += 1;
             let deliver = ActorModelAction::Deliver {
@@ -89,7 +106,7 @@ fn spent_messages_are_inert(
                     .iter_deliverable()
                     .any(|e| e.to_cloned_msg() == *env);
                 assert!(
-                    !still || is_spent(&next.actor_states, &next.crashed, env),
+                    !still || is_spent(&next.actor_states, &next.crashed, by_ref(env)),
                     "{name}: {env:?} is spent, and no longer after a step"
                 );
             }
