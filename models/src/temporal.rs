@@ -38,7 +38,8 @@ use crate::adapter::{ModelTimer, NetMsg, State};
 use crate::config::{Action, CheckModel, NetworkKind};
 use crate::family::Family;
 use crate::liveness::{
-    Actors, Graph, Lasso, Liveness, Strength, Task, TransitionSystem, Verdict,
+    explore, Actors, Exceeded, Graph, Lasso, Limits, Liveness, Strength, Task, TransitionSystem,
+    Verdict,
 };
 use crate::property::{all_received, decided_all, live, suspects};
 
@@ -262,6 +263,35 @@ pub struct StackSystem<'a> {
     left: RefCell<Vec<Task>>,
     /// Whether the last state expanded has no step and is not at rest.
     stuck: Cell<bool>,
+    /// Asked at the first state expanded and every [`POLL_EVERY`] after whether to stop;
+    /// once it says so, no state has a step and the (incomplete) graph is discarded.
+    halt: Option<&'a dyn Fn() -> bool>,
+    expanded: Cell<u64>,
+    halted: Cell<bool>,
+}
+
+/// States expanded between two polls of a [`StackSystem`]'s halt (reading the resident
+/// memory costs a file read).
+pub const POLL_EVERY: u64 = 1024;
+
+/// Explores the whole graph of `model`, within `max_states` unique states, asking `halt`
+/// now and then whether to stop (the memory budget, Ctrl-C). `Ok(None)`: `halt` stopped it,
+/// after the returned number of states.
+#[allow(clippy::type_complexity)]
+pub fn explore_stack<'a>(
+    model: &'a CheckModel,
+    max_states: Option<usize>,
+    halt: &'a dyn Fn() -> bool,
+) -> (Result<Graph<StackSystem<'a>>, Exceeded>, Option<u64>, usize) {
+    let mut system = StackSystem::new(model);
+    system.halt = Some(halt);
+    let limits = Limits {
+        max_states,
+        max_memory: None,
+    };
+    let graph = explore(&system, limits);
+    let halted = system.halted.get().then(|| system.expanded.get());
+    (graph, halted, system.task_count())
 }
 
 impl std::fmt::Debug for StackSystem<'_> {
@@ -280,6 +310,9 @@ impl<'a> StackSystem<'a> {
             keys: RefCell::new(Vec::new()),
             left: RefCell::new(Vec::new()),
             stuck: Cell::new(false),
+            halt: None,
+            expanded: Cell::new(0),
+            halted: Cell::new(false),
         }
     }
 
@@ -329,6 +362,19 @@ impl TransitionSystem for StackSystem<'_> {
     }
 
     fn successors(&self, state: &State, out: &mut Vec<(Action, State)>) {
+        self.left.borrow_mut().clear();
+        self.stuck.set(false);
+        if self.halted.get() {
+            return;
+        }
+        let n = self.expanded.get();
+        self.expanded.set(n + 1);
+        if let Some(halt) = self.halt.filter(|_| n % POLL_EVERY == 0) {
+            if halt() {
+                self.halted.set(true);
+                return;
+            }
+        }
         let mut actions = Vec::new();
         self.model.actions(state, &mut actions);
         let mut left = self.left.borrow_mut();
@@ -391,13 +437,14 @@ pub struct Decision {
     pub verdict: Verdict<State, Action>,
 }
 
-/// Decides every temporal property of `model` on `graph` (explored from a
-/// [`StackSystem`], possibly watched) under `fairness`, assuming eventual accuracy where the
+/// Decides every temporal property of `model` on its `graph` ([`explore_stack`]) under
+/// `fairness`, assuming eventual accuracy where the
 /// stack rests on it ([`assumes_accuracy`]).
-pub fn decide<T>(model: &CheckModel, graph: &Graph<T>, fairness: StackFairness) -> Vec<Decision>
-where
-    T: TransitionSystem<State = State, Label = Action>,
-{
+pub fn decide(
+    model: &CheckModel,
+    graph: &Graph<StackSystem<'_>>,
+    fairness: StackFairness,
+) -> Vec<Decision> {
     let assume = assumes_accuracy(model);
     temporal_properties(model)
         .into_iter()

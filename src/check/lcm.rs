@@ -24,7 +24,8 @@ pub mod budget;
 pub mod replay;
 
 pub use abstraction::{Abstraction, Pending, Phase, Position, State, Step, Variant};
-pub use budget::{Budget, Halt, Open, Watch, Watched};
+pub use budget::{Budget, Halt, Open, Watch};
+use budget::Watched;
 
 
 /// Which runs the check judges (docs/model-checking.md).

@@ -8,15 +8,15 @@ use std::io::Write;
 use std::time::Instant;
 
 use nekosim_models::explain::{describe, explain};
-use nekosim_models::liveness::{explore, Exceeded, Limits, Verdict};
+use nekosim_models::liveness::{Exceeded, Verdict};
 use nekosim_models::temporal::{
-    assumes_accuracy, decide, lasso_path, reason, temporal_properties, Decision, StackFairness,
-    StackSystem,
+    assumes_accuracy, decide, explore_stack, lasso_path, reason, temporal_properties, Decision,
+    StackFairness,
 };
 use nekosim_models::{CheckModel, NetworkKind, Outcome};
 use stateright::Expectation;
 
-use super::lcm::{Halt, Watch, Watched};
+use super::lcm::{Halt, Watch};
 use super::Conclusion;
 
 /// How the liveness part ended.
@@ -62,14 +62,16 @@ pub(super) fn check(
     );
     let _ = out.flush();
     let start = Instant::now();
-    let system = StackSystem::new(model);
-    let watched = Watched::new(&system, watch);
-    let limits = Limits {
-        max_states,
-        max_memory: None,
+    let halted = std::cell::Cell::new(None);
+    let halt = || {
+        let h = watch.halt();
+        if h.is_some() {
+            halted.set(h);
+        }
+        h.is_some()
     };
-    let explored = explore(&watched, limits);
-    let stop = match (&explored, watched.halted()) {
+    let (explored, stopped_after, _) = explore_stack(model, max_states, &halt);
+    let stop = match (&explored, halted.get().zip(stopped_after)) {
         (_, Some((halt, states))) => Some((
             match halt {
                 Halt::Interrupted => Conclusion::Interrupted,
@@ -129,7 +131,7 @@ pub(super) fn check(
                 format!(": the run ends after {} steps and stays", l.stem.len())
             }
             Verdict::Fails(l) => format!(
-                ": a lasso of {} steps, then a cycle of {}",
+                ": a stem of {} steps, then a cycle of {} steps",
                 l.stem.len(),
                 l.cycle.len()
             ),

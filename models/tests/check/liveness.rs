@@ -6,8 +6,8 @@
 
 use nekosim_models::adapter::State;
 use nekosim_models::config::{Action, UNLIMITED_TIMERS};
-use nekosim_models::liveness::{explore, Lasso, Limits, Verdict};
-use nekosim_models::temporal::{decide, lasso_path, Decision, StackFairness, StackSystem};
+use nekosim_models::liveness::{Lasso, Verdict};
+use nekosim_models::temporal::{decide, explore_stack, lasso_path, Decision, StackFairness};
 use nekosim_models::{build, find, CheckModel, Family, NetworkKind, Options, Target};
 use nekosim_protocols::consensus::{ChandraToueg, CtMsg};
 use nekosim_protocols::protocol::{FieldError, Microprotocol, NoConfig, Out, Round, Rounds};
@@ -79,19 +79,15 @@ impl Microprotocol for DeafCoordinator {
 
 /// The whole graph of `model` and its temporal verdicts under `fairness`.
 fn liveness(model: &CheckModel, fairness: StackFairness) -> (usize, usize, Vec<Decision>) {
-    let system = StackSystem::new(model);
-    let limits = Limits {
-        max_states: Some(3_000_000),
-        max_memory: None,
-    };
-    let graph = explore(&system, limits).expect("a small graph");
+    let (graph, halted, tasks) = explore_stack(model, Some(3_000_000), &|| false);
+    assert_eq!(halted, None);
+    let graph = graph.expect("a small graph");
     let decisions = decide(model, &graph, fairness);
     eprintln!(
-        "{} states, {} steps, {} cut, {} tasks",
+        "{} states, {} steps, {} cut, {tasks} tasks",
         graph.len(),
         graph.edge_count(),
         graph.cut_states(),
-        system.task_count()
     );
     (graph.len(), graph.cut_states(), decisions)
 }
