@@ -15,9 +15,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
+use nekosim_models::config::UNLIMITED_TIMERS;
 use nekosim_models::explain::{describe, explain};
 use nekosim_models::reason::reason;
-use nekosim_models::config::UNLIMITED_TIMERS;
 use nekosim_models::temporal::StackFairness;
 use nekosim_models::{
     available_memory, build_in, run_watched, Budget, Discovery, Exploration, ModelError,
@@ -428,7 +428,9 @@ pub fn parse_timers(text: &str) -> Result<u32, String> {
             .parse::<u32>()
             .ok()
             .filter(|&n| n != UNLIMITED_TIMERS)
-            .ok_or_else(|| format!("{text:?} is not a timer budget; expected a number of firings or unlimited")),
+            .ok_or_else(|| {
+                format!("{text:?} is not a timer budget; expected a number of firings or unlimited")
+            }),
     }
 }
 
@@ -795,7 +797,12 @@ pub fn check_live(
     });
     let lasso = live_part.as_ref().and_then(|l| l.lasso.as_ref());
     // A lasso is written when the search found no counterexample (rather than a witness).
-    let lasso = lasso.filter(|_| !outcome.verdicts.iter().any(|v| !v.holds && v.path.is_some()));
+    let lasso = lasso.filter(|_| {
+        !outcome
+            .verdicts
+            .iter()
+            .any(|v| !v.holds && v.path.is_some())
+    });
     if let Some(path) = &args.trace {
         let written = match lasso {
             Some((o, stem, why)) => write_lasso_trace(&model, o, (*stem, why), path),
@@ -813,17 +820,19 @@ pub fn check_live(
         }
     }
     let live_conclusion = live_part.map_or(Conclusion::Holds, |l| l.conclusion);
-    Ok(if outcome.stopped == Some(Stopped::Interrupted)
-        || live_conclusion == Conclusion::Interrupted
-    {
-        Conclusion::Interrupted
-    } else if outcome.any_fails() || live_conclusion == Conclusion::Fails {
-        Conclusion::Fails
-    } else if stopped || live_conclusion == Conclusion::Unsettled {
-        Conclusion::Unsettled
-    } else if outcome.all_hold() {
-        Conclusion::Holds
-    } else {
-        Conclusion::Fails
-    })
+    Ok(
+        if outcome.stopped == Some(Stopped::Interrupted)
+            || live_conclusion == Conclusion::Interrupted
+        {
+            Conclusion::Interrupted
+        } else if outcome.any_fails() || live_conclusion == Conclusion::Fails {
+            Conclusion::Fails
+        } else if stopped || live_conclusion == Conclusion::Unsettled {
+            Conclusion::Unsettled
+        } else if outcome.all_hold() {
+            Conclusion::Holds
+        } else {
+            Conclusion::Fails
+        },
+    )
 }

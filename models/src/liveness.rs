@@ -228,7 +228,8 @@ pub fn explore<T: TransitionSystem>(system: &T, limits: Limits) -> Result<Graph<
             g.labels.push(label);
         }
         let cut = system.beyond(&g.states[i], &mut enabled);
-        g.cut.push(cut || g.edges.len() == g.offsets[i] && !enabled.is_empty());
+        g.cut
+            .push(cut || g.edges.len() == g.offsets[i] && !enabled.is_empty());
         enabled.sort_unstable();
         enabled.dedup();
         if let Some(&last) = enabled.last() {

@@ -346,7 +346,6 @@ impl<'a> StackSystem<'a> {
             next
         }))
     }
-
 }
 
 impl TransitionSystem for StackSystem<'_> {
@@ -499,7 +498,9 @@ pub fn reason(
         _ => ", and the cycle is fair: every message and timer it keeps enabled it also takes, or disables in one of its states",
     };
     if lasso.cycle.is_empty() {
-        return format!("{missing}; the run ends there (nothing is left to happen) and stays for ever");
+        return format!(
+            "{missing}; the run ends there (nothing is left to happen) and stays for ever"
+        );
     }
     let false_in = lasso
         .cycle
@@ -529,13 +530,21 @@ fn missing(m: &CheckModel, name: &str, s: &State) -> String {
     match name {
         "termination" => {
             let undecided: Vec<usize> = live(s).filter(|&i| !decided_all(m, s, i)).collect();
-            format!("{} never decide{}", list(undecided.clone()), if undecided.len() == 1 { "s" } else { "" })
+            format!(
+                "{} never decide{}",
+                list(undecided.clone()),
+                if undecided.len() == 1 { "s" } else { "" }
+            )
         }
         "validity" => live(s)
             .find_map(|i| {
                 let a = &s.actor_states[i];
                 (0..a.issued as u64)
-                    .find(|&n| !a.delivered.iter().any(|(d, _)| d.origin as usize == i && d.n == n))
+                    .find(|&n| {
+                        !a.delivered
+                            .iter()
+                            .any(|(d, _)| d.origin as usize == i && d.n == n)
+                    })
                     .map(|n| format!("p{i} never delivers its own broadcast {i}:{n}"))
             })
             .unwrap_or_else(|| "a live process misses its own broadcast".into()),
@@ -597,7 +606,10 @@ fn missing(m: &CheckModel, name: &str, s: &State) -> String {
                     None => format!("p{i} trusts nobody"),
                 })
                 .collect();
-            format!("the live processes never settle on one live leader ({})", leaders.join(", "))
+            format!(
+                "the live processes never settle on one live leader ({})",
+                leaders.join(", ")
+            )
         }
         _ => format!("{name} never holds"),
     }

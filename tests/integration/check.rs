@@ -1053,7 +1053,14 @@ fn a_livelock_is_reported_as_a_lasso_printed_and_traced() {
     assert!(out.contains("fairness: fair loss"), "{out}");
     assert!(out.contains("holds  reliable delivery <>[]"), "{out}");
     // With every copy allowed to be lost, it resends and loses for ever: a lasso.
-    let args = ["check", &file, "--timers", "unlimited", "--fairness", "weak"];
+    let args = [
+        "check",
+        &file,
+        "--timers",
+        "unlimited",
+        "--fairness",
+        "weak",
+    ];
     let o = nekosim(&[&args[..], &["--trace", trace.to_str().unwrap()]].concat());
     let out = stdout(&o);
     assert_eq!(o.status.code(), Some(1), "{out}");
@@ -1069,9 +1076,19 @@ fn a_livelock_is_reported_as_a_lasso_printed_and_traced() {
     let last = text.lines().last().unwrap();
     assert!(last.contains("\"kind\":\"lasso\""), "{text}");
     assert!(last.contains("\"cycle_from\":1"), "{text}");
-    assert!(text.lines().any(|l| l.contains("\"kind\":\"drop\"")), "{text}");
+    assert!(
+        text.lines().any(|l| l.contains("\"kind\":\"drop\"")),
+        "{text}"
+    );
     // Without fairness too; and `--no-liveness` decides nothing temporal.
-    let o = nekosim(&["check", &file, "--timers", "unlimited", "--fairness", "none"]);
+    let o = nekosim(&[
+        "check",
+        &file,
+        "--timers",
+        "unlimited",
+        "--fairness",
+        "none",
+    ]);
     assert_eq!(o.status.code(), Some(1), "{}", stdout(&o));
     let o = nekosim(&[&args[..], &["--no-liveness"]].concat());
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
@@ -1083,7 +1100,12 @@ fn a_livelock_is_reported_as_a_lasso_printed_and_traced() {
 
 #[test]
 fn the_shipped_models_state_their_liveness_and_keep_their_verdicts() {
-    for name in ["lamport-abcast", "sequencer-abcast", "consensus-abcast", "reliable-broadcast"] {
+    for name in [
+        "lamport-abcast",
+        "sequencer-abcast",
+        "consensus-abcast",
+        "reliable-broadcast",
+    ] {
         let o = nekosim(&["check", name]);
         let out = stdout(&o);
         assert_eq!(o.status.code(), Some(0), "{name}: {out}");
