@@ -575,7 +575,7 @@ pub fn check_live(
     }
     let robot_only = lcm::LcmOverrides {
         fairness: None,
-        ..args.lcm.clone()
+        ..args.lcm
     };
     if robot_only.any() {
         return Err(CheckError::Lcm(

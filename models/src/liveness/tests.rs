@@ -85,15 +85,6 @@ impl Hand {
         seen
     }
 
-    fn fair(&self, visited: u32, taken: Actors, fairness: Fairness) -> bool {
-        let strength = match fairness {
-            Fairness::None => None,
-            Fairness::Weak => Some(Strength::Weak),
-            Fairness::Strong => Some(Strength::Strong),
-        };
-        self.fair_each(visited, taken, [strength; 2])
-    }
-
     fn fair_each(&self, visited: u32, taken: Actors, strengths: [Option<Strength>; 2]) -> bool {
         let states = (0..self.edges.len()).filter(|i| visited & (1 << i) != 0);
         (0..2).all(|a| {
