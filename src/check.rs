@@ -15,8 +15,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
+use nekosim_models::config::UNLIMITED_TIMERS;
 use nekosim_models::explain::{describe, explain};
 use nekosim_models::reason::reason;
+use nekosim_models::temporal::StackFairness;
 use nekosim_models::{
     available_memory, build_in, run_watched, Budget, Discovery, Exploration, ModelError,
     NetworkKind, Options, Progress, Stopped, Strategy, Target, Watch,
@@ -29,10 +31,11 @@ use crate::scenario::{CheckNetwork, FaultSpec, Overrides, Registry, ScenarioErro
 
 pub mod lcm;
 pub mod lcm_search;
+mod temporal;
 mod trace;
 
 pub use trace::{trace_lines, CheckEvent, CheckRecord};
-use trace::{write_recording, write_trace};
+use trace::{write_lasso_trace, write_recording, write_trace};
 
 /// The models `nekosim check NAME` knows: each is a scenario file shipped under
 /// `examples/check/` (name, file, what it checks), so `check lamport-abcast` and
@@ -107,7 +110,10 @@ pub struct CheckArgs {
     /// Explore on after a counterexample, to settle every property; by default the search
     /// stops at the first.
     pub keep_going: bool,
-    /// Overrides of a Look-Compute-Move scenario's settings ([`lcm`]).
+    /// Decide no temporal property (no liveness graph is built).
+    pub no_liveness: bool,
+    /// Overrides of a Look-Compute-Move scenario's settings ([`lcm`]); its `fairness` is
+    /// also a stack's liveness fairness (none, weak or strong).
     pub lcm: lcm::LcmOverrides,
     /// What a search of Look-Compute-Move robots checks ([`lcm_search`]; default:
     /// collision-free).
@@ -435,6 +441,20 @@ pub fn size_text(bytes: u64) -> String {
     }
 }
 
+/// Parses a timer budget: a number of firings per process, or `unlimited`.
+pub fn parse_timers(text: &str) -> Result<u32, String> {
+    match text.trim() {
+        "unlimited" => Ok(UNLIMITED_TIMERS),
+        t => t
+            .parse::<u32>()
+            .ok()
+            .filter(|&n| n != UNLIMITED_TIMERS)
+            .ok_or_else(|| {
+                format!("{text:?} is not a timer budget; expected a number of firings or unlimited")
+            }),
+    }
+}
+
 /// Parses a memory size: a number of bytes with an optional unit, binary (`KiB`, `MiB`,
 /// `GiB`, `TiB`) or decimal (`kB`, `MB`, `GB`, `TB`), e.g. `512MiB` or `4GiB`.
 pub fn parse_size(text: &str) -> Result<u64, String> {
@@ -574,11 +594,26 @@ pub fn check_live(
             return lcm_search::check(&source, registry, args, &watch(), out);
         }
     }
-    if args.lcm.any() {
+    let robot_only = lcm::LcmOverrides {
+        fairness: None,
+        ..args.lcm
+    };
+    if robot_only.any() {
         return Err(CheckError::Lcm(
-            "--synchrony, --movement, --register, --fairness and --property apply to a Look-Compute-Move scenario whose two robots run a rule table".into(),
+            "--synchrony, --movement, --register and --property apply to a Look-Compute-Move scenario whose two robots run a rule table".into(),
         ));
     }
+    let fairness = match args.lcm.fairness {
+        None => None,
+        Some(lcm::RobotFairness::None) => Some(StackFairness::None),
+        Some(lcm::RobotFairness::Weak) => Some(StackFairness::Weak),
+        Some(lcm::RobotFairness::Strong) => Some(StackFairness::Strong),
+        Some(_) => {
+            return Err(CheckError::Lcm(
+                "a stack's liveness fairness is none, weak or strong; bounded fairness applies to Look-Compute-Move robots".into(),
+            ))
+        }
+    };
     let Resolved {
         name,
         target,
@@ -628,7 +663,11 @@ pub fn check_live(
             opts.processes,
             if target.family.takes_requests() { opts.requests } else { 0 },
             opts.crashes,
-            opts.timer_budget,
+            if opts.timer_budget == UNLIMITED_TIMERS {
+                "unlimited".to_string()
+            } else {
+                opts.timer_budget.to_string()
+            },
             opts.max_round,
             args.depth.map_or(String::new(), |d| format!(", depth bound {d}")),
         ),
@@ -762,24 +801,59 @@ pub fn check_live(
             }
         }
     }
+    // Liveness is decided on the whole graph, once the search has covered it and found no
+    // counterexample: a counterexample already ends the check, and a search cut short says
+    // nothing of the cycles it did not see.
+    let whole = outcome.stopped.is_none()
+        && !outcome.any_fails()
+        && args.depth.is_none()
+        && !matches!(args.strategy, Strategy::Simulation { .. });
+    let live_part = (whole && !args.no_liveness).then(|| {
+        let watch = lcm::Watch {
+            max_memory: budget.max_memory,
+            interrupt: live.interrupt.clone(),
+        };
+        let fairness = fairness.unwrap_or(StackFairness::of(opts.network));
+        temporal::check(out, &model, opts.network, fairness, args.max_states, &watch)
+    });
+    let lasso = live_part.as_ref().and_then(|l| l.lasso.as_ref());
+    // A lasso is written when the search found no counterexample (rather than a witness).
+    let lasso = lasso.filter(|_| {
+        !outcome
+            .verdicts
+            .iter()
+            .any(|v| !v.holds && v.path.is_some())
+    });
     if let Some(path) = &args.trace {
-        write_trace(&model, &outcome, path).map_err(|source| CheckError::Trace {
+        let written = match lasso {
+            Some((o, stem, why)) => write_lasso_trace(&model, o, (*stem, why), path),
+            None => write_trace(&model, &outcome, path),
+        };
+        written.map_err(|source| CheckError::Trace {
             path: path.clone(),
             source,
         })?;
     }
     if let Some(path) = &args.rrd {
-        write_recording(&name, &model, &outcome, path)?;
+        match lasso {
+            Some((o, stem, why)) => write_recording(&name, &model, o, Some((*stem, why)), path)?,
+            None => write_recording(&name, &model, &outcome, None, path)?,
+        }
     }
-    Ok(if outcome.stopped == Some(Stopped::Interrupted) {
-        Conclusion::Interrupted
-    } else if outcome.any_fails() {
-        Conclusion::Fails
-    } else if stopped {
-        Conclusion::Unsettled
-    } else if outcome.all_hold() {
-        Conclusion::Holds
-    } else {
-        Conclusion::Fails
-    })
+    let live_conclusion = live_part.map_or(Conclusion::Holds, |l| l.conclusion);
+    Ok(
+        if outcome.stopped == Some(Stopped::Interrupted)
+            || live_conclusion == Conclusion::Interrupted
+        {
+            Conclusion::Interrupted
+        } else if outcome.any_fails() || live_conclusion == Conclusion::Fails {
+            Conclusion::Fails
+        } else if stopped || live_conclusion == Conclusion::Unsettled {
+            Conclusion::Unsettled
+        } else if outcome.all_hold() {
+            Conclusion::Holds
+        } else {
+            Conclusion::Fails
+        },
+    )
 }

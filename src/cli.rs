@@ -180,8 +180,9 @@ enum Command {
         /// Save the counterexample (or a witness) as a Rerun recording (.rrd).
         #[arg(long)]
         rrd: Option<PathBuf>,
-        /// Protocol timer firings allowed per process.
-        #[arg(long)]
+        /// Protocol timer firings allowed per process, or `unlimited` (then a second copy of
+        /// a message in flight is outside the model).
+        #[arg(long, value_parser = check::parse_timers)]
         timers: Option<u32>,
         /// Last Chandra-Toueg round explored.
         #[arg(long)]
@@ -202,6 +203,9 @@ enum Command {
         /// first counterexample].
         #[arg(long)]
         keep_going: bool,
+        /// Decide no temporal property: no liveness graph is built after the search.
+        #[arg(long)]
+        no_liveness: bool,
         /// No progress line on the terminal.
         #[arg(long)]
         quiet: bool,
@@ -216,7 +220,8 @@ enum Command {
         #[arg(long, value_enum)]
         register: Option<RegisterArg>,
         /// Look-Compute-Move: weak, strong, none, bounded (spin-light's limit) or bounded:K
-        /// [default: bounded].
+        /// [default: bounded]. A stack's liveness: none, weak or strong [default: weak, fair
+        /// loss (strong) on a lossy network].
         #[arg(long, value_name = "FAIRNESS", value_parser = check::lcm::RobotFairness::parse)]
         fairness: Option<check::lcm::RobotFairness>,
         /// Look-Compute-Move: eventually, eventually-always or always-eventually "on one
@@ -390,6 +395,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             no_reduction,
             compare_reduction,
             keep_going,
+            no_liveness,
             quiet,
             synchrony,
             movement,
@@ -430,6 +436,7 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 no_reduction,
                 compare_reduction,
                 keep_going,
+                no_liveness,
                 lcm: check::lcm::LcmOverrides {
                     synchrony,
                     rigid: movement.map(|m| m == MovementArg::Rigid),

@@ -333,7 +333,10 @@ impl ProcessActor {
                     return;
                 }
                 let s = state.to_mut();
-                s.fired += 1;
+                // Unlimited firings are not counted, so a timer loop can close a cycle.
+                if self.shared.timer_budget != crate::config::UNLIMITED_TIMERS {
+                    s.fired += 1;
+                }
                 log.push(Happening::Timer {
                     layer,
                     timer: t.clone(),

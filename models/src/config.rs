@@ -19,6 +19,13 @@ pub type CheckModel = ActorModel<ProcessActor, ModelCfg, ()>;
 /// One step of a model.
 pub type Action = ActorModelAction<NetMsg, ModelTimer, ()>;
 
+/// A timer budget ([`Options::timer_budget`]) that never runs out: firings are not counted,
+/// so a process whose timer keeps firing can come back to a state it was in (a liveness
+/// check needs those cycles). To keep the space finite, a state with two copies of one message
+/// in flight is then outside the model: a timer that would send a second copy waits until the
+/// first is delivered or lost.
+pub const UNLIMITED_TIMERS: u32 = u32::MAX;
+
 /// How the network treats messages between processes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum NetworkKind {
@@ -56,7 +63,7 @@ pub struct Options {
     /// Processes that may crash (crash-stop).
     pub crashes: u32,
     pub network: NetworkKind,
-    /// Protocol timer firings allowed per process.
+    /// Protocol timer firings allowed per process ([`UNLIMITED_TIMERS`]: no limit).
     pub timer_budget: u32,
     /// Last Chandra-Toueg round explored in each instance: states with a message of a later
     /// round are outside the model. Round 1 is the least that lets round 0 decide, as a

@@ -17,6 +17,9 @@
 //! - [`symmetry`]: symmetry reduction for stacks whose processes are alike.
 //! - [`reduction`]: partial-order reduction, exploring the steps of a few processes only
 //!   where that provably keeps every verdict.
+//! - [`temporal`]: each family's liveness as temporal properties, decided by [`liveness`] on
+//!   the model's whole graph under fair delivery, fair timers, fair loss and eventual
+//!   accuracy.
 //! - [`explain`]: a path of the checker as a sequence of messages, deliveries and decisions.
 //!
 //! See docs/model-checking.md for what is checked and under which assumptions.
@@ -33,6 +36,7 @@ pub mod reason;
 pub mod reduction;
 pub mod registry;
 pub mod symmetry;
+pub mod temporal;
 
 pub use adapter::State;
 pub use config::{CheckModel, NetworkKind, Options};

@@ -18,6 +18,15 @@
 //! - [`Fairness::Strong`]: no actor is enabled infinitely often without moving infinitely
 //!   often.
 //!
+//! Fairness is owed to **tasks**: by default one per actor, but a system may name finer ones
+//! ([`TransitionSystem::tasks`]): a protocol stack owes it to every message in flight (fair
+//! delivery) and every timer, and holds each task weakly or strongly
+//! ([`Graph::check_under`]; a lossy link's fair loss is strong fairness on its messages). A
+//! run may also be judged only under an assumption `<>[] A` (a failure detector's eventual
+//! accuracy): a cycle outside `A` is not a counterexample. A state where a bound of the model
+//! cut the run short ([`TransitionSystem::beyond`]) is never where a run ends, and the steps
+//! left out there count as enabled, so a bound never makes a counterexample.
+//!
 //! Bounded fairness (no actor waits more than k steps of the others) is a property of the
 //! adversary, so it belongs in the model: counters in the state, as spin-light's schedulers
 //! keep them.
@@ -55,6 +64,35 @@ pub trait TransitionSystem {
 
     /// How many actors there are (numbered from 0).
     fn actors(&self) -> usize;
+
+    /// Pushes the fairness [`Task`]s a step takes: by default one per actor it moved (task
+    /// `a` is actor `a`). A system whose fairness is about more than its actors (every message
+    /// in flight, every timer) names its own tasks here.
+    fn tasks(&self, label: &Self::Label, out: &mut Vec<Task>) {
+        let moved = self.moved(label);
+        out.extend((0..64).filter(|a| moved & (1 << a) != 0));
+    }
+
+    /// Pushes the tasks of steps from `state` that the graph leaves out because they leave
+    /// the model's bounds, and returns whether a bound cut the run short there. Such a state
+    /// is never where a run ends, and the tasks count as enabled there (so a cycle that keeps
+    /// one enabled without taking it is unfair). It is called right after
+    /// [`Self::successors`] of the same state. By default nothing is left out.
+    fn beyond(&self, _state: &Self::State, _out: &mut Vec<Task>) -> bool {
+        false
+    }
+}
+
+/// Something fairness forbids to put off for ever: an actor, a message in flight, a timer.
+pub type Task = u32;
+
+/// How a fairness constraint holds one task.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strength {
+    /// A task enabled without interruption from some point on is eventually taken.
+    Weak,
+    /// A task enabled infinitely often is taken infinitely often.
+    Strong,
 }
 
 /// Which infinite runs a liveness property is judged on (see the module's doc).
@@ -114,8 +152,15 @@ pub struct Graph<T: TransitionSystem> {
     labels: Vec<T::Label>,
     /// The states reached first from an initial state, and by which edge, for the stems.
     initial: Vec<bool>,
-    /// The actors enabled in each state.
-    enabled: Vec<Actors>,
+    /// The tasks enabled in each state: `enabled[spans[i]..spans[i + 1]]`, sorted.
+    spans: Vec<usize>,
+    enabled: Vec<Task>,
+    /// The tasks of each edge: `edge_tasks[edges[k].tasks..edges[k + 1].tasks]`.
+    edge_tasks: Vec<Task>,
+    /// States where a bound cut the run short ([`TransitionSystem::beyond`]).
+    cut: Vec<bool>,
+    /// One more than the largest task.
+    task_count: usize,
     /// Steps explored (with repetitions).
     pub transitions: usize,
 }
@@ -123,7 +168,8 @@ pub struct Graph<T: TransitionSystem> {
 #[derive(Clone, Copy, Debug)]
 struct Edge {
     to: u32,
-    moved: Actors,
+    /// Where its tasks start in [`Graph::edge_tasks`].
+    tasks: u32,
 }
 
 /// Explores every state reachable from the initial states, breadth first.
@@ -135,7 +181,11 @@ pub fn explore<T: TransitionSystem>(system: &T, limits: Limits) -> Result<Graph<
         edges: Vec::new(),
         labels: Vec::new(),
         initial: Vec::new(),
+        spans: vec![0],
         enabled: Vec::new(),
+        edge_tasks: Vec::new(),
+        cut: Vec::new(),
+        task_count: 0,
         transitions: 0,
     };
     let mut add = |s: T::State, g: &mut Graph<T>, initial: bool| -> Result<u32, Exceeded> {
@@ -160,21 +210,35 @@ pub fn explore<T: TransitionSystem>(system: &T, limits: Limits) -> Result<Graph<
         add(s, &mut g, true)?;
     }
     let mut next = Vec::new();
+    let mut enabled = Vec::new();
     let mut i = 0;
     while i < g.states.len() {
         next.clear();
+        enabled.clear();
         system.successors(&g.states[i], &mut next);
-        let mut enabled = 0;
         for (label, s) in next.drain(..) {
             let to = add(s, &mut g, false)?;
-            let moved = system.moved(&label);
-            enabled |= moved;
-            g.edges.push(Edge { to, moved });
+            let first = g.edge_tasks.len();
+            system.tasks(&label, &mut g.edge_tasks);
+            enabled.extend_from_slice(&g.edge_tasks[first..]);
+            g.edges.push(Edge {
+                to,
+                tasks: first as u32,
+            });
             g.labels.push(label);
         }
+        let cut = system.beyond(&g.states[i], &mut enabled);
+        g.cut
+            .push(cut || g.edges.len() == g.offsets[i] && !enabled.is_empty());
+        enabled.sort_unstable();
+        enabled.dedup();
+        if let Some(&last) = enabled.last() {
+            g.task_count = g.task_count.max(last as usize + 1);
+        }
+        g.enabled.extend_from_slice(&enabled);
+        g.spans.push(g.enabled.len());
         g.transitions += g.edges.len() - g.offsets[i];
         g.offsets.push(g.edges.len());
-        g.enabled.push(enabled);
         if let Some(limit) = limits.max_memory {
             let estimate = g.memory();
             if estimate > limit {
@@ -231,24 +295,74 @@ impl<T: TransitionSystem> Graph<T> {
         let state = std::mem::size_of::<T::State>() as u64;
         let per_state = 2 * state + 8 + 8 + 1 + 8 + 16;
         let per_edge = std::mem::size_of::<Edge>() as u64 + std::mem::size_of::<T::Label>() as u64;
-        self.states.len() as u64 * per_state + self.edges.len() as u64 * per_edge
+        let tasks = (self.edge_tasks.len() + self.enabled.len()) as u64 * 4;
+        self.states.len() as u64 * per_state + self.edges.len() as u64 * per_edge + tasks
     }
 
     fn out(&self, i: usize) -> std::ops::Range<usize> {
         self.offsets[i]..self.offsets[i + 1]
     }
 
-    /// Decides `kind` over the predicate `p` under `fairness`.
+    /// The tasks edge `k` takes.
+    fn taken(&self, k: usize) -> &[Task] {
+        let end = self
+            .edges
+            .get(k + 1)
+            .map_or(self.edge_tasks.len(), |e| e.tasks as usize);
+        &self.edge_tasks[self.edges[k].tasks as usize..end]
+    }
+
+    /// The tasks enabled in state `i`.
+    fn enabled(&self, i: usize) -> &[Task] {
+        &self.enabled[self.spans[i]..self.spans[i + 1]]
+    }
+
+    fn is_enabled(&self, i: usize, task: Task) -> bool {
+        self.enabled(i).binary_search(&task).is_ok()
+    }
+
+    /// Whether the run ends in state `i`: it has no step, and no bound cut it short there.
+    fn ends(&self, i: usize) -> bool {
+        self.out(i).is_empty() && !self.cut[i]
+    }
+
+    /// States where a bound cut the run short ([`TransitionSystem::beyond`]): no verdict
+    /// rests on what happens after them.
+    pub fn cut_states(&self) -> usize {
+        self.cut.iter().filter(|c| **c).count()
+    }
+
+    /// Decides `kind` over the predicate `p` under `fairness`, the same for every task.
     pub fn check(
         &self,
         kind: Liveness,
         fairness: Fairness,
         p: impl Fn(&T::State) -> bool,
     ) -> Verdict<T::State, T::Label> {
+        let strength = match fairness {
+            Fairness::None => None,
+            Fairness::Weak => Some(Strength::Weak),
+            Fairness::Strong => Some(Strength::Strong),
+        };
+        self.check_under(kind, &|_| strength, &|_| true, p)
+    }
+
+    /// Decides `kind` over the predicate `p` on the runs that are fair for each task as
+    /// `fair` says (`None`: the task may be put off for ever) and that satisfy the assumption
+    /// `<>[] assume` (a run that does not is not judged: a failure detector's eventual
+    /// accuracy, for instance).
+    pub fn check_under(
+        &self,
+        kind: Liveness,
+        fair: &dyn Fn(Task) -> Option<Strength>,
+        assume: &dyn Fn(&T::State) -> bool,
+        p: impl Fn(&T::State) -> bool,
+    ) -> Verdict<T::State, T::Label> {
         let n = self.states.len();
         let holds: Vec<bool> = self.states.iter().map(&p).collect();
+        let assumed: Vec<bool> = self.states.iter().map(assume).collect();
         // Where the stem may go, where the cycle may go, and what the cycle must visit.
-        let (stem_in, cycle_in, must): (Vec<bool>, Vec<bool>, Vec<bool>) = match kind {
+        let (stem_in, mut cycle_in, must): (Vec<bool>, Vec<bool>, Vec<bool>) = match kind {
             Liveness::Eventually => {
                 let avoid: Vec<bool> = holds.iter().map(|h| !h).collect();
                 let seeds = (0..n).filter(|&i| self.initial[i] && avoid[i]).collect();
@@ -258,7 +372,12 @@ impl<T: TransitionSystem> Graph<T> {
             Liveness::EventuallyAlways => (vec![true; n], vec![true; n], holds.map_not()),
             Liveness::AlwaysEventually => (vec![true; n], holds.map_not(), vec![true; n]),
         };
-        let Some(cycle) = self.fair_cycle(&cycle_in, &must, fairness) else {
+        for (c, a) in cycle_in.iter_mut().zip(&assumed) {
+            *c &= *a;
+        }
+        let strengths: Vec<Option<Strength>> =
+            (0..self.task_count).map(|t| fair(t as Task)).collect();
+        let Some(cycle) = self.fair_cycle(&cycle_in, &must, &strengths) else {
             return Verdict::Holds;
         };
         let seeds = (0..n).filter(|&i| self.initial[i] && stem_in[i]).collect();
@@ -267,7 +386,7 @@ impl<T: TransitionSystem> Graph<T> {
             .expect("the cycle is reachable within the stem's states");
         let start = stem.states[0];
         let entry = *stem.states.last().expect("a path has a state");
-        let cycle = self.close(entry, &cycle, &must, fairness);
+        let cycle = self.close(entry, &cycle, &must, &strengths);
         Verdict::Fails(Lasso {
             start: self.states[start].clone(),
             stem: self.steps(&stem),
@@ -351,24 +470,37 @@ impl<T: TransitionSystem> Graph<T> {
         &self,
         allowed: &[bool],
         must: &[bool],
-        fairness: Fairness,
+        strengths: &[Option<Strength>],
     ) -> Option<Vec<usize>> {
         let n = self.states.len();
-        if let Some(end) = (0..n).find(|&i| allowed[i] && must[i] && self.out(i).is_empty()) {
+        if let Some(end) = (0..n).find(|&i| allowed[i] && must[i] && self.ends(i)) {
             return Some(vec![end]);
         }
         let mut work: Vec<Vec<usize>> = vec![(0..n).filter(|&i| allowed[i]).collect()];
         let mut inside = vec![false; n];
+        // Per task: taken inside the component, and in how many of its states it is enabled.
+        let mut moved = vec![false; self.task_count];
+        let mut count = vec![0usize; self.task_count];
+        let mut touched: Vec<Task> = Vec::new();
         while let Some(set) = work.pop() {
             for scc in self.components(&set) {
                 for &i in &scc {
                     inside[i] = true;
                 }
-                let moved_inside: Actors = scc
-                    .iter()
-                    .flat_map(|&i| self.edges[self.out(i)].iter())
-                    .filter(|e| inside[e.to as usize])
-                    .fold(0, |a, e| a | e.moved);
+                for &i in &scc {
+                    for k in self.out(i) {
+                        if inside[self.edges[k].to as usize] {
+                            for &t in self.taken(k) {
+                                moved[t as usize] = true;
+                                touched.push(t);
+                            }
+                        }
+                    }
+                    for &t in self.enabled(i) {
+                        count[t as usize] += 1;
+                        touched.push(t);
+                    }
+                }
                 let cyclic = scc.len() > 1
                     || self.edges[self.out(scc[0])]
                         .iter()
@@ -377,34 +509,44 @@ impl<T: TransitionSystem> Graph<T> {
                 let verdict = if !cyclic || !visits {
                     Err(None)
                 } else {
-                    match fairness {
-                        Fairness::None => Ok(()),
-                        Fairness::Weak => {
-                            let always: Actors = scc.iter().fold(!0, |a, &i| a & self.enabled[i]);
-                            if always & !moved_inside == 0 {
-                                Ok(())
-                            } else {
-                                Err(None)
-                            }
-                        }
-                        Fairness::Strong => {
-                            let sometimes: Actors = scc.iter().fold(0, |a, &i| a | self.enabled[i]);
-                            let starved = sometimes & !moved_inside;
-                            if starved == 0 {
-                                Ok(())
-                            } else {
-                                let rest: Vec<usize> = scc
-                                    .iter()
-                                    .copied()
-                                    .filter(|&i| self.enabled[i] & starved == 0)
-                                    .collect();
-                                Err((!rest.is_empty()).then_some(rest))
-                            }
-                        }
+                    // A strong task enabled in the component but never taken there: a fair
+                    // cycle avoids every state where it is enabled.
+                    let mut starved: Vec<Task> = touched
+                        .iter()
+                        .copied()
+                        .filter(|&t| {
+                            strengths[t as usize] == Some(Strength::Strong)
+                                && !moved[t as usize]
+                                && count[t as usize] > 0
+                        })
+                        .collect();
+                    starved.sort_unstable();
+                    starved.dedup();
+                    // A weak task enabled in every state but never taken: no cycle is fair.
+                    let waits = touched.iter().any(|&t| {
+                        strengths[t as usize] == Some(Strength::Weak)
+                            && !moved[t as usize]
+                            && count[t as usize] == scc.len()
+                    });
+                    if !starved.is_empty() {
+                        let rest: Vec<usize> = scc
+                            .iter()
+                            .copied()
+                            .filter(|&i| !starved.iter().any(|&t| self.is_enabled(i, t)))
+                            .collect();
+                        Err((!rest.is_empty()).then_some(rest))
+                    } else if waits {
+                        Err(None)
+                    } else {
+                        Ok(())
                     }
                 };
                 for &i in &scc {
                     inside[i] = false;
+                }
+                for t in touched.drain(..) {
+                    moved[t as usize] = false;
+                    count[t as usize] = 0;
                 }
                 match verdict {
                     Ok(()) => return Some(scc),
@@ -416,16 +558,22 @@ impl<T: TransitionSystem> Graph<T> {
         None
     }
 
-    /// A cycle from `entry` within the component `scc` that visits `must` and satisfies
-    /// `fairness`: it takes a step of every actor that moves inside the component, and, under
-    /// weak fairness, visits a state where each actor that never moves there is disabled.
-    /// Its states start and end at `entry`; no step when the run ends there.
-    fn close(&self, entry: usize, scc: &[usize], must: &[bool], fairness: Fairness) -> Walk {
+    /// A cycle from `entry` within the component `scc` that visits `must` and is fair: it
+    /// takes a step of every fair task taken inside the component, and visits a state where
+    /// each weak task never taken there is disabled. Its states start and end at `entry`; no
+    /// step when the run ends there.
+    fn close(
+        &self,
+        entry: usize,
+        scc: &[usize],
+        must: &[bool],
+        strengths: &[Option<Strength>],
+    ) -> Walk {
         let mut cycle = Walk {
             states: vec![entry],
             edges: Vec::new(),
         };
-        if scc.len() == 1 && self.out(entry).is_empty() {
+        if scc.len() == 1 && self.ends(entry) {
             return cycle;
         }
         let mut allowed = vec![false; self.states.len()];
@@ -448,28 +596,28 @@ impl<T: TransitionSystem> Graph<T> {
         if !must[entry] {
             goto(&mut cycle, &|i| must[i]);
         }
-        let moved_inside: Actors = scc
+        let mut moved_inside: Vec<Task> = scc
             .iter()
             .flat_map(|&i| inner(i))
-            .fold(0, |a, k| a | self.edges[k].moved);
-        if fairness != Fairness::None {
-            for a in 0..64 {
-                let bit: Actors = 1 << a;
-                if moved_inside & bit != 0 {
-                    goto(&mut cycle, &|i| {
-                        inner(i).any(|k| self.edges[k].moved & bit != 0)
-                    });
-                    let at = *cycle.states.last().expect("non-empty");
-                    let k = inner(at)
-                        .find(|&k| self.edges[k].moved & bit != 0)
-                        .expect("found");
-                    take(&mut cycle, k);
-                } else if fairness == Fairness::Weak
-                    && !cycle.states.iter().any(|&i| self.enabled[i] & bit == 0)
-                    && scc.iter().any(|&i| self.enabled[i] & bit == 0)
-                {
-                    goto(&mut cycle, &|i| self.enabled[i] & bit == 0);
-                }
+            .flat_map(|k| self.taken(k).iter().copied())
+            .collect();
+        moved_inside.sort_unstable();
+        moved_inside.dedup();
+        for task in 0..self.task_count as Task {
+            let Some(strength) = strengths[task as usize] else {
+                continue;
+            };
+            let moves = |k: usize| self.taken(k).contains(&task);
+            if moved_inside.binary_search(&task).is_ok() {
+                goto(&mut cycle, &|i| inner(i).any(moves));
+                let at = *cycle.states.last().expect("non-empty");
+                let k = inner(at).find(|&k| moves(k)).expect("found");
+                take(&mut cycle, k);
+            } else if strength == Strength::Weak
+                && !cycle.states.iter().any(|&i| !self.is_enabled(i, task))
+                && scc.iter().any(|&i| !self.is_enabled(i, task))
+            {
+                goto(&mut cycle, &|i| !self.is_enabled(i, task));
             }
         }
         if cycle.edges.is_empty() {

@@ -16,7 +16,9 @@ use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChoos
 
 use crate::adapter::{ClientRequest, NetMsg, ProcessActor, ProcessState, Shared, State};
 use crate::compact::{self, CompactBfs};
-use crate::config::{Action, CheckModel, Condition, ModelCfg, NetworkKind, Options};
+use crate::config::{
+    Action, CheckModel, Condition, ModelCfg, NetworkKind, Options, UNLIMITED_TIMERS,
+};
 use crate::family::Family;
 use crate::property::properties;
 use crate::reduction::Invisible;
@@ -432,6 +434,9 @@ fn within_boundary(cfg: &ModelCfg, s: &State) -> bool {
     if cfg.stop.load(Ordering::Relaxed) || s.actor_states.iter().any(|a| a.zombie) {
         return false;
     }
+    if cfg.timer_budget == UNLIMITED_TIMERS && !single_copies(&s.network) {
+        return false;
+    }
     let Some(max) = cfg.max_round else {
         return true;
     };
@@ -440,6 +445,20 @@ fn within_boundary(cfg: &ModelCfg, s: &State) -> bool {
         && s.actor_states
             .iter()
             .all(|a| a.outbox.iter().all(|(_, m)| early(&m.msg)))
+}
+
+/// Whether no message is in flight twice on one link (the bound of unlimited timers,
+/// [`UNLIMITED_TIMERS`]).
+fn single_copies(network: &Network<NetMsg>) -> bool {
+    match network {
+        Network::UnorderedDuplicating(..) => true,
+        Network::UnorderedNonDuplicating(multiset) => multiset.values().all(|&c| c <= 1),
+        Network::Ordered(channels) => channels.values().all(|c| {
+            c.iter()
+                .enumerate()
+                .all(|(i, m)| !c.iter().skip(i + 1).any(|o| o == m))
+        }),
+    }
 }
 
 /// Whether `f` holds for every message in flight. (Stateright 0.31's `Network::iter_all`

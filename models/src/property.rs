@@ -419,7 +419,7 @@ fn instances(m: &CheckModel) -> BTreeSet<u64> {
         .collect()
 }
 
-fn decided_all(m: &CheckModel, s: &State, i: usize) -> bool {
+pub(crate) fn decided_all(m: &CheckModel, s: &State, i: usize) -> bool {
     let ks: BTreeSet<u64> = s.actor_states[i].decided.iter().map(|(k, _)| *k).collect();
     instances(m).is_subset(&ks)
 }
@@ -489,7 +489,7 @@ fn reliable_delivery(m: &CheckModel, s: &State) -> bool {
 }
 
 /// Every issued request from a process `counts` was delivered at every live destination.
-fn all_received(m: &CheckModel, s: &State, counts: impl Fn(Pid) -> bool) -> bool {
+pub(crate) fn all_received(m: &CheckModel, s: &State, counts: impl Fn(Pid) -> bool) -> bool {
     m.cfg.requests.iter().enumerate().all(|(g, (p, req))| {
         let Request::Send { to, msg } = req else {
             return true;
@@ -518,7 +518,7 @@ fn everything_received(m: &CheckModel, s: &State) -> bool {
 }
 
 /// What process `a`'s failure detector says of `t` now: suspected or not.
-fn suspects(s: &State, a: usize, t: Pid) -> bool {
+pub(crate) fn suspects(s: &State, a: usize, t: Pid) -> bool {
     s.actor_states[a]
         .detections
         .iter()

@@ -24,9 +24,8 @@ pub mod budget;
 pub mod replay;
 
 pub use abstraction::{Abstraction, Pending, Phase, Position, State, Step, Variant};
-pub use budget::{Budget, Halt, Open, Watch};
-
 use budget::Watched;
+pub use budget::{Budget, Halt, Open, Watch};
 
 /// Which runs the check judges (docs/model-checking.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

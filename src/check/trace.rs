@@ -54,6 +54,7 @@ pub(super) fn write_recording(
     name: &str,
     model: &CheckModel,
     outcome: &Outcome,
+    lasso: Option<(usize, &str)>,
     path: &Path,
 ) -> Result<(), RecordingError> {
     use crate::recording::rerun_canvas::{Layout, RerunCanvas};
@@ -125,7 +126,13 @@ pub(super) fn write_recording(
         .and_then(|p| reason(model, v.name, p))
         .map(|r| format!("\n\n{r}"))
         .unwrap_or_default();
-    let statement = format!("{statement}{why}");
+    // A lasso's path is its stem and its cycle once: say where the cycle begins, and why.
+    let statement = match lasso {
+        Some((stem, reason)) => format!(
+            "\n\nA lasso: the cycle begins after step {stem} and repeats for ever.\n\n{reason}"
+        ),
+        None => format!("{statement}{why}"),
+    };
     rec.canvas_mut().note(&format!("### {verdict}{statement}"));
     rec.canvas_mut().log(start, verdict_level, &verdict);
     let items = path_items(model, &steps);
@@ -175,6 +182,7 @@ pub(super) fn write_recording(
     _: &str,
     _: &CheckModel,
     _: &Outcome,
+    _: Option<(usize, &str)>,
     _: &Path,
 ) -> Result<(), RecordingError> {
     Err(RecordingError::Unsupported)
@@ -204,6 +212,33 @@ pub(super) fn write_trace(model: &CheckModel, outcome: &Outcome, path: &Path) ->
     for line in trace_lines(model, &steps) {
         file.line(&line);
     }
+    file.commit()
+}
+
+/// Writes a lasso (its path: the stem, then the cycle once) as JSONL, then a last record
+/// `{"kind":"lasso","cycle_from":K,"reason":...}`: the cycle runs from the state after step
+/// `K` back to it and repeats for ever.
+pub(super) fn write_lasso_trace(
+    model: &CheckModel,
+    outcome: &Outcome,
+    (cycle_from, reason): (usize, &str),
+    path: &Path,
+) -> io::Result<()> {
+    let Some(v) = traced(outcome) else {
+        return Ok(());
+    };
+    let steps = explain(model, v.path.as_ref().expect("traced paths exist"));
+    let mut file = AtomicFile::create(path)?;
+    for line in trace_lines(model, &steps) {
+        file.line(&line);
+    }
+    let last = serde_json::json!({
+        "kind": "lasso",
+        "property": v.name,
+        "cycle_from": cycle_from,
+        "reason": reason,
+    });
+    file.line(&last.to_string());
     file.commit()
 }
 

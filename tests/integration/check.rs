@@ -1066,3 +1066,90 @@ fn the_docs_check_section_is_read_as_it_says() {
         (3, 1, 0, nekosim_models::NetworkKind::Unordered, 0, 1)
     );
 }
+
+#[test]
+fn a_livelock_is_reported_as_a_lasso_printed_and_traced() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("lasso.jsonl");
+    let file = format!(
+        "{}/tests/check/retransmit_lossy.ron",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    // Under fair loss, retransmission gets every message through.
+    let o = nekosim(&["check", &file, "--timers", "unlimited"]);
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(0), "{out}");
+    assert!(out.contains("fairness: fair loss"), "{out}");
+    assert!(out.contains("holds  reliable delivery <>[]"), "{out}");
+    // With every copy allowed to be lost, it resends and loses for ever: a lasso.
+    let args = [
+        "check",
+        &file,
+        "--timers",
+        "unlimited",
+        "--fairness",
+        "weak",
+    ];
+    let o = nekosim(&[&args[..], &["--trace", trace.to_str().unwrap()]].concat());
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    assert!(out.contains("FAILS  reliable delivery <>[]"), "{out}");
+    assert!(out.contains("lasso of \"reliable delivery\":"), "{out}");
+    assert!(out.contains("cycle (from step 1"), "{out}");
+    assert!(out.contains("the network loses RT_DATA#0(M 0)"), "{out}");
+    assert!(
+        out.contains("so \"reliable delivery\" fails: p1 never gets M 0 from p0"),
+        "{out}"
+    );
+    let text = std::fs::read_to_string(&trace).unwrap();
+    let last = text.lines().last().unwrap();
+    assert!(last.contains("\"kind\":\"lasso\""), "{text}");
+    assert!(last.contains("\"cycle_from\":1"), "{text}");
+    assert!(
+        text.lines().any(|l| l.contains("\"kind\":\"drop\"")),
+        "{text}"
+    );
+    // Without fairness too; and `--no-liveness` decides nothing temporal.
+    let o = nekosim(&[
+        "check",
+        &file,
+        "--timers",
+        "unlimited",
+        "--fairness",
+        "none",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stdout(&o));
+    let o = nekosim(&[&args[..], &["--no-liveness"]].concat());
+    assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+    assert!(!stdout(&o).contains("liveness"), "{}", stdout(&o));
+    // Bounded fairness is the robots'.
+    let o = nekosim(&["check", &file, "--fairness", "bounded"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn the_shipped_models_state_their_liveness_and_keep_their_verdicts() {
+    for name in [
+        "lamport-abcast",
+        "sequencer-abcast",
+        "consensus-abcast",
+        "reliable-broadcast",
+    ] {
+        let o = nekosim(&["check", name]);
+        let out = stdout(&o);
+        assert_eq!(o.status.code(), Some(0), "{name}: {out}");
+        let unique = figures(&out)
+            .split(", ")
+            .find(|f| f.starts_with("unique states: "))
+            .unwrap()
+            .trim_start_matches("unique states: ")
+            .to_string();
+        // The liveness graph is the very state space the search covered.
+        assert!(
+            out.contains(&format!("liveness graph: {unique} states,")),
+            "{name}: {out}"
+        );
+        assert!(out.contains("holds  validity <>[]"), "{name}: {out}");
+        assert!(!out.contains("FAILS"), "{name}: {out}");
+    }
+}

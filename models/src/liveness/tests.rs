@@ -10,6 +10,8 @@ use super::*;
 struct Hand {
     edges: Vec<Vec<(usize, Actors)>>,
     initial: Vec<usize>,
+    /// Per state, steps left out by a bound: whether it is cut, and their actors.
+    left: Vec<(bool, Actors)>,
 }
 
 impl TransitionSystem for Hand {
@@ -34,11 +36,31 @@ impl TransitionSystem for Hand {
     fn actors(&self) -> usize {
         2
     }
+
+    fn beyond(&self, s: &usize, out: &mut Vec<Task>) -> bool {
+        let (cut, actors) = self.left.get(*s).copied().unwrap_or((false, 0));
+        out.extend((0..2).filter(|a| actors & (1 << a) != 0));
+        cut
+    }
 }
 
 impl Hand {
+    fn new(edges: Vec<Vec<(usize, Actors)>>, initial: Vec<usize>) -> Self {
+        let left = vec![(false, 0); edges.len()];
+        Self {
+            edges,
+            initial,
+            left,
+        }
+    }
+
     fn enabled(&self, s: usize) -> Actors {
-        self.edges[s].iter().fold(0, |a, e| a | e.1)
+        self.edges[s].iter().fold(self.left[s].1, |a, e| a | e.1)
+    }
+
+    /// The run ends in `s`: no step, none left out.
+    fn ends(&self, s: usize) -> bool {
+        self.edges[s].is_empty() && self.left[s] == (false, 0)
     }
 
     fn reach(&self, allowed: &dyn Fn(usize) -> bool) -> Vec<bool> {
@@ -63,16 +85,16 @@ impl Hand {
         seen
     }
 
-    fn fair(&self, visited: u32, taken: Actors, fairness: Fairness) -> bool {
+    fn fair_each(&self, visited: u32, taken: Actors, strengths: [Option<Strength>; 2]) -> bool {
         let states = (0..self.edges.len()).filter(|i| visited & (1 << i) != 0);
         (0..2).all(|a| {
             let bit = 1 << a;
-            match fairness {
-                Fairness::None => true,
-                Fairness::Weak => {
+            match strengths[a] {
+                None => true,
+                Some(Strength::Weak) => {
                     taken & bit != 0 || states.clone().any(|i| self.enabled(i) & bit == 0)
                 }
-                Fairness::Strong => {
+                Some(Strength::Strong) => {
                     taken & bit != 0 || states.clone().all(|i| self.enabled(i) & bit == 0)
                 }
             }
@@ -82,6 +104,22 @@ impl Hand {
     /// Whether a fair violating lasso exists: every closed walk's (visited states, moved
     /// actors) summary, from every reachable state.
     fn oracle(&self, kind: Liveness, fairness: Fairness, p: &[bool]) -> bool {
+        let strength = match fairness {
+            Fairness::None => None,
+            Fairness::Weak => Some(Strength::Weak),
+            Fairness::Strong => Some(Strength::Strong),
+        };
+        self.oracle_under(kind, [strength; 2], &vec![true; self.edges.len()], p)
+    }
+
+    /// [`Self::oracle`] with a strength per actor and the assumption `<>[] a`.
+    fn oracle_under(
+        &self,
+        kind: Liveness,
+        strengths: [Option<Strength>; 2],
+        a: &[bool],
+        p: &[bool],
+    ) -> bool {
         let n = self.edges.len();
         let (stem_ok, in_cycle): (Vec<bool>, Vec<bool>) = match kind {
             Liveness::Eventually => {
@@ -98,11 +136,12 @@ impl Hand {
                 _ => true,
             }
         };
+        let in_cycle: Vec<bool> = (0..n).map(|i| in_cycle[i] && a[i]).collect();
         for s in 0..n {
             if !stem_ok[s] || !in_cycle[s] {
                 continue;
             }
-            if self.edges[s].is_empty() && violates(1 << s) && !p[s] {
+            if self.ends(s) && violates(1 << s) && !p[s] {
                 return true;
             }
             let mut seen = std::collections::HashSet::new();
@@ -114,7 +153,7 @@ impl Hand {
                         continue;
                     }
                     let t = taken | a;
-                    if w == s && violates(visited) && self.fair(visited, t, fairness) {
+                    if w == s && violates(visited) && self.fair_each(visited, t, strengths) {
                         return true;
                     }
                     let next = (w, visited | (1 << w), t);
@@ -134,6 +173,21 @@ impl Hand {
         l: &Lasso<usize, (usize, usize, Actors)>,
         kind: Liveness,
         f: Fairness,
+        p: &[bool],
+    ) {
+        let strength = match f {
+            Fairness::None => None,
+            Fairness::Weak => Some(Strength::Weak),
+            Fairness::Strong => Some(Strength::Strong),
+        };
+        self.replay_under(l, kind, [strength; 2], p)
+    }
+
+    fn replay_under(
+        &self,
+        l: &Lasso<usize, (usize, usize, Actors)>,
+        kind: Liveness,
+        f: [Option<Strength>; 2],
         p: &[bool],
     ) {
         assert!(self.initial.contains(&l.start));
@@ -157,9 +211,9 @@ impl Hand {
         }
         assert_eq!(at, entry, "the cycle ends where it began");
         if l.cycle.is_empty() {
-            assert!(self.edges[entry].is_empty(), "an empty cycle ends the run");
+            assert!(self.ends(entry), "an empty cycle ends the run");
         } else {
-            assert!(self.fair(visited, taken, f), "{l:?}");
+            assert!(self.fair_each(visited, taken, f), "{l:?}");
         }
         let states: Vec<usize> = (0..self.edges.len())
             .filter(|i| visited & (1 << i) != 0)
@@ -199,7 +253,7 @@ fn random_graph(rng: &mut Rng) -> (Hand, Vec<bool>) {
         .map(|_| rng.below(n as u64) as usize)
         .collect();
     let p = (0..n).map(|_| rng.below(2) == 0).collect();
-    (Hand { edges, initial }, p)
+    (Hand::new(edges, initial), p)
 }
 
 #[test]
@@ -236,15 +290,59 @@ fn liveness_agrees_with_the_brute_force_oracle_on_random_graphs() {
     );
 }
 
+/// Mixed strengths, an assumption and steps left out by a bound, against the oracle: the
+/// stack checks' fairness (weak delivery and timers, strong loss) and eventual accuracy.
+#[test]
+fn mixed_fairness_assumptions_and_bounds_agree_with_the_oracle() {
+    let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+    let (mut fails, mut cases) = (0, 0);
+    let strengths = [None, Some(Strength::Weak), Some(Strength::Strong)];
+    for _ in 0..3000 {
+        let (mut h, p) = random_graph(&mut rng);
+        let n = h.edges.len();
+        h.left = (0..n)
+            .map(|_| match rng.below(4) {
+                0 => (true, 0),
+                1 => (false, 1 + rng.below(3)),
+                _ => (false, 0),
+            })
+            .collect();
+        let a: Vec<bool> = (0..n).map(|_| rng.below(4) != 0).collect();
+        let g = explore(&h, Limits::default()).expect("small");
+        for kind in [
+            Liveness::Eventually,
+            Liveness::EventuallyAlways,
+            Liveness::AlwaysEventually,
+        ] {
+            let s = [
+                strengths[rng.below(3) as usize],
+                strengths[rng.below(3) as usize],
+            ];
+            cases += 1;
+            let expected = h.oracle_under(kind, s, &a, &p);
+            let verdict = g.check_under(kind, &|t| s[t as usize], &|&i| a[i], |&i| p[i]);
+            match verdict {
+                Verdict::Holds => assert!(!expected, "{h:?} {p:?} {a:?} {kind:?} {s:?}"),
+                Verdict::Fails(l) => {
+                    assert!(expected, "{h:?} {p:?} {a:?} {kind:?} {s:?} {l:?}");
+                    h.replay_under(&l, kind, s, &p);
+                    fails += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        fails > cases / 10 && fails < cases * 9 / 10,
+        "{fails} of {cases}"
+    );
+}
+
 /// Two actors on a ring where only actor 0 moves away from the goal: weak fairness forces
 /// actor 1, which leads to the goal; without fairness actor 0 may loop forever.
 #[test]
 fn fairness_decides_a_starved_actor() {
     // 0 -a0-> 0 (loop), 0 -a1-> 1 (goal, stays there by a0|a1 steps).
-    let h = Hand {
-        edges: vec![vec![(0, 1), (1, 2)], vec![(1, 3)]],
-        initial: vec![0],
-    };
+    let h = Hand::new(vec![vec![(0, 1), (1, 2)], vec![(1, 3)]], vec![0]);
     let g = explore(&h, Limits::default()).expect("small");
     let goal = |&s: &usize| s == 1;
     assert!(matches!(
@@ -265,10 +363,7 @@ fn fairness_decides_a_starved_actor() {
 #[test]
 fn strong_fairness_is_stronger_than_weak() {
     // 0 -a0-> 1 -a0-> 0; actor 1 is enabled only in 1, where it leads to the goal 2.
-    let h = Hand {
-        edges: vec![vec![(1, 1)], vec![(0, 1), (2, 2)], vec![]],
-        initial: vec![0],
-    };
+    let h = Hand::new(vec![vec![(1, 1)], vec![(0, 1), (2, 2)], vec![]], vec![0]);
     let g = explore(&h, Limits::default()).expect("small");
     let goal = |&s: &usize| s == 2;
     let Verdict::Fails(l) = g.check(Liveness::Eventually, Fairness::Weak, goal) else {
@@ -284,10 +379,7 @@ fn strong_fairness_is_stronger_than_weak() {
 /// A run that ends stays in its last state: `<>[] P` holds there when `P` does.
 #[test]
 fn a_run_that_ends_stutters() {
-    let h = Hand {
-        edges: vec![vec![(1, 1)], vec![]],
-        initial: vec![0],
-    };
+    let h = Hand::new(vec![vec![(1, 1)], vec![]], vec![0]);
     let g = explore(&h, Limits::default()).expect("small");
     assert_eq!(
         g.check(Liveness::EventuallyAlways, Fairness::Weak, |&s| s == 1),
@@ -302,10 +394,7 @@ fn a_run_that_ends_stutters() {
 
 #[test]
 fn budgets_stop_the_exploration() {
-    let h = Hand {
-        edges: vec![vec![(1, 1)], vec![(2, 1)], vec![(0, 1)]],
-        initial: vec![0],
-    };
+    let h = Hand::new(vec![vec![(1, 1)], vec![(2, 1)], vec![(0, 1)]], vec![0]);
     let limits = Limits {
         max_states: Some(2),
         max_memory: None,

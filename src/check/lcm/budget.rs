@@ -8,7 +8,7 @@ use std::cell::Cell;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use nekosim_models::liveness::{Actors, Exceeded, Limits, TransitionSystem};
+use nekosim_models::liveness::{Actors, Exceeded, Limits, Task, TransitionSystem};
 
 /// States (or rounds) between two polls: reading the resident memory costs a file read.
 pub const POLL_EVERY: u64 = 1024;
@@ -135,5 +135,14 @@ impl<T: TransitionSystem> TransitionSystem for Watched<'_, T> {
 
     fn actors(&self) -> usize {
         self.system.actors()
+    }
+
+    fn tasks(&self, label: &T::Label, out: &mut Vec<Task>) {
+        self.system.tasks(label, out)
+    }
+
+    fn beyond(&self, state: &T::State, out: &mut Vec<Task>) -> bool {
+        // Once halted, the graph is discarded: nothing is left out worth naming.
+        self.halted.get().is_none() && self.system.beyond(state, out)
     }
 }

@@ -1,0 +1,616 @@
+//! Temporal properties of protocol stacks: each family's liveness stated as `eventually`,
+//! `eventually always` or `always eventually` of a state predicate, decided on the model's
+//! whole reachable graph under the fairness the family needs, with a lasso for a property
+//! that fails (a livelock: a stem, then a cycle repeated for ever).
+//!
+//! The graph is the very stateright model `nekosim check` searches ([`crate::model::build`]),
+//! explored step by step through its own `actions` and `next_state`, without partial-order
+//! or symmetry reduction: both keep what safety and at-rest properties need, not every cycle.
+//!
+//! - **Fairness is owed to tasks** ([`crate::liveness::Task`]): every message in flight (by
+//!   sender, receiver and content) and every timer of every process. A delivery that would
+//!   change nothing is no step in the model (the message stays in flight), so such a message
+//!   is not enabled and owes nothing. Crashes and losses are the adversary's and owe nothing.
+//!   - **fair delivery** (weak, reliable networks): a message enabled without interruption
+//!     is eventually delivered;
+//!   - **fair timers** (weak): a timer that can fire without interruption eventually fires;
+//!   - **fair loss** (strong, lossy networks): a message enabled infinitely often (sent
+//!     again and again) is delivered infinitely often.
+//! - **Eventual accuracy** of the failure detectors a stack uses is an assumption `<>[] A`:
+//!   from some point on no live process's detector suspects a live process. A run that keeps
+//!   a false suspicion is not judged. The detectors read are the built-in `Heartbeat` layers
+//!   (a user's detector is not read, so nothing is assumed of it).
+//! - **Bounds** (the timer budget after a crash, the round bound, the copy bound of unlimited
+//!   timers) never make a counterexample: a state a bound cut short is never where a run ends,
+//!   and the steps it leaves out count as enabled there ([`crate::liveness`]). A run ends only
+//!   in a state at rest ([`crate::property::at_rest`]), where the at-rest properties are read.
+
+use std::cell::{Cell, RefCell};
+use std::collections::HashMap;
+
+use nekosim_protocols::codec::with_codecs;
+use nekosim_protocols::heartbeat::Heartbeat;
+use nekosim_protocols::{Pid, Request};
+use stateright::actor::{ActorModelAction, Id};
+use stateright::{Model, Path};
+
+use crate::adapter::{ModelTimer, NetMsg, State};
+use crate::config::{Action, CheckModel, NetworkKind};
+use crate::family::Family;
+use crate::liveness::{
+    explore, Actors, Exceeded, Graph, Lasso, Limits, Liveness, Strength, Task, TransitionSystem,
+    Verdict,
+};
+use crate::property::{all_received, decided_all, live, suspects};
+
+/// The fairness a liveness check assumes of the tasks of a stack.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StackFairness {
+    /// Every run counts: a message may stay in flight and a timer unfired for ever.
+    None,
+    /// Every task weakly fair: fair delivery and fair timers; on a lossy network a message
+    /// may be lost every time it is sent.
+    Weak,
+    /// Every task strongly fair: on a lossy network, fair loss.
+    Strong,
+}
+
+impl StackFairness {
+    /// The names the command accepts.
+    pub const NAMES: [&'static str; 3] = ["none", "weak", "strong"];
+
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "none" => Some(Self::None),
+            "weak" => Some(Self::Weak),
+            "strong" => Some(Self::Strong),
+            _ => None,
+        }
+    }
+
+    /// What the links promise: fair delivery on reliable networks (weak), fair loss on a lossy
+    /// one (strong on messages). Timers are weakly fair either way.
+    pub fn of(network: NetworkKind) -> Self {
+        match network {
+            NetworkKind::Lossy => Self::Strong,
+            NetworkKind::Ordered | NetworkKind::Unordered => Self::Weak,
+        }
+    }
+
+    /// In a report's words.
+    pub fn text(self, network: NetworkKind) -> &'static str {
+        match (self, network) {
+            (Self::None, _) => "none (any message may stay in flight, any timer unfired, for ever)",
+            (Self::Weak, NetworkKind::Lossy) => {
+                "weak (fair timers; a message may be lost every time it is sent)"
+            }
+            (Self::Weak, _) => "fair delivery and fair timers (weak)",
+            (Self::Strong, NetworkKind::Lossy) => {
+                "fair loss (strong: a message sent infinitely often is delivered infinitely often) and fair timers"
+            }
+            (Self::Strong, _) => "strong on every message and timer",
+        }
+    }
+
+    /// How it holds a task.
+    fn strength(self) -> Option<Strength> {
+        match self {
+            Self::None => None,
+            Self::Weak => Some(Strength::Weak),
+            Self::Strong => Some(Strength::Strong),
+        }
+    }
+}
+
+/// A family's liveness property: `kind` over `holds`.
+#[derive(Clone, Copy, Debug)]
+pub struct Temporal {
+    pub name: &'static str,
+    pub kind: Liveness,
+    /// The state predicate, in words.
+    pub predicate: &'static str,
+    pub holds: fn(&CheckModel, &State) -> bool,
+}
+
+/// What a family states as its liveness (docs/model-checking.md, "Temporal properties").
+pub fn temporal_properties(model: &CheckModel) -> Vec<Temporal> {
+    use Liveness::{Eventually, EventuallyAlways};
+    let t = |name, kind, predicate, holds| Temporal {
+        name,
+        kind,
+        predicate,
+        holds,
+    };
+    match model.cfg.family {
+        Family::Abcast => vec![
+            t("validity", EventuallyAlways, "every live process delivered every message it broadcast", own_delivered),
+            t("uniform agreement", EventuallyAlways, "every live process delivered whatever any process delivered", uniformly_agreed),
+        ],
+        Family::Broadcast => vec![
+            t("validity", EventuallyAlways, "every live process delivered every message it broadcast", own_delivered),
+            t("agreement", EventuallyAlways, "every live process delivered whatever a live process delivered", agreed),
+        ],
+        Family::Consensus => vec![t(
+            "termination",
+            Eventually,
+            "every live process decided every instance (or fewer than a majority of the proposers are live)",
+            terminated,
+        )],
+        Family::P2p { .. } => vec![t(
+            "reliable delivery",
+            EventuallyAlways,
+            "every message a live process sent to a live process was delivered",
+            all_delivered,
+        )],
+        Family::FailureDetector if model.max_crashes > 0 => vec![t(
+            "strong completeness",
+            EventuallyAlways,
+            "every live process suspects every crashed process",
+            complete,
+        )],
+        Family::FailureDetector => Vec::new(),
+        Family::Leader => vec![t(
+            "stable leader",
+            EventuallyAlways,
+            "every live process's leader is the same live process",
+            common_leader,
+        )],
+    }
+}
+
+/// Every live process delivered each message it broadcast.
+fn own_delivered(_: &CheckModel, s: &State) -> bool {
+    live(s).all(|i| {
+        let a = &s.actor_states[i];
+        (0..a.issued as u64).all(|n| {
+            a.delivered
+                .iter()
+                .any(|(d, _)| d.origin as usize == i && d.n == n)
+        })
+    })
+}
+
+fn delivered_by_all_live(s: &State, from: impl Iterator<Item = usize>) -> bool {
+    let ids: Vec<_> = from
+        .flat_map(|i| s.actor_states[i].delivered.iter().map(|(id, _)| *id))
+        .collect();
+    live(s).all(|i| {
+        ids.iter()
+            .all(|id| s.actor_states[i].delivered.iter().any(|(d, _)| d == id))
+    })
+}
+
+fn uniformly_agreed(_: &CheckModel, s: &State) -> bool {
+    delivered_by_all_live(s, 0..s.actor_states.len())
+}
+
+fn agreed(_: &CheckModel, s: &State) -> bool {
+    delivered_by_all_live(s, live(s))
+}
+
+/// Every live process decided every instance, unless too few proposers are live for any
+/// decision (the model's proposers, not the protocol, are then short).
+fn terminated(m: &CheckModel, s: &State) -> bool {
+    let majority = m.cfg.n as usize / 2 + 1;
+    let live_proposers = live(s)
+        .filter(|&i| {
+            m.cfg
+                .requests
+                .iter()
+                .any(|(p, r)| *p as usize == i && matches!(r, Request::Propose { .. }))
+        })
+        .count();
+    live_proposers < majority || live(s).all(|i| decided_all(m, s, i))
+}
+
+fn all_delivered(m: &CheckModel, s: &State) -> bool {
+    all_received(m, s, |p| !s.crashed[p as usize])
+}
+
+fn complete(_: &CheckModel, s: &State) -> bool {
+    let crashed: Vec<Pid> = (0..s.crashed.len())
+        .filter(|&i| s.crashed[i])
+        .map(|i| i as Pid)
+        .collect();
+    live(s).all(|a| crashed.iter().all(|&t| suspects(s, a, t)))
+}
+
+fn common_leader(_: &CheckModel, s: &State) -> bool {
+    let mut leaders = live(s).map(|i| s.actor_states[i].leader);
+    let Some(Some(first)) = leaders.next() else {
+        return false;
+    };
+    leaders.all(|l| l == Some(first)) && !s.crashed[first as usize]
+}
+
+/// Eventual accuracy, the assumption `<>[] accurate`: no live process's `Heartbeat` layer
+/// suspects a live process. True where the stack has none.
+pub fn accurate(_: &CheckModel, s: &State) -> bool {
+    live(s).all(|i| {
+        s.actor_states[i].stack.layers.iter().all(|l| {
+            l.downcast_ref::<Heartbeat>()
+                .is_none_or(|h| h.suspected().iter().all(|&p| s.crashed[p as usize]))
+        })
+    })
+}
+
+/// Whether the stack's liveness rests on eventual accuracy: a layer other than the one
+/// checked uses a `Heartbeat` detector (a failure detector checked itself assumes nothing
+/// of itself).
+pub fn assumes_accuracy(model: &CheckModel) -> bool {
+    model.cfg.family != Family::FailureDetector
+        && model.actors.first().is_some_and(|a| {
+            a.init
+                .layers
+                .iter()
+                .any(|l| l.downcast_ref::<Heartbeat>().is_some())
+        })
+}
+
+/// What fairness owes a task to: a message in flight or a process's timer.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub enum TaskKey {
+    Deliver { src: Pid, dst: Pid, msg: NetMsg },
+    Timer { process: Pid, timer: ModelTimer },
+}
+
+/// A stack's model as a [`TransitionSystem`] whose tasks are its messages and timers.
+pub struct StackSystem<'a> {
+    pub model: &'a CheckModel,
+    tasks: RefCell<HashMap<TaskKey, Task>>,
+    keys: RefCell<Vec<TaskKey>>,
+    /// The tasks of the last state's steps that left the model, for [`Self::beyond`].
+    left: RefCell<Vec<Task>>,
+    /// Whether the last state expanded has no step and is not at rest.
+    stuck: Cell<bool>,
+    /// Asked at the first state expanded and every [`POLL_EVERY`] after whether to stop;
+    /// once it says so, no state has a step and the (incomplete) graph is discarded.
+    halt: Option<&'a dyn Fn() -> bool>,
+    expanded: Cell<u64>,
+    halted: Cell<bool>,
+}
+
+/// States expanded between two polls of a [`StackSystem`]'s halt (reading the resident
+/// memory costs a file read).
+pub const POLL_EVERY: u64 = 1024;
+
+/// Explores the whole graph of `model`, within `max_states` unique states, asking `halt`
+/// now and then whether to stop (the memory budget, Ctrl-C). `Ok(None)`: `halt` stopped it,
+/// after the returned number of states.
+#[allow(clippy::type_complexity)]
+pub fn explore_stack<'a>(
+    model: &'a CheckModel,
+    max_states: Option<usize>,
+    halt: &'a dyn Fn() -> bool,
+) -> (Result<Graph<StackSystem<'a>>, Exceeded>, Option<u64>, usize) {
+    let mut system = StackSystem::new(model);
+    system.halt = Some(halt);
+    let limits = Limits {
+        max_states,
+        max_memory: None,
+    };
+    let graph = explore(&system, limits);
+    let halted = system.halted.get().then(|| system.expanded.get());
+    (graph, halted, system.task_count())
+}
+
+impl std::fmt::Debug for StackSystem<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StackSystem")
+            .field("tasks", &self.task_count())
+            .finish_non_exhaustive()
+    }
+}
+
+impl<'a> StackSystem<'a> {
+    pub fn new(model: &'a CheckModel) -> Self {
+        Self {
+            model,
+            tasks: RefCell::new(HashMap::new()),
+            keys: RefCell::new(Vec::new()),
+            left: RefCell::new(Vec::new()),
+            stuck: Cell::new(false),
+            halt: None,
+            expanded: Cell::new(0),
+            halted: Cell::new(false),
+        }
+    }
+
+    /// How many tasks the exploration named.
+    pub fn task_count(&self) -> usize {
+        self.keys.borrow().len()
+    }
+
+    /// Which task `t` is.
+    pub fn key(&self, t: Task) -> Option<TaskKey> {
+        self.keys.borrow().get(t as usize).cloned()
+    }
+
+    fn task(&self, action: &Action) -> Option<Task> {
+        let key = match action {
+            ActorModelAction::Deliver { src, dst, msg } => TaskKey::Deliver {
+                src: usize::from(*src) as Pid,
+                dst: usize::from(*dst) as Pid,
+                msg: msg.clone(),
+            },
+            ActorModelAction::Timeout(id, timer) => TaskKey::Timer {
+                process: usize::from(*id) as Pid,
+                timer: timer.clone(),
+            },
+            _ => return None,
+        };
+        let mut tasks = self.tasks.borrow_mut();
+        let next = tasks.len() as Task;
+        Some(*tasks.entry(key.clone()).or_insert_with(|| {
+            self.keys.borrow_mut().push(key);
+            next
+        }))
+    }
+}
+
+impl TransitionSystem for StackSystem<'_> {
+    type State = State;
+    type Label = Action;
+
+    fn initial_states(&self) -> Vec<State> {
+        self.model
+            .init_states()
+            .into_iter()
+            .filter(|s| self.model.within_boundary(s))
+            .collect()
+    }
+
+    fn successors(&self, state: &State, out: &mut Vec<(Action, State)>) {
+        self.left.borrow_mut().clear();
+        self.stuck.set(false);
+        if self.halted.get() {
+            return;
+        }
+        let n = self.expanded.get();
+        self.expanded.set(n + 1);
+        if let Some(halt) = self.halt.filter(|_| n % POLL_EVERY == 0) {
+            if halt() {
+                self.halted.set(true);
+                return;
+            }
+        }
+        let mut actions = Vec::new();
+        self.model.actions(state, &mut actions);
+        let mut left = self.left.borrow_mut();
+        left.clear();
+        let before = out.len();
+        for action in actions {
+            // A recovered process is outside every model (crash-stop protocols), whatever
+            // the bounds: it is no step left out.
+            if matches!(
+                action,
+                ActorModelAction::Recover(_) | ActorModelAction::SelectRandom { .. }
+            ) {
+                continue;
+            }
+            let Some(next) = self.model.next_state(state, action.clone()) else {
+                continue;
+            };
+            if self.model.within_boundary(&next) {
+                out.push((action, next));
+            } else if let Some(t) = self.task(&action) {
+                left.push(t);
+            } else {
+                // A crash or a loss into a bounded state: the run is cut there.
+                left.push(Task::MAX);
+            }
+        }
+        let none = out.len() == before && left.is_empty();
+        self.stuck
+            .set(none && !crate::property::at_rest(self.model, state));
+    }
+
+    fn moved(&self, _: &Action) -> Actors {
+        0
+    }
+
+    fn actors(&self) -> usize {
+        self.model.actors.len()
+    }
+
+    fn tasks(&self, label: &Action, out: &mut Vec<Task>) {
+        out.extend(self.task(label));
+    }
+
+    fn beyond(&self, _: &State, out: &mut Vec<Task>) -> bool {
+        let left = self.left.borrow();
+        out.extend(left.iter().copied().filter(|&t| t != Task::MAX));
+        !left.is_empty() || self.stuck.get()
+    }
+}
+
+/// The pid of an actor id.
+pub fn pid(id: Id) -> Pid {
+    usize::from(id) as Pid
+}
+
+/// A temporal property's verdict on a graph.
+#[derive(Clone, Debug)]
+pub struct Decision {
+    pub property: Temporal,
+    pub verdict: Verdict<State, Action>,
+}
+
+/// Decides every temporal property of `model` on its `graph` ([`explore_stack`]) under
+/// `fairness`, assuming eventual accuracy where the
+/// stack rests on it ([`assumes_accuracy`]).
+pub fn decide(
+    model: &CheckModel,
+    graph: &Graph<StackSystem<'_>>,
+    fairness: StackFairness,
+) -> Vec<Decision> {
+    let assume = assumes_accuracy(model);
+    temporal_properties(model)
+        .into_iter()
+        .map(|property| {
+            let verdict = graph.check_under(
+                property.kind,
+                &|_| fairness.strength(),
+                &|s| !assume || accurate(model, s),
+                |s| (property.holds)(model, s),
+            );
+            Decision { property, verdict }
+        })
+        .collect()
+}
+
+/// A lasso as one path of the model: the stem, then the cycle once (the cycle's last state
+/// is its entry again). `None` if it is not a path of the model (never, for a lasso of its
+/// graph: [`Path::from_actions`] replays every step).
+pub fn lasso_path(model: &CheckModel, lasso: &Lasso<State, Action>) -> Option<Path<State, Action>> {
+    let actions: Vec<&Action> = lasso
+        .stem
+        .iter()
+        .chain(&lasso.cycle)
+        .map(|(a, _)| a)
+        .collect();
+    Path::from_actions(model, lasso.start.clone(), actions)
+}
+
+/// Why a lasso violates its property, in the property's terms: what is missing, read in a
+/// state of the cycle where the predicate is false (the entry, for `eventually`), and why the
+/// cycle counts.
+pub fn reason(
+    model: &CheckModel,
+    d: &Decision,
+    lasso: &Lasso<State, Action>,
+    fairness: StackFairness,
+) -> String {
+    let p = d.property;
+    let states: Vec<&State> = std::iter::once(lasso.entry())
+        .chain(lasso.cycle.iter().map(|(_, s)| s))
+        .collect();
+    let bad = states
+        .iter()
+        .find(|s| !(p.holds)(model, s))
+        .copied()
+        .unwrap_or(lasso.entry());
+    let missing = with_codecs(&model.actors[0].shared.wiring.codecs, || {
+        missing(model, p.name, bad)
+    });
+    let fair = match fairness {
+        StackFairness::None => "",
+        _ => ", and the cycle is fair: every message and timer it keeps enabled it also takes, or disables in one of its states",
+    };
+    if lasso.cycle.is_empty() {
+        return format!(
+            "{missing}; the run ends there (nothing is left to happen) and stays for ever"
+        );
+    }
+    let false_in = lasso
+        .cycle
+        .iter()
+        .filter(|(_, s)| !(p.holds)(model, s))
+        .count();
+    match p.kind {
+        Liveness::Eventually => format!(
+            "{missing}; it is so in every state of the stem and of the cycle of {} steps, which repeats for ever{fair}",
+            lasso.cycle.len()
+        ),
+        Liveness::EventuallyAlways | Liveness::AlwaysEventually => format!(
+            "{missing}; the cycle of {} steps repeats for ever and this is so in {false_in} of its states{fair}",
+            lasso.cycle.len()
+        ),
+    }
+}
+
+/// What `name`'s predicate misses in `s`.
+fn missing(m: &CheckModel, name: &str, s: &State) -> String {
+    let list = |ps: Vec<usize>| {
+        ps.iter()
+            .map(|p| format!("p{p}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    match name {
+        "termination" => {
+            let undecided: Vec<usize> = live(s).filter(|&i| !decided_all(m, s, i)).collect();
+            format!(
+                "{} never decide{}",
+                list(undecided.clone()),
+                if undecided.len() == 1 { "s" } else { "" }
+            )
+        }
+        "validity" => live(s)
+            .find_map(|i| {
+                let a = &s.actor_states[i];
+                (0..a.issued as u64)
+                    .find(|&n| {
+                        !a.delivered
+                            .iter()
+                            .any(|(d, _)| d.origin as usize == i && d.n == n)
+                    })
+                    .map(|n| format!("p{i} never delivers its own broadcast {i}:{n}"))
+            })
+            .unwrap_or_else(|| "a live process misses its own broadcast".into()),
+        "agreement" | "uniform agreement" => {
+            for i in live(s) {
+                for (j, b) in s.actor_states.iter().enumerate() {
+                    if name == "agreement" && s.crashed[j] {
+                        continue;
+                    }
+                    if let Some((id, _)) = b
+                        .delivered
+                        .iter()
+                        .find(|(id, _)| !s.actor_states[i].delivered.iter().any(|(d, _)| d == id))
+                    {
+                        return format!("p{i} never delivers {id}, which p{j} delivered");
+                    }
+                }
+            }
+            "a live process misses a delivery".into()
+        }
+        "reliable delivery" => m
+            .cfg
+            .requests
+            .iter()
+            .enumerate()
+            .find_map(|(g, (p, req))| {
+                let Request::Send { to, msg } = req else {
+                    return None;
+                };
+                if s.crashed[*p as usize] || !crate::property::has_issued(m, s, *p, g) {
+                    return None;
+                }
+                to.iter()
+                    .find(|&&q| {
+                        !s.crashed[q as usize]
+                            && !s.actor_states[q as usize]
+                                .received
+                                .iter()
+                                .any(|(f, got)| f == p && got == msg)
+                    })
+                    .map(|q| format!("p{q} never gets {msg} from p{p}"))
+            })
+            .unwrap_or_else(|| "a message is never delivered".into()),
+        "strong completeness" => {
+            let crashed: Vec<usize> = (0..s.crashed.len()).filter(|&i| s.crashed[i]).collect();
+            live(s)
+                .find_map(|a| {
+                    crashed
+                        .iter()
+                        .find(|&&t| !suspects(s, a, t as Pid))
+                        .map(|t| format!("p{a} never suspects p{t}, which crashed"))
+                })
+                .unwrap_or_else(|| "a crashed process is never suspected".into())
+        }
+        "stable leader" => {
+            let leaders: Vec<String> = live(s)
+                .map(|i| match s.actor_states[i].leader {
+                    Some(l) => format!("p{i} trusts p{l}"),
+                    None => format!("p{i} trusts nobody"),
+                })
+                .collect();
+            format!(
+                "the live processes never settle on one live leader ({})",
+                leaders.join(", ")
+            )
+        }
+        _ => format!("{name} never holds"),
+    }
+}

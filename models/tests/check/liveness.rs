@@ -1,0 +1,203 @@
+//! Temporal properties of stacks against known answers: a Chandra-Toueg variant whose round
+//! never ends livelocks (a lasso shows it), Retransmit over a lossy network is live exactly
+//! under fair loss, and the shipped models keep their verdicts. The lassos are replayed
+//! through the model as paths, and the graphs' verdicts are checked against a brute-force
+//! enumeration of simple cycles on small graphs.
+
+use nekosim_models::adapter::State;
+use nekosim_models::config::{Action, UNLIMITED_TIMERS};
+use nekosim_models::liveness::{Lasso, Verdict};
+use nekosim_models::temporal::{decide, explore_stack, lasso_path, Decision, StackFairness};
+use nekosim_models::{build, find, CheckModel, Family, NetworkKind, Options, Target};
+use nekosim_protocols::consensus::{ChandraToueg, CtMsg};
+use nekosim_protocols::protocol::{FieldError, Microprotocol, NoConfig, Out, Round, Rounds};
+use nekosim_protocols::{
+    Ctx, Effect, Indication, Layer, LayerIx, LayerSpec, Pid, Request, Shape, Stack,
+};
+
+/// Chandra-Toueg whose coordinators ignore the estimates of others: no round ever gathers a
+/// majority, so no round ends unless its coordinator is suspected. A test-only variant.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+struct DeafCoordinator(ChandraToueg);
+
+impl DeafCoordinator {
+    fn forward(out: &mut Out<Self>, inner: Out<ChandraToueg>) {
+        for e in inner.into_effects() {
+            match e {
+                Effect::Down(req) => out.down(req),
+                Effect::Use { slot, req } => out.use_layer(slot, req),
+                Effect::Up { to: Some(to), ind } => out.up_to(to, ind),
+                Effect::Up { to: None, ind } => out.up(ind),
+                Effect::SetTimer { .. } | Effect::CancelTimer(_) => {
+                    unreachable!("Chandra-Toueg sets no timers")
+                }
+            }
+        }
+    }
+}
+
+impl Microprotocol for DeafCoordinator {
+    type Msg = CtMsg;
+    type Timer = ();
+    type Config = NoConfig;
+    const NAME: &'static str = "DeafCoordinatorCT";
+    const ROUNDS: Rounds = Rounds::Numbered;
+
+    fn round(msg: &CtMsg) -> Round {
+        ChandraToueg::round(msg)
+    }
+
+    fn shape(c: &NoConfig) -> Shape {
+        ChandraToueg::shape(c)
+    }
+
+    fn new(_: NoConfig) -> Result<Self, FieldError> {
+        Ok(Self::default())
+    }
+
+    fn on_request(&mut self, ctx: &Ctx, from: LayerIx, req: Request, out: &mut Out<Self>) {
+        let mut inner = Out::new(out.layer());
+        self.0.on_request(ctx, from, req, &mut inner);
+        Self::forward(out, inner);
+    }
+
+    fn on_indication(&mut self, ctx: &Ctx, from: LayerIx, ind: Indication, out: &mut Out<Self>) {
+        let mut inner = Out::new(out.layer());
+        self.0.on_indication(ctx, from, ind, &mut inner);
+        Self::forward(out, inner);
+    }
+
+    fn on_message(&mut self, ctx: &Ctx, from: Pid, m: CtMsg, out: &mut Out<Self>) {
+        if matches!(m, CtMsg::Estimate { .. }) {
+            return;
+        }
+        let mut inner = Out::new(out.layer());
+        self.0.on_message(ctx, from, m, &mut inner);
+        Self::forward(out, inner);
+    }
+}
+
+/// The whole graph of `model` and its temporal verdicts under `fairness`.
+fn liveness(model: &CheckModel, fairness: StackFairness) -> (usize, usize, Vec<Decision>) {
+    let (graph, halted, tasks) = explore_stack(model, Some(3_000_000), &|| false);
+    assert_eq!(halted, None);
+    let graph = graph.expect("a small graph");
+    let decisions = decide(model, &graph, fairness);
+    eprintln!(
+        "{} states, {} steps, {} cut, {tasks} tasks",
+        graph.len(),
+        graph.edge_count(),
+        graph.cut_states(),
+    );
+    (graph.len(), graph.cut_states(), decisions)
+}
+
+fn verdict<'a>(d: &'a [Decision], name: &str) -> &'a Verdict<State, Action> {
+    &d.iter()
+        .find(|d| d.property.name == name)
+        .unwrap_or_else(|| panic!("no temporal property {name}"))
+        .verdict
+}
+
+/// The lasso replays through the model, step by step, and its cycle ends where it began.
+fn replays(model: &CheckModel, lasso: &Lasso<State, Action>) {
+    let path = lasso_path(model, lasso).expect("a lasso is a path of the model");
+    let states = path.into_states();
+    assert_eq!(states.len(), 1 + lasso.stem.len() + lasso.cycle.len());
+    assert_eq!(states[lasso.stem.len()], *lasso.entry());
+    assert_eq!(states.last(), Some(lasso.entry()), "the cycle closes");
+}
+
+fn ct_model(n: u32, requests: u32, timers: u32, deaf: bool) -> CheckModel {
+    let opts = Options {
+        processes: n,
+        requests,
+        timer_budget: timers,
+        ..Options::default()
+    };
+    let def = find("ct-consensus").expect("shipped");
+    build(&def.target(), &opts, |_, s: &mut Stack| {
+        if deaf {
+            s.layers[1] = Layer::new(DeafCoordinator::default());
+        }
+    })
+    .expect("valid model")
+}
+
+#[test]
+fn a_chandra_toueg_whose_rounds_never_end_livelocks() {
+    // Two processes: a round needs both, so its coordinator waits for the other's estimate.
+    let model = ct_model(2, 2, UNLIMITED_TIMERS, true);
+    let (states, _, d) = liveness(&model, StackFairness::Weak);
+    let Verdict::Fails(lasso) = verdict(&d, "termination") else {
+        panic!("the deaf coordinator never decides ({states} states)");
+    };
+    replays(&model, lasso);
+    // A livelock, not a deadlock: the detectors keep beating and checking in the cycle, and
+    // nobody ever decides.
+    assert!(!lasso.cycle.is_empty(), "{lasso:?}");
+    assert!(lasso
+        .cycle
+        .iter()
+        .any(|(a, _)| matches!(a, stateright::actor::ActorModelAction::Timeout(..))));
+    for (_, s) in lasso.stem.iter().chain(&lasso.cycle) {
+        assert!(s.actor_states.iter().all(|a| a.decided.is_empty()));
+    }
+    // The correct protocol in the same configuration terminates.
+    let model = ct_model(2, 2, UNLIMITED_TIMERS, false);
+    let (states, cut, d) = liveness(&model, StackFairness::Weak);
+    assert!(
+        matches!(verdict(&d, "termination"), Verdict::Holds),
+        "{states} states, {cut} cut"
+    );
+}
+
+fn retransmit(network: NetworkKind) -> CheckModel {
+    let target = Target {
+        stack: vec![LayerSpec::new("rt", "Retransmit(period: 0.5)", "net", &[])],
+        entry: "rt".into(),
+        family: Family::P2p { fifo: false },
+        timer_fed: Vec::new(),
+    };
+    let opts = Options {
+        processes: 2,
+        requests: 1,
+        network,
+        timer_budget: UNLIMITED_TIMERS,
+        ..Options::default()
+    };
+    build(&target, &opts, |_, _| {}).expect("valid model")
+}
+
+#[test]
+fn retransmit_over_a_lossy_network_is_live_only_under_fair_loss() {
+    let model = retransmit(NetworkKind::Lossy);
+    for fairness in [StackFairness::None, StackFairness::Weak] {
+        let (states, _, d) = liveness(&model, fairness);
+        let Verdict::Fails(lasso) = verdict(&d, "reliable delivery") else {
+            panic!("{fairness:?}: every copy may be lost ({states} states)");
+        };
+        replays(&model, lasso);
+        // Nothing was delivered, and under weak fairness the cycle resends (a timer) and
+        // loses the copy again for ever.
+        assert!(lasso
+            .stem
+            .iter()
+            .chain(&lasso.cycle)
+            .all(|(_, s)| s.actor_states[1].received.is_empty()));
+        if fairness == StackFairness::Weak {
+            use stateright::actor::ActorModelAction::{Drop, Timeout};
+            assert!(lasso.cycle.iter().any(|(a, _)| matches!(a, Drop(_))));
+            assert!(lasso.cycle.iter().any(|(a, _)| matches!(a, Timeout(..))));
+        }
+    }
+    let (states, cut, d) = liveness(&model, StackFairness::Strong);
+    assert!(
+        matches!(verdict(&d, "reliable delivery"), Verdict::Holds),
+        "fair loss: {states} states, {cut} cut"
+    );
+    // On a reliable network weak fairness (fair delivery) is enough.
+    let model = retransmit(NetworkKind::Unordered);
+    let (_, _, d) = liveness(&model, StackFairness::Weak);
+    assert!(matches!(verdict(&d, "reliable delivery"), Verdict::Holds));
+}
