@@ -128,9 +128,16 @@ pub(super) fn write_recording(
         .unwrap_or_default();
     // A lasso's path is its stem and its cycle once: say where the cycle begins, and why.
     let statement = match lasso {
-        Some((stem, reason)) => format!(
-            "\n\nA lasso: the cycle begins after step {stem} and repeats for ever.\n\n{reason}"
-        ),
+        Some((stem, reason)) => {
+            let temporal = nekosim_models::temporal::temporal_properties(model)
+                .into_iter()
+                .find(|t| t.name == v.name)
+                .map(|t| format!("\n\n> **{}**: {}", t.name, t.kind.formula(t.predicate)))
+                .unwrap_or_default();
+            format!(
+                "{temporal}\n\nA lasso: the cycle begins after step {stem} and repeats for ever.\n\n{reason}"
+            )
+        }
         None => format!("{statement}{why}"),
     };
     rec.canvas_mut().note(&format!("### {verdict}{statement}"));

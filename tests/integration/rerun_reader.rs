@@ -326,6 +326,45 @@ fn counterexample_recordings_read_back_with_the_official_reader() {
     }
 }
 
+/// A protocol stack's livelock: retransmission over a network that may lose every copy, under
+/// weak fairness only. Its recording holds the path of the lasso (stem, then the cycle once),
+/// and its verdict document states the temporal property, where the cycle begins and why it
+/// fails, as the trace's last record says.
+#[test]
+fn a_stack_lasso_recording_reads_back_with_its_cycle() {
+    let py = python();
+    let dir = tempfile::tempdir().unwrap();
+    let (rrd, trace) = (dir.path().join("lasso.rrd"), dir.path().join("lasso.jsonl"));
+    let o = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+        .current_dir(root())
+        .args([
+            "check",
+            "tests/check/retransmit_lossy.ron",
+            "--timers",
+            "unlimited",
+        ])
+        .args(["--fairness", "weak", "--trace"])
+        .arg(&trace)
+        .arg("--rrd")
+        .arg(&rrd)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let text = std::fs::read_to_string(&trace).unwrap();
+    assert!(
+        text.lines().last().unwrap().contains("\"kind\":\"lasso\""),
+        "{text}"
+    );
+    let out = run(Command::new(&py)
+        .arg(root().join("tests/rerun/verify_check_rrd.py"))
+        .arg(&rrd)
+        .arg(&trace)
+        .arg("reliable delivery")
+        .arg("2"));
+    assert!(out.contains("verify_check_rrd: ok"), "{out}");
+    assert_eq!(count_of(&out, " lost copies"), 1, "{out}");
+}
+
 /// Switches its push proximity sensor on, drives, looks around (view, proximity), switches
 /// it off, and drives on.
 #[derive(Debug, Clone, serde::Deserialize)]

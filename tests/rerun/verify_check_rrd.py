@@ -129,6 +129,8 @@ def main() -> None:
     rrd_verify(rrd)
 
     trace = load_trace(trace_path)
+    # A liveness counterexample ends with its lasso record: where the cycle begins.
+    lasso = trace.pop() if trace and trace[-1]["kind"] == "lasso" else None
     rows = Rows(rrd)
     for timeline in ("sim_time", "event"):
         if timeline not in rows.timelines:
@@ -173,6 +175,10 @@ def main() -> None:
     doc = rows.static.get("/verdict", {}).get("TextDocument:text")
     if not doc or f'"{prop}"' not in doc[0] or f"**{prop}**:" not in doc[0]:
         fail(f"the verdict document is {doc}, expected it to name and state {prop!r}")
+    if lasso is not None:
+        begins = f"the cycle begins after step {lasso['cycle_from']} and repeats for ever"
+        if begins not in doc[0] or lasso["reason"] not in doc[0]:
+            fail(f"the verdict document is {doc}, expected the lasso's cycle and reason")
     # Full payloads on the arrows: each a whole rendering, not only its type.
     labels = [
         label
