@@ -1,7 +1,8 @@
 //! A run's trace as Arrow columns: one row per record, one column per field of the trace
-//! objects (docs/trace.md), in the order fields first appear. The objects are the records
-//! projected by serde, the very values `--trace` prints, so each column holds what the JSONL
-//! trace holds; a field a record does not have is null.
+//! objects (docs/trace.md), in the order fields first appear. Each record goes through its own
+//! `Serialize`, the one `--trace` prints with, into a serializer that writes each field straight
+//! into its column ([`crate::cells`]): the columns hold what the JSONL trace holds, with no JSON
+//! value built on the way; a field a record does not have is null.
 //!
 //! Column types: integers are `int64`, numbers `float64`, booleans `bool`, strings `utf8`;
 //! arrays of numbers (positions, velocities, arrival times) are `list<float64>` (`list<int64>`
@@ -18,7 +19,10 @@ use arrow_array::builder::{
 };
 use arrow_array::{ArrayRef, RecordBatch};
 use arrow_schema::{ArrowError, Field, Schema};
+use serde::Serialize;
 use serde_json::{Map, Value};
+
+use crate::cells::{Cell, Column, Num, Table};
 
 /// What a column's values are, from all of them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -35,26 +39,16 @@ enum Kind {
     Mixed,
 }
 
-fn kind_of(v: &Value) -> Kind {
-    match v {
-        Value::Null => Kind::Null,
-        Value::Bool(_) => Kind::Bool,
-        Value::Number(n) if n.is_f64() => Kind::Float,
-        Value::Number(n) if n.as_i64().is_some() => Kind::Int,
-        Value::Number(_) => Kind::Float,
-        Value::String(_) => Kind::Str,
-        Value::Array(items) => {
-            let mut k = Kind::IntList;
-            for i in items {
-                match kind_of(i) {
-                    Kind::Int => {}
-                    Kind::Float => k = Kind::FloatList,
-                    _ => return Kind::Nested,
-                }
-            }
-            k
-        }
-        Value::Object(_) => Kind::Nested,
+fn kind_of(c: &Cell) -> Kind {
+    match c {
+        Cell::Null => Kind::Null,
+        Cell::Bool(_) => Kind::Bool,
+        Cell::Int(_) => Kind::Int,
+        Cell::Float(_) => Kind::Float,
+        Cell::Str(..) => Kind::Str,
+        Cell::List { float: false, .. } => Kind::IntList,
+        Cell::List { float: true, .. } => Kind::FloatList,
+        Cell::Nested(_) => Kind::Nested,
     }
 }
 
@@ -70,29 +64,24 @@ fn merge(a: Kind, b: Kind) -> Kind {
     }
 }
 
-/// The trace objects `rows` as one record batch.
-pub fn batch(rows: &[Value]) -> Result<RecordBatch, ArrowError> {
-    let mut names: Vec<String> = Vec::new();
-    let mut seen = std::collections::HashSet::new();
-    for r in rows {
-        if let Value::Object(m) = r {
-            for k in m.keys() {
-                if seen.insert(k.clone()) {
-                    names.push(k.clone());
-                }
-            }
-        }
+/// The trace objects `rows` (records, or JSON values read from a trace) as one record batch.
+pub fn batch<T: Serialize>(rows: &[T]) -> Result<RecordBatch, ArrowError> {
+    let mut table = Table::default();
+    for (i, r) in rows.iter().enumerate() {
+        table
+            .row(i, r)
+            .map_err(|e| ArrowError::ExternalError(Box::new(e)))?;
     }
-    let mut fields = Vec::with_capacity(names.len());
-    let mut arrays = Vec::with_capacity(names.len());
-    for name in &names {
-        let cells: Vec<&Value> = rows
+    let columns = table.into_columns();
+    let mut fields = Vec::with_capacity(columns.len());
+    let mut arrays = Vec::with_capacity(columns.len());
+    for col in &columns {
+        let kind = col
+            .cells
             .iter()
-            .map(|r| r.get(name).unwrap_or(&Value::Null))
-            .collect();
-        let kind = cells.iter().fold(Kind::Null, |k, v| merge(k, kind_of(v)));
-        let array = column(name, kind, &cells)?;
-        fields.push(Field::new(name, array.data_type().clone(), true));
+            .fold(Kind::Null, |k, c| merge(k, kind_of(c)));
+        let array = column(col, kind, rows.len())?;
+        fields.push(Field::new(&col.name, array.data_type().clone(), true));
         arrays.push(array);
     }
     RecordBatch::try_new_with_options(
@@ -102,80 +91,103 @@ pub fn batch(rows: &[Value]) -> Result<RecordBatch, ArrowError> {
     )
 }
 
-fn column(name: &str, kind: Kind, cells: &[&Value]) -> Result<ArrayRef, ArrowError> {
+/// Column `col` of a table of `rows` rows, as `kind` (its cells stop at the last record that
+/// has the field: the rest are null).
+fn column(col: &Column, kind: Kind, rows: usize) -> Result<ArrayRef, ArrowError> {
+    let cells = col.cells.iter().chain(std::iter::repeat(&Cell::Null));
+    let cells = cells.take(rows);
     Ok(match kind {
         Kind::Null | Kind::Bool => {
-            let mut b = BooleanBuilder::with_capacity(cells.len());
-            cells.iter().for_each(|v| b.append_option(v.as_bool()));
+            let mut b = BooleanBuilder::with_capacity(rows);
+            cells.for_each(|c| match c {
+                Cell::Bool(v) => b.append_value(*v),
+                _ => b.append_null(),
+            });
             Arc::new(b.finish())
         }
         Kind::Int => {
-            let mut b = Int64Builder::with_capacity(cells.len());
-            cells.iter().for_each(|v| b.append_option(v.as_i64()));
+            let mut b = Int64Builder::with_capacity(rows);
+            cells.for_each(|c| match c {
+                Cell::Int(v) => b.append_value(*v),
+                _ => b.append_null(),
+            });
             Arc::new(b.finish())
         }
         Kind::Float => {
-            let mut b = Float64Builder::with_capacity(cells.len());
-            cells.iter().for_each(|v| b.append_option(v.as_f64()));
+            let mut b = Float64Builder::with_capacity(rows);
+            cells.for_each(|c| match c {
+                Cell::Int(v) => b.append_value(*v as f64),
+                Cell::Float(v) => b.append_value(*v),
+                _ => b.append_null(),
+            });
             Arc::new(b.finish())
         }
         Kind::Str | Kind::Mixed => {
-            let mut b = StringBuilder::new();
-            for v in cells {
-                match v {
-                    Value::Null => b.append_null(),
-                    Value::String(s) => b.append_value(s),
-                    other => b.append_value(other.to_string()),
+            let mut b = StringBuilder::with_capacity(rows, col.text.len());
+            for c in cells {
+                match c {
+                    Cell::Null => b.append_null(),
+                    Cell::Str(s, e) => b.append_value(&col.text[*s..*e]),
+                    other => b.append_value(col.value(other).to_string()),
                 }
             }
             Arc::new(b.finish())
         }
         Kind::IntList => {
-            let mut b = ListBuilder::new(Int64Builder::new());
-            for v in cells {
-                match v.as_array() {
-                    Some(items) => {
-                        items
-                            .iter()
-                            .for_each(|i| b.values().append_option(i.as_i64()));
+            let mut b =
+                ListBuilder::with_capacity(Int64Builder::with_capacity(col.nums.len()), rows);
+            for c in cells {
+                match c {
+                    Cell::List { start, end, .. } => {
+                        col.nums[*start..*end].iter().for_each(|n| {
+                            b.values().append_value(match *n {
+                                Num::Int(i) => i,
+                                Num::Float(f) => f as i64,
+                            })
+                        });
                         b.append(true);
                     }
-                    None => b.append(false),
+                    _ => b.append(false),
                 }
             }
             Arc::new(b.finish())
         }
         Kind::FloatList => {
-            let mut b = ListBuilder::new(Float64Builder::new());
-            for v in cells {
-                match v.as_array() {
-                    Some(items) => {
-                        items
-                            .iter()
-                            .for_each(|i| b.values().append_option(i.as_f64()));
+            let mut b =
+                ListBuilder::with_capacity(Float64Builder::with_capacity(col.nums.len()), rows);
+            for c in cells {
+                match c {
+                    Cell::List { start, end, .. } => {
+                        col.nums[*start..*end].iter().for_each(|n| {
+                            b.values().append_value(match *n {
+                                Num::Int(i) => i as f64,
+                                Num::Float(f) => f,
+                            })
+                        });
                         b.append(true);
                     }
-                    None => b.append(false),
+                    _ => b.append(false),
                 }
             }
             Arc::new(b.finish())
         }
-        Kind::Nested => match nested(name, cells) {
-            Ok(a) => a,
-            // Shapes Arrow's JSON reader cannot unify: the column holds each value's JSON.
-            Err(_) => column(name, Kind::Mixed, cells)?,
-        },
+        Kind::Nested => {
+            match nested(&col.name, cells.map(|c| col.value(c))) {
+                Ok(a) => a,
+                // Shapes Arrow's JSON reader cannot unify: the column holds each value's JSON.
+                Err(_) => column(col, Kind::Mixed, rows)?,
+            }
+        }
     })
 }
 
 /// A nested column through Arrow's JSON reader, fed the values themselves (serde, no text).
-fn nested(name: &str, cells: &[&Value]) -> Result<ArrayRef, ArrowError> {
+fn nested(name: &str, cells: impl Iterator<Item = Value>) -> Result<ArrayRef, ArrowError> {
     let rows: Vec<Value> = cells
-        .iter()
         .map(|v| {
             let mut m = Map::new();
             if !v.is_null() {
-                m.insert(name.to_string(), (*v).clone());
+                m.insert(name.to_string(), v);
             }
             Value::Object(m)
         })

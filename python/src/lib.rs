@@ -5,6 +5,7 @@
 //! package's Python modules (python/nekosim/) wrap these classes into pandas.
 
 mod algorithm;
+mod cells;
 mod check;
 mod columns;
 mod robot;
