@@ -14,7 +14,6 @@ from typing import Any, Dict, List, Mapping, Optional, Union
 
 import pandas as pd
 import pyarrow as pa
-import pyarrow.ipc
 
 from . import _nekosim
 from ._errors import ScenarioError
@@ -116,8 +115,7 @@ class Run:
     def trace_table(self) -> pa.Table:
         """The trace as an Arrow table: one row per record, one column per field."""
         if self._table is None:
-            reader = pa.ipc.open_stream(self._core.trace_ipc())
-            self._table = reader.read_all()
+            self._table = pa.Table.from_batches([pa.record_batch(self._core.trace())])
         return self._table
 
     @property

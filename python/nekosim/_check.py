@@ -8,7 +8,6 @@ from typing import Any, Dict, Optional, Union
 
 import pandas as pd
 import pyarrow as pa
-import pyarrow.ipc
 
 from . import _nekosim
 
@@ -49,7 +48,7 @@ class Check:
                                "depth": int(m.group(3))}
         self.verdicts = pd.DataFrame(
             rows, columns=["property", "verdict", "expectation", "detail"])
-        table = pa.ipc.open_stream(core.trace_ipc()).read_all()
+        table = pa.Table.from_batches([pa.record_batch(core.trace())])
         self.counterexample: pd.DataFrame = table.to_pandas(types_mapper=_TYPES.get)
 
     @property

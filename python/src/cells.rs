@@ -47,11 +47,12 @@ impl From<Num> for Value {
     }
 }
 
-/// A field's cells, one per record up to the last record that has the field, and the text,
-/// numbers and values they point into.
+/// A field's cells, one for each record that has the field (`rows`, increasing, are those
+/// records), and the text, numbers and values they point into.
 #[derive(Debug, Default)]
 pub struct Column {
     pub name: String,
+    pub rows: Vec<usize>,
     pub cells: Vec<Cell>,
     pub text: String,
     pub nums: Vec<Num>,
@@ -59,6 +60,15 @@ pub struct Column {
 }
 
 impl Column {
+    /// The cells of records `0..n`, null where a record does not have the field.
+    pub fn dense(&self, n: usize) -> impl Iterator<Item = &Cell> + '_ {
+        let mut next = self.rows.iter().zip(&self.cells).peekable();
+        (0..n).map(move |row| match next.next_if(|(r, _)| **r == row) {
+            Some((_, c)) => c,
+            None => &Cell::Null,
+        })
+    }
+
     /// Cell `c` as the JSON value the trace holds.
     pub fn value(&self, c: &Cell) -> Value {
         match *c {
@@ -131,21 +141,38 @@ impl ser::Error for Error {
     }
 }
 
+/// How many columns that followed a column [`Table`] remembers.
+const FOLLOWERS: usize = 8;
+
 /// The columns of the records written so far, in the order their fields first appear.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct Table {
     columns: Vec<Column>,
     index: HashMap<String, usize>,
-    /// For each column, the column of the field that followed it last time, and the column of
-    /// the first field of the last record: records of one kind have their fields in one order,
-    /// so this guess spares most lookups by name.
-    next: Vec<usize>,
-    first: usize,
+    /// `next[0]`: the columns records began with; `next[c + 1]`: the columns of the fields that
+    /// followed column `c`'s; most recent first. Records of one kind have their fields in one
+    /// order, so a field is nearly always among the few that followed the previous one, and
+    /// found there without a lookup by name.
+    next: Vec<Vec<usize>>,
+    /// How many records the table is for: each column reserves a cell for each, so that
+    /// filling a column never moves it.
+    rows: usize,
     /// The key being read.
     key: String,
 }
 
 impl Table {
+    /// A table for `rows` records.
+    pub fn new(rows: usize) -> Self {
+        Table {
+            columns: Vec::new(),
+            index: HashMap::new(),
+            next: vec![Vec::new()],
+            rows,
+            key: String::new(),
+        }
+    }
+
     /// Writes trace object `r` as record number `row` (rows are written in order).
     pub fn row<T: Serialize + ?Sized>(&mut self, row: usize, r: &T) -> Result<(), Error> {
         r.serialize(Row {
@@ -163,27 +190,31 @@ impl Table {
 
     /// The column of field `key`, coming after the field in column `prev` in its record.
     fn find(&mut self, prev: Option<usize>, key: &str) -> usize {
-        let guess = prev.map_or(self.first, |p| self.next[p]);
-        let at = match self.columns.get(guess) {
-            Some(c) if c.name == key => guess,
-            _ => match self.index.get(key) {
-                Some(&i) => i,
-                None => {
-                    let i = self.columns.len();
-                    self.columns.push(Column {
-                        name: key.to_string(),
-                        ..Column::default()
-                    });
-                    self.index.insert(key.to_string(), i);
-                    self.next.push(usize::MAX);
-                    i
-                }
-            },
-        };
-        match prev {
-            Some(p) => self.next[p] = at,
-            None => self.first = at,
+        let p = prev.map_or(0, |c| c + 1);
+        let columns = &self.columns;
+        let followers = &mut self.next[p];
+        if let Some(k) = followers.iter().position(|&c| same(&columns[c].name, key)) {
+            followers[..=k].rotate_right(1);
+            return followers[0];
         }
+        let at = match self.index.get(key) {
+            Some(&i) => i,
+            None => {
+                let i = self.columns.len();
+                self.columns.push(Column {
+                    name: key.to_string(),
+                    rows: Vec::with_capacity(self.rows),
+                    cells: Vec::with_capacity(self.rows),
+                    ..Column::default()
+                });
+                self.index.insert(key.to_string(), i);
+                self.next.push(Vec::new());
+                i
+            }
+        };
+        let followers = &mut self.next[p];
+        followers.insert(0, at);
+        followers.truncate(FOLLOWERS);
         at
     }
 
@@ -191,8 +222,10 @@ impl Table {
     fn field<V: Serialize + ?Sized>(&mut self, row: usize, at: usize, v: &V) -> Result<(), Error> {
         let col = &mut self.columns[at];
         // A field written twice in one object: the last value holds, as in a JSON object.
-        col.cells.truncate(row);
-        col.cells.resize(row, Cell::Null);
+        if col.rows.last() == Some(&row) {
+            col.rows.pop();
+            col.cells.pop();
+        }
         let (text, nums) = (col.text.len(), col.nums.len());
         let cell = match v.serialize(CellWriter { col: &mut *col }) {
             Ok(c) => c,
@@ -204,9 +237,16 @@ impl Table {
             }
             Err(e) => return Err(e),
         };
+        col.rows.push(row);
         col.cells.push(cell);
         Ok(())
     }
+}
+
+/// Whether two field names are equal, compared in place: names are short, and `==` calls the C
+/// library for each comparison.
+fn same(a: &str, b: &str) -> bool {
+    a.len() == b.len() && a.bytes().zip(b.bytes()).all(|(x, y)| x == y)
 }
 
 /// Serializes one trace object into the table: its fields go to their columns.
@@ -855,16 +895,16 @@ mod tests {
     use super::*;
     use serde_json::json;
 
-    /// The cells of `rows`, by column, as JSON values (trailing nulls dropped).
+    /// The cells of `rows`, by column, as JSON values.
     fn cells(rows: &[Value]) -> Vec<(String, Vec<Value>)> {
-        let mut t = Table::default();
+        let mut t = Table::new(rows.len());
         for (i, r) in rows.iter().enumerate() {
             t.row(i, r).unwrap();
         }
         t.into_columns()
             .into_iter()
             .map(|c| {
-                let v = c.cells.iter().map(|x| c.value(x)).collect();
+                let v = c.dense(rows.len()).map(|x| c.value(x)).collect();
                 (c.name, v)
             })
             .collect()
@@ -891,7 +931,7 @@ mod tests {
         for (i, row) in rows.iter().enumerate() {
             for (name, col) in &got {
                 let want = row.get(name).cloned().unwrap_or(Value::Null);
-                let have = col.get(i).cloned().unwrap_or(Value::Null);
+                let have = col[i].clone();
                 if name == "big" && i == 1 {
                     // Beyond i64: a float, as JSON's readers take it.
                     assert_eq!(have, json!(18446744073709551615u64 as f64));
@@ -932,7 +972,7 @@ mod tests {
             tuple: (1, 0.5),
         };
         let want = serde_json::to_value(&odd).unwrap();
-        let mut t = Table::default();
+        let mut t = Table::new(1);
         t.row(0, &odd).unwrap();
         for c in t.into_columns() {
             let have = c.cells.first().map_or(Value::Null, |x| c.value(x));
@@ -954,10 +994,11 @@ mod tests {
                 m.end()
             }
         }
-        let mut t = Table::default();
+        let mut t = Table::new(2);
         t.row(0, &Twice).unwrap();
         t.row(1, &Twice).unwrap();
         let cols = t.into_columns();
+        assert_eq!(cols[0].rows, [0, 1]);
         assert_eq!(cols[0].cells, [Cell::Int(3), Cell::Int(3)]);
     }
 }

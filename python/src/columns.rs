@@ -17,8 +17,12 @@ use std::sync::Arc;
 use arrow_array::builder::{
     BooleanBuilder, Float64Builder, Int64Builder, ListBuilder, StringBuilder,
 };
-use arrow_array::{ArrayRef, RecordBatch};
+use arrow_array::ffi::{FFI_ArrowArray, FFI_ArrowSchema};
+use arrow_array::{Array, ArrayRef, RecordBatch, StructArray};
 use arrow_schema::{ArrowError, Field, Schema};
+use pyo3::exceptions::PyRuntimeError;
+use pyo3::prelude::*;
+use pyo3::types::PyCapsule;
 use serde::Serialize;
 use serde_json::{Map, Value};
 
@@ -66,7 +70,7 @@ fn merge(a: Kind, b: Kind) -> Kind {
 
 /// The trace objects `rows` (records, or JSON values read from a trace) as one record batch.
 pub fn batch<T: Serialize>(rows: &[T]) -> Result<RecordBatch, ArrowError> {
-    let mut table = Table::default();
+    let mut table = Table::new(rows.len());
     for (i, r) in rows.iter().enumerate() {
         table
             .row(i, r)
@@ -91,11 +95,9 @@ pub fn batch<T: Serialize>(rows: &[T]) -> Result<RecordBatch, ArrowError> {
     )
 }
 
-/// Column `col` of a table of `rows` rows, as `kind` (its cells stop at the last record that
-/// has the field: the rest are null).
+/// Column `col` of a table of `rows` rows, as `kind`.
 fn column(col: &Column, kind: Kind, rows: usize) -> Result<ArrayRef, ArrowError> {
-    let cells = col.cells.iter().chain(std::iter::repeat(&Cell::Null));
-    let cells = cells.take(rows);
+    let cells = col.dense(rows);
     Ok(match kind {
         Kind::Null | Kind::Bool => {
             let mut b = BooleanBuilder::with_capacity(rows);
@@ -206,10 +208,31 @@ fn nested(name: &str, cells: impl Iterator<Item = Value>) -> Result<ArrayRef, Ar
     Ok(batch.column(0).clone())
 }
 
-/// `batch` in Arrow's IPC stream format (what `pyarrow.ipc.open_stream` reads).
-pub fn ipc(batch: &RecordBatch) -> Result<Vec<u8>, ArrowError> {
-    let mut w = arrow_ipc::writer::StreamWriter::try_new(Vec::new(), &batch.schema())?;
-    w.write(batch)?;
-    w.finish()?;
-    w.into_inner()
+/// A record batch that Python takes without a copy, through the Arrow PyCapsule interface
+/// (`pyarrow.record_batch(batch)`): its buffers are handed over as they are.
+#[derive(Debug)]
+#[pyclass(module = "nekosim._nekosim", frozen)]
+pub struct ArrowBatch(pub RecordBatch);
+
+#[pymethods]
+impl ArrowBatch {
+    /// The batch as a struct array: the capsules `arrow_schema` and `arrow_array` of Arrow's C
+    /// data interface. A requested schema is not followed (the interface leaves that to the
+    /// consumer).
+    #[pyo3(signature = (requested_schema=None))]
+    fn __arrow_c_array__<'py>(
+        &self,
+        py: Python<'py>,
+        requested_schema: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<(Bound<'py, PyCapsule>, Bound<'py, PyCapsule>)> {
+        let _ = requested_schema;
+        let data = StructArray::from(self.0.clone()).into_data();
+        let schema = FFI_ArrowSchema::try_from(data.data_type())
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let array = FFI_ArrowArray::new(&data);
+        Ok((
+            PyCapsule::new_with_value(py, schema, c"arrow_schema")?,
+            PyCapsule::new_with_value(py, array, c"arrow_array")?,
+        ))
+    }
 }

@@ -11,6 +11,7 @@ use std::path::PathBuf;
 use std::rc::Rc;
 use std::sync::{Arc, OnceLock};
 
+use arrow_array::RecordBatch;
 use nekosim::lcm::Lcm;
 use nekosim::log::NekoLog;
 use nekosim::protocols::codec::{install, Codecs};
@@ -19,9 +20,10 @@ use nekosim::runner::{self, RunError, RunOptions, Summary};
 use nekosim::scenario::{Overrides, Registry, ScenarioError, Source};
 use nekosim::world::observation::{Observation, Record};
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict};
+use pyo3::types::PyDict;
 
 use crate::algorithm::{Hosted, PyLcm, HOST_NAME};
+use crate::columns::ArrowBatch;
 use crate::robot::{PyRobot, ROBOT_HOST_NAME};
 
 /// A robot's kinematic state from `t` on: `pos + vel (t' - t)`.
@@ -58,10 +60,10 @@ impl Kept {
         })
     }
 
-    /// The trace as one record batch in Arrow's IPC stream format.
-    fn trace_ipc(&self) -> Result<Vec<u8>, arrow_schema::ArrowError> {
+    /// The trace as one record batch.
+    fn trace(&self) -> Result<RecordBatch, arrow_schema::ArrowError> {
         let _codecs = install(&self.codecs);
-        crate::columns::batch(&self.records).and_then(|b| crate::columns::ipc(&b))
+        crate::columns::batch(&self.records)
     }
 
     /// Every robot's kinematic states, in time order.
@@ -235,12 +237,11 @@ impl RunCore {
         self.kept.records.len()
     }
 
-    /// The trace as an Arrow IPC stream (one record batch; see the `columns` module).
-    fn trace_ipc<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
-        let bytes = py
-            .detach(|| self.kept.trace_ipc())
-            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-        Ok(PyBytes::new(py, &bytes))
+    /// The trace as one Arrow record batch (see the `columns` module).
+    fn trace(&self, py: Python<'_>) -> PyResult<ArrowBatch> {
+        py.detach(|| self.kept.trace())
+            .map(ArrowBatch)
+            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))
     }
 
     /// Every robot's position at simulated time `t`, from its last kinematic state at or
