@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 import pytest
 
 import nekosim
@@ -145,6 +146,17 @@ def test_every_record_kind_has_the_jsonl_fields_in_its_columns(tmp_path):
                   for k in re.findall(r"`([a-z_]+)`", line.split("|")[1])}
     assert "spawn" in documented and "look" in documented
     assert documented - NOT_IN_EXAMPLES <= kinds, documented - NOT_IN_EXAMPLES - kinds
+
+
+def test_arrays_in_the_trace_are_typed_columns(tmp_path):
+    """Positions are Arrow lists of float64 (no Python object per cell); their elements read
+    as a column of their own."""
+    records, _, _ = cli("examples/scenarios/collision.ron", tmp_path)
+    df = nekosim.Scenario.load(ROOT / "examples/scenarios/collision.ron").run().trace
+    assert df["pos"].dtype == pd.ArrowDtype(pa.list_(pa.float64()))
+    xs = df["pos"].list[0]
+    assert xs.tolist() == [r["pos"][0] if "pos" in r else pd.NA for r in records]
+    assert df["pos"].iloc[0] == records[0]["pos"]
 
 
 def test_summary_gives_the_printed_figures(tmp_path):
