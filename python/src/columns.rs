@@ -14,12 +14,13 @@
 
 use std::sync::Arc;
 
-use arrow_array::builder::{
-    BooleanBuilder, Float64Builder, Int64Builder, ListBuilder, StringBuilder,
-};
+use arrow_array::builder::StringBuilder;
 use arrow_array::ffi::{FFI_ArrowArray, FFI_ArrowSchema};
-use arrow_array::{Array, ArrayRef, RecordBatch, StructArray};
-use arrow_schema::{ArrowError, Field, Schema};
+use arrow_array::{
+    Array, ArrayRef, BooleanArray, Float64Array, Int64Array, ListArray, RecordBatch, StructArray,
+};
+use arrow_buffer::{NullBuffer, OffsetBuffer};
+use arrow_schema::{ArrowError, DataType, Field, Schema};
 use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::PyCapsule;
@@ -97,36 +98,32 @@ pub fn batch<T: Serialize>(rows: &[T]) -> Result<RecordBatch, ArrowError> {
 
 /// Column `col` of a table of `rows` rows, as `kind`.
 fn column(col: &Column, kind: Kind, rows: usize) -> Result<ArrayRef, ArrowError> {
-    let cells = col.dense(rows);
     Ok(match kind {
         Kind::Null | Kind::Bool => {
-            let mut b = BooleanBuilder::with_capacity(rows);
-            cells.for_each(|c| match c {
-                Cell::Bool(v) => b.append_value(*v),
-                _ => b.append_null(),
+            let (values, nulls) = scatter(col, rows, |c| match c {
+                Cell::Bool(v) => Some(*v),
+                _ => None,
             });
-            Arc::new(b.finish())
+            Arc::new(BooleanArray::new(values.into_iter().collect(), nulls))
         }
         Kind::Int => {
-            let mut b = Int64Builder::with_capacity(rows);
-            cells.for_each(|c| match c {
-                Cell::Int(v) => b.append_value(*v),
-                _ => b.append_null(),
+            let (values, nulls) = scatter(col, rows, |c| match c {
+                Cell::Int(v) => Some(*v),
+                _ => None,
             });
-            Arc::new(b.finish())
+            Arc::new(Int64Array::new(values.into(), nulls))
         }
         Kind::Float => {
-            let mut b = Float64Builder::with_capacity(rows);
-            cells.for_each(|c| match c {
-                Cell::Int(v) => b.append_value(*v as f64),
-                Cell::Float(v) => b.append_value(*v),
-                _ => b.append_null(),
+            let (values, nulls) = scatter(col, rows, |c| match c {
+                Cell::Int(v) => Some(*v as f64),
+                Cell::Float(v) => Some(*v),
+                _ => None,
             });
-            Arc::new(b.finish())
+            Arc::new(Float64Array::new(values.into(), nulls))
         }
         Kind::Str | Kind::Mixed => {
             let mut b = StringBuilder::with_capacity(rows, col.text.len());
-            for c in cells {
+            for c in col.dense(rows) {
                 match c {
                     Cell::Null => b.append_null(),
                     Cell::Str(s, e) => b.append_value(&col.text[*s..*e]),
@@ -136,51 +133,73 @@ fn column(col: &Column, kind: Kind, rows: usize) -> Result<ArrayRef, ArrowError>
             Arc::new(b.finish())
         }
         Kind::IntList => {
-            let mut b =
-                ListBuilder::with_capacity(Int64Builder::with_capacity(col.nums.len()), rows);
-            for c in cells {
-                match c {
-                    Cell::List { start, end, .. } => {
-                        col.nums[*start..*end].iter().for_each(|n| {
-                            b.values().append_value(match *n {
-                                Num::Int(i) => i,
-                                Num::Float(f) => f as i64,
-                            })
-                        });
-                        b.append(true);
-                    }
-                    _ => b.append(false),
-                }
-            }
-            Arc::new(b.finish())
+            let (values, offsets, nulls) = lists(col, rows, |n| match n {
+                Num::Int(i) => i,
+                Num::Float(f) => f as i64,
+            });
+            let item = Arc::new(Field::new_list_field(DataType::Int64, true));
+            let values = Arc::new(Int64Array::from(values));
+            Arc::new(ListArray::try_new(item, offsets, values, nulls)?)
         }
         Kind::FloatList => {
-            let mut b =
-                ListBuilder::with_capacity(Float64Builder::with_capacity(col.nums.len()), rows);
-            for c in cells {
-                match c {
-                    Cell::List { start, end, .. } => {
-                        col.nums[*start..*end].iter().for_each(|n| {
-                            b.values().append_value(match *n {
-                                Num::Int(i) => i as f64,
-                                Num::Float(f) => f,
-                            })
-                        });
-                        b.append(true);
-                    }
-                    _ => b.append(false),
-                }
-            }
-            Arc::new(b.finish())
+            let (values, offsets, nulls) = lists(col, rows, |n| match n {
+                Num::Int(i) => i as f64,
+                Num::Float(f) => f,
+            });
+            let item = Arc::new(Field::new_list_field(DataType::Float64, true));
+            let values = Arc::new(Float64Array::from(values));
+            Arc::new(ListArray::try_new(item, offsets, values, nulls)?)
         }
         Kind::Nested => {
-            match nested(&col.name, cells.map(|c| col.value(c))) {
+            match nested(&col.name, col.dense(rows).map(|c| col.value(c))) {
                 Ok(a) => a,
                 // Shapes Arrow's JSON reader cannot unify: the column holds each value's JSON.
                 Err(_) => column(col, Kind::Mixed, rows)?,
             }
         }
     })
+}
+
+/// The values of a column of `rows` rows whose cells `value` reads: each at its row, the
+/// default and null where a record has no such field or `value` gives none.
+fn scatter<T: Default + Clone>(
+    col: &Column,
+    rows: usize,
+    value: impl Fn(&Cell) -> Option<T>,
+) -> (Vec<T>, Option<NullBuffer>) {
+    let mut values = vec![T::default(); rows];
+    let mut valid = vec![false; rows];
+    for (&r, c) in col.rows.iter().zip(&col.cells) {
+        if let Some(v) = value(c) {
+            values[r] = v;
+            valid[r] = true;
+        }
+    }
+    (values, Some(NullBuffer::from(valid)))
+}
+
+/// The elements of a column of arrays of numbers, as `element` reads them, with each row's
+/// offsets into them; null where a record has no such field.
+fn lists<T>(
+    col: &Column,
+    rows: usize,
+    element: impl Fn(Num) -> T,
+) -> (Vec<T>, OffsetBuffer<i32>, Option<NullBuffer>) {
+    let mut values = Vec::with_capacity(col.nums.len());
+    let mut lengths = vec![0; rows];
+    let mut valid = vec![false; rows];
+    for (&r, c) in col.rows.iter().zip(&col.cells) {
+        if let Cell::List { start, end, .. } = *c {
+            values.extend(col.nums[start..end].iter().map(|&n| element(n)));
+            lengths[r] = end - start;
+            valid[r] = true;
+        }
+    }
+    (
+        values,
+        OffsetBuffer::from_lengths(lengths),
+        Some(NullBuffer::from(valid)),
+    )
 }
 
 /// A nested column through Arrow's JSON reader, fed the values themselves (serde, no text).
