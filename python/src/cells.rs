@@ -154,25 +154,22 @@ pub struct Table {
     /// order, so a field is nearly always among the few that followed the previous one, and
     /// found there without a lookup by name.
     next: Vec<Vec<usize>>,
-    /// How many records the table is for: each column reserves a cell for each, so that
-    /// filling a column never moves it.
-    rows: usize,
     /// The key being read.
     key: String,
 }
 
-impl Table {
-    /// A table for `rows` records.
-    pub fn new(rows: usize) -> Self {
+impl Default for Table {
+    fn default() -> Self {
         Table {
             columns: Vec::new(),
             index: HashMap::new(),
             next: vec![Vec::new()],
-            rows,
             key: String::new(),
         }
     }
+}
 
+impl Table {
     /// Writes trace object `r` as record number `row` (rows are written in order).
     pub fn row<T: Serialize + ?Sized>(&mut self, row: usize, r: &T) -> Result<(), Error> {
         r.serialize(Row {
@@ -203,8 +200,6 @@ impl Table {
                 let i = self.columns.len();
                 self.columns.push(Column {
                     name: key.to_string(),
-                    rows: Vec::with_capacity(self.rows),
-                    cells: Vec::with_capacity(self.rows),
                     ..Column::default()
                 });
                 self.index.insert(key.to_string(), i);
@@ -811,7 +806,7 @@ mod tests {
 
     /// The cells of `rows`, by column, as JSON values.
     fn cells(rows: &[Value]) -> Vec<(String, Vec<Value>)> {
-        let mut t = Table::new(rows.len());
+        let mut t = Table::default();
         for (i, r) in rows.iter().enumerate() {
             t.row(i, r).unwrap();
         }
@@ -886,7 +881,7 @@ mod tests {
             tuple: (1, 0.5),
         };
         let want = serde_json::to_value(&odd).unwrap();
-        let mut t = Table::new(1);
+        let mut t = Table::default();
         t.row(0, &odd).unwrap();
         for c in t.into_columns() {
             let have = c.cells.first().map_or(Value::Null, |x| c.value(x));
@@ -908,7 +903,7 @@ mod tests {
                 m.end()
             }
         }
-        let mut t = Table::new(2);
+        let mut t = Table::default();
         t.row(0, &Twice).unwrap();
         t.row(1, &Twice).unwrap();
         let cols = t.into_columns();

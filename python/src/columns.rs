@@ -71,7 +71,7 @@ fn merge(a: Kind, b: Kind) -> Kind {
 
 /// The trace objects `rows` (records, or JSON values read from a trace) as one record batch.
 pub fn batch<T: Serialize>(rows: &[T]) -> Result<RecordBatch, ArrowError> {
-    let mut table = Table::new(rows.len());
+    let mut table = Table::default();
     for (i, r) in rows.iter().enumerate() {
         table
             .row(i, r)
