@@ -14,9 +14,8 @@ from typing import Any, Dict, List, Mapping, Optional, Union
 
 import pandas as pd
 import pyarrow as pa
-import pyarrow.ipc
 
-from . import _nekosim
+from . import _frame, _nekosim
 from ._errors import ScenarioError
 from ._nekosim import Decision, MotionResult, RunEnded, Seen, View
 from ._nekosim import RobotHandle as Robot
@@ -82,11 +81,6 @@ def _viewer(rrd: str, width: Union[int, str], height: Union[int, str]) -> Any:
     return viewer
 
 
-# Typed columns: integers and booleans stay integers and booleans where a column has
-# nulls (the fields of other kinds of records).
-_TYPES = {pa.int64(): pd.Int64Dtype(), pa.bool_(): pd.BooleanDtype()}
-
-
 class Run:
     """A finished run: its summary, trace, log and trajectories."""
 
@@ -116,16 +110,17 @@ class Run:
     def trace_table(self) -> pa.Table:
         """The trace as an Arrow table: one row per record, one column per field."""
         if self._table is None:
-            reader = pa.ipc.open_stream(self._core.trace_ipc())
-            self._table = reader.read_all()
+            self._table = _frame.table(self._core.trace())
         return self._table
 
     @property
     def trace(self) -> pd.DataFrame:
         """The trace as a DataFrame: one row per record of ``nekosim run --trace``, one
-        column per field (docs/trace.md), null where a record has no such field."""
+        column per field (docs/trace.md), null where a record has no such field. Arrays
+        (``pos``, ``vel``, ...) and nested values are Arrow-backed columns
+        (``pandas.ArrowDtype``) whose cells read as lists and dicts."""
         if self._trace is None:
-            self._trace = self.trace_table.to_pandas(types_mapper=_TYPES.get)
+            self._trace = _frame.frame(self.trace_table)
         return self._trace
 
     def positions(self, t: float) -> pd.DataFrame:

@@ -7,15 +7,11 @@ import tempfile
 from typing import Any, Dict, Optional, Union
 
 import pandas as pd
-import pyarrow as pa
-import pyarrow.ipc
-
-from . import _nekosim
+from . import _frame, _nekosim
 
 # The report's lines `nekosim check` prints: "  FAILS  name (always): detail".
 _VERDICT = re.compile(r"^  (holds|FAILS|open)\s+ (.*) \((always|sometimes|eventually)\)(?:: (.*))?$")
 _STATES = re.compile(r"^states: (\d+), unique states: (\d+), depth: (\d+),")
-_TYPES = {pa.int64(): pd.Int64Dtype(), pa.bool_(): pd.BooleanDtype()}
 
 
 class Check:
@@ -49,8 +45,7 @@ class Check:
                                "depth": int(m.group(3))}
         self.verdicts = pd.DataFrame(
             rows, columns=["property", "verdict", "expectation", "detail"])
-        table = pa.ipc.open_stream(core.trace_ipc()).read_all()
-        self.counterexample: pd.DataFrame = table.to_pandas(types_mapper=_TYPES.get)
+        self.counterexample: pd.DataFrame = _frame.frame(_frame.table(core.trace()))
 
     @property
     def holds(self) -> bool:

@@ -11,9 +11,10 @@ use nekosim::models::{NetworkKind, Strategy};
 use nekosim::scenario::Source;
 
 use crate::algorithm::Hosted;
+use crate::columns::ArrowBatch;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
+
 use serde_json::Value;
 
 /// A finished check: the report, the exit code it stands for, the trace's records.
@@ -187,12 +188,11 @@ pub fn check_core(
 
 #[pymethods]
 impl CheckCore {
-    /// The counterexample's (or witness's) records as an Arrow IPC stream.
-    fn trace_ipc<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
-        let bytes = py
-            .detach(|| crate::columns::batch(&self.records).and_then(|b| crate::columns::ipc(&b)))
-            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-        Ok(PyBytes::new(py, &bytes))
+    /// The counterexample's (or witness's) records as one Arrow record batch.
+    fn trace(&self, py: Python<'_>) -> PyResult<ArrowBatch> {
+        py.detach(|| crate::columns::batch(&self.records))
+            .map(ArrowBatch)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))
     }
 
     fn __len__(&self) -> usize {

@@ -1,7 +1,8 @@
 //! A run's trace as Arrow columns: one row per record, one column per field of the trace
-//! objects (docs/trace.md), in the order fields first appear. The objects are the records
-//! projected by serde, the very values `--trace` prints, so each column holds what the JSONL
-//! trace holds; a field a record does not have is null.
+//! objects (docs/trace.md), in the order fields first appear. Each record goes through its own
+//! `Serialize`, the one `--trace` prints with, into a serializer that writes each field straight
+//! into its column ([`crate::cells`]): the columns hold what the JSONL trace holds, with no JSON
+//! value built on the way; a field a record does not have is null.
 //!
 //! Column types: integers are `int64`, numbers `float64`, booleans `bool`, strings `utf8`;
 //! arrays of numbers (positions, velocities, arrival times) are `list<float64>` (`list<int64>`
@@ -13,12 +14,20 @@
 
 use std::sync::Arc;
 
-use arrow_array::builder::{
-    BooleanBuilder, Float64Builder, Int64Builder, ListBuilder, StringBuilder,
+use arrow_array::builder::StringBuilder;
+use arrow_array::ffi::{FFI_ArrowArray, FFI_ArrowSchema};
+use arrow_array::{
+    Array, ArrayRef, BooleanArray, Float64Array, Int64Array, ListArray, RecordBatch, StructArray,
 };
-use arrow_array::{ArrayRef, RecordBatch};
-use arrow_schema::{ArrowError, Field, Schema};
+use arrow_buffer::{NullBuffer, OffsetBuffer};
+use arrow_schema::{ArrowError, DataType, Field, Schema};
+use pyo3::exceptions::PyRuntimeError;
+use pyo3::prelude::*;
+use pyo3::types::PyCapsule;
+use serde::Serialize;
 use serde_json::{Map, Value};
+
+use crate::cells::{Cell, Column, Num, Table};
 
 /// What a column's values are, from all of them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -35,26 +44,16 @@ enum Kind {
     Mixed,
 }
 
-fn kind_of(v: &Value) -> Kind {
-    match v {
-        Value::Null => Kind::Null,
-        Value::Bool(_) => Kind::Bool,
-        Value::Number(n) if n.is_f64() => Kind::Float,
-        Value::Number(n) if n.as_i64().is_some() => Kind::Int,
-        Value::Number(_) => Kind::Float,
-        Value::String(_) => Kind::Str,
-        Value::Array(items) => {
-            let mut k = Kind::IntList;
-            for i in items {
-                match kind_of(i) {
-                    Kind::Int => {}
-                    Kind::Float => k = Kind::FloatList,
-                    _ => return Kind::Nested,
-                }
-            }
-            k
-        }
-        Value::Object(_) => Kind::Nested,
+fn kind_of(c: &Cell) -> Kind {
+    match c {
+        Cell::Null => Kind::Null,
+        Cell::Bool(_) => Kind::Bool,
+        Cell::Int(_) => Kind::Int,
+        Cell::Float(_) => Kind::Float,
+        Cell::Str(..) => Kind::Str,
+        Cell::List { float: false, .. } => Kind::IntList,
+        Cell::List { float: true, .. } => Kind::FloatList,
+        Cell::Nested(_) => Kind::Nested,
     }
 }
 
@@ -70,29 +69,24 @@ fn merge(a: Kind, b: Kind) -> Kind {
     }
 }
 
-/// The trace objects `rows` as one record batch.
-pub fn batch(rows: &[Value]) -> Result<RecordBatch, ArrowError> {
-    let mut names: Vec<String> = Vec::new();
-    let mut seen = std::collections::HashSet::new();
-    for r in rows {
-        if let Value::Object(m) = r {
-            for k in m.keys() {
-                if seen.insert(k.clone()) {
-                    names.push(k.clone());
-                }
-            }
-        }
+/// The trace objects `rows` (records, or JSON values read from a trace) as one record batch.
+pub fn batch<T: Serialize>(rows: &[T]) -> Result<RecordBatch, ArrowError> {
+    let mut table = Table::default();
+    for (i, r) in rows.iter().enumerate() {
+        table
+            .row(i, r)
+            .map_err(|e| ArrowError::ExternalError(Box::new(e)))?;
     }
-    let mut fields = Vec::with_capacity(names.len());
-    let mut arrays = Vec::with_capacity(names.len());
-    for name in &names {
-        let cells: Vec<&Value> = rows
+    let columns = table.into_columns();
+    let mut fields = Vec::with_capacity(columns.len());
+    let mut arrays = Vec::with_capacity(columns.len());
+    for col in &columns {
+        let kind = col
+            .cells
             .iter()
-            .map(|r| r.get(name).unwrap_or(&Value::Null))
-            .collect();
-        let kind = cells.iter().fold(Kind::Null, |k, v| merge(k, kind_of(v)));
-        let array = column(name, kind, &cells)?;
-        fields.push(Field::new(name, array.data_type().clone(), true));
+            .fold(Kind::Null, |k, c| merge(k, kind_of(c)));
+        let array = column(col, kind, rows.len())?;
+        fields.push(Field::new(&col.name, array.data_type().clone(), true));
         arrays.push(array);
     }
     RecordBatch::try_new_with_options(
@@ -102,80 +96,119 @@ pub fn batch(rows: &[Value]) -> Result<RecordBatch, ArrowError> {
     )
 }
 
-fn column(name: &str, kind: Kind, cells: &[&Value]) -> Result<ArrayRef, ArrowError> {
+/// Column `col` of a table of `rows` rows, as `kind`.
+fn column(col: &Column, kind: Kind, rows: usize) -> Result<ArrayRef, ArrowError> {
     Ok(match kind {
         Kind::Null | Kind::Bool => {
-            let mut b = BooleanBuilder::with_capacity(cells.len());
-            cells.iter().for_each(|v| b.append_option(v.as_bool()));
-            Arc::new(b.finish())
+            let (values, nulls) = scatter(col, rows, |c| match c {
+                Cell::Bool(v) => Some(*v),
+                _ => None,
+            });
+            Arc::new(BooleanArray::new(values.into_iter().collect(), nulls))
         }
         Kind::Int => {
-            let mut b = Int64Builder::with_capacity(cells.len());
-            cells.iter().for_each(|v| b.append_option(v.as_i64()));
-            Arc::new(b.finish())
+            let (values, nulls) = scatter(col, rows, |c| match c {
+                Cell::Int(v) => Some(*v),
+                _ => None,
+            });
+            Arc::new(Int64Array::new(values.into(), nulls))
         }
         Kind::Float => {
-            let mut b = Float64Builder::with_capacity(cells.len());
-            cells.iter().for_each(|v| b.append_option(v.as_f64()));
-            Arc::new(b.finish())
+            let (values, nulls) = scatter(col, rows, |c| match c {
+                Cell::Int(v) => Some(*v as f64),
+                Cell::Float(v) => Some(*v),
+                _ => None,
+            });
+            Arc::new(Float64Array::new(values.into(), nulls))
         }
         Kind::Str | Kind::Mixed => {
-            let mut b = StringBuilder::new();
-            for v in cells {
-                match v {
-                    Value::Null => b.append_null(),
-                    Value::String(s) => b.append_value(s),
-                    other => b.append_value(other.to_string()),
+            let mut b = StringBuilder::with_capacity(rows, col.text.len());
+            for c in col.dense(rows) {
+                match c {
+                    Cell::Null => b.append_null(),
+                    Cell::Str(s, e) => b.append_value(&col.text[*s..*e]),
+                    other => b.append_value(col.value(other).to_string()),
                 }
             }
             Arc::new(b.finish())
         }
         Kind::IntList => {
-            let mut b = ListBuilder::new(Int64Builder::new());
-            for v in cells {
-                match v.as_array() {
-                    Some(items) => {
-                        items
-                            .iter()
-                            .for_each(|i| b.values().append_option(i.as_i64()));
-                        b.append(true);
-                    }
-                    None => b.append(false),
-                }
-            }
-            Arc::new(b.finish())
+            let (values, offsets, nulls) = lists(col, rows, |n| match n {
+                Num::Int(i) => i,
+                Num::Float(f) => f as i64,
+            });
+            let item = Arc::new(Field::new_list_field(DataType::Int64, true));
+            let values = Arc::new(Int64Array::from(values));
+            Arc::new(ListArray::try_new(item, offsets, values, nulls)?)
         }
         Kind::FloatList => {
-            let mut b = ListBuilder::new(Float64Builder::new());
-            for v in cells {
-                match v.as_array() {
-                    Some(items) => {
-                        items
-                            .iter()
-                            .for_each(|i| b.values().append_option(i.as_f64()));
-                        b.append(true);
-                    }
-                    None => b.append(false),
-                }
-            }
-            Arc::new(b.finish())
+            let (values, offsets, nulls) = lists(col, rows, |n| match n {
+                Num::Int(i) => i as f64,
+                Num::Float(f) => f,
+            });
+            let item = Arc::new(Field::new_list_field(DataType::Float64, true));
+            let values = Arc::new(Float64Array::from(values));
+            Arc::new(ListArray::try_new(item, offsets, values, nulls)?)
         }
-        Kind::Nested => match nested(name, cells) {
-            Ok(a) => a,
-            // Shapes Arrow's JSON reader cannot unify: the column holds each value's JSON.
-            Err(_) => column(name, Kind::Mixed, cells)?,
-        },
+        Kind::Nested => {
+            match nested(&col.name, col.dense(rows).map(|c| col.value(c))) {
+                Ok(a) => a,
+                // Shapes Arrow's JSON reader cannot unify: the column holds each value's JSON.
+                Err(_) => column(col, Kind::Mixed, rows)?,
+            }
+        }
     })
 }
 
+/// The values of a column of `rows` rows whose cells `value` reads: each at its row, the
+/// default and null where a record has no such field or `value` gives none.
+fn scatter<T: Default + Clone>(
+    col: &Column,
+    rows: usize,
+    value: impl Fn(&Cell) -> Option<T>,
+) -> (Vec<T>, Option<NullBuffer>) {
+    let mut values = vec![T::default(); rows];
+    let mut valid = vec![false; rows];
+    for (&r, c) in col.rows.iter().zip(&col.cells) {
+        if let Some(v) = value(c) {
+            values[r] = v;
+            valid[r] = true;
+        }
+    }
+    (values, Some(NullBuffer::from(valid)))
+}
+
+/// The elements of a column of arrays of numbers, as `element` reads them, with each row's
+/// offsets into them; null where a record has no such field.
+fn lists<T>(
+    col: &Column,
+    rows: usize,
+    element: impl Fn(Num) -> T,
+) -> (Vec<T>, OffsetBuffer<i32>, Option<NullBuffer>) {
+    let mut values = Vec::with_capacity(col.nums.len());
+    let mut lengths = vec![0; rows];
+    let mut valid = vec![false; rows];
+    for (&r, c) in col.rows.iter().zip(&col.cells) {
+        if let Cell::List { start, end, .. } = *c {
+            values.extend(col.nums[start..end].iter().map(|&n| element(n)));
+            lengths[r] = end - start;
+            valid[r] = true;
+        }
+    }
+    (
+        values,
+        OffsetBuffer::from_lengths(lengths),
+        Some(NullBuffer::from(valid)),
+    )
+}
+
 /// A nested column through Arrow's JSON reader, fed the values themselves (serde, no text).
-fn nested(name: &str, cells: &[&Value]) -> Result<ArrayRef, ArrowError> {
+fn nested(name: &str, cells: impl Iterator<Item = Value>) -> Result<ArrayRef, ArrowError> {
     let rows: Vec<Value> = cells
-        .iter()
         .map(|v| {
             let mut m = Map::new();
             if !v.is_null() {
-                m.insert(name.to_string(), (*v).clone());
+                m.insert(name.to_string(), v);
             }
             Value::Object(m)
         })
@@ -194,10 +227,31 @@ fn nested(name: &str, cells: &[&Value]) -> Result<ArrayRef, ArrowError> {
     Ok(batch.column(0).clone())
 }
 
-/// `batch` in Arrow's IPC stream format (what `pyarrow.ipc.open_stream` reads).
-pub fn ipc(batch: &RecordBatch) -> Result<Vec<u8>, ArrowError> {
-    let mut w = arrow_ipc::writer::StreamWriter::try_new(Vec::new(), &batch.schema())?;
-    w.write(batch)?;
-    w.finish()?;
-    w.into_inner()
+/// A record batch that Python takes without a copy, through the Arrow PyCapsule interface
+/// (`pyarrow.record_batch(batch)`): its buffers are handed over as they are.
+#[derive(Debug)]
+#[pyclass(module = "nekosim._nekosim", frozen)]
+pub struct ArrowBatch(pub RecordBatch);
+
+#[pymethods]
+impl ArrowBatch {
+    /// The batch as a struct array: the capsules `arrow_schema` and `arrow_array` of Arrow's C
+    /// data interface. A requested schema is not followed (the interface leaves that to the
+    /// consumer).
+    #[pyo3(signature = (requested_schema=None))]
+    fn __arrow_c_array__<'py>(
+        &self,
+        py: Python<'py>,
+        requested_schema: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<(Bound<'py, PyCapsule>, Bound<'py, PyCapsule>)> {
+        let _ = requested_schema;
+        let data = StructArray::from(self.0.clone()).into_data();
+        let schema = FFI_ArrowSchema::try_from(data.data_type())
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let array = FFI_ArrowArray::new(&data);
+        Ok((
+            PyCapsule::new_with_value(py, schema, c"arrow_schema")?,
+            PyCapsule::new_with_value(py, array, c"arrow_array")?,
+        ))
+    }
 }

@@ -5,6 +5,7 @@
 //! package's Python modules (python/nekosim/) wrap these classes into pandas.
 
 mod algorithm;
+mod cells;
 mod check;
 mod columns;
 mod robot;
@@ -45,6 +46,7 @@ fn _nekosim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<run::RunCore>()?;
     m.add_class::<sweep::SweepCore>()?;
     m.add_class::<check::CheckCore>()?;
+    m.add_class::<columns::ArrowBatch>()?;
     m.add_function(wrap_pyfunction!(check::check_core, m)?)?;
     m.add_class::<algorithm::View>()?;
     m.add_class::<algorithm::Seen>()?;

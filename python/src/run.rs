@@ -1,26 +1,29 @@
 //! A run from Python: the scenario built with the Python algorithms in place, run by the
 //! runner the command line uses (the same records, summary and recording), its records kept
-//! as the trace's objects, its Neko log lines and every robot's kinematic states, from which
-//! [`RunCore::positions`] gives the exact positions at any instant (docs/trace.md,
-//! "Rebuilding trajectories").
+//! as the engine made them. The trace's Arrow columns, the Neko log's lines and every robot's
+//! kinematic states, from which [`RunCore::positions`] gives the exact positions at any
+//! instant (docs/trace.md, "Rebuilding trajectories"), are made from the records when first
+//! asked for.
 
 use std::cell::RefCell;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::rc::Rc;
+use std::sync::{Arc, OnceLock};
 
+use arrow_array::RecordBatch;
 use nekosim::lcm::Lcm;
 use nekosim::log::NekoLog;
-use nekosim::protocols::codec::install;
+use nekosim::protocols::codec::{install, Codecs};
 use nekosim::recording::Target;
 use nekosim::runner::{self, RunError, RunOptions, Summary};
 use nekosim::scenario::{Overrides, Registry, ScenarioError, Source};
 use nekosim::world::observation::{Observation, Record};
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict};
-use serde_json::Value;
+use pyo3::types::PyDict;
 
 use crate::algorithm::{Hosted, PyLcm, HOST_NAME};
+use crate::columns::ArrowBatch;
 use crate::robot::{PyRobot, ROBOT_HOST_NAME};
 
 /// A robot's kinematic state from `t` on: `pos + vel (t' - t)`.
@@ -31,32 +34,58 @@ struct State {
     vel: (f64, f64),
 }
 
-/// What the run leaves behind.
-#[derive(Debug, Default)]
+/// What the run leaves behind: its records as the engine made them. The trace's columns, the
+/// log's lines and the robots' trajectories are views of them, each made when first asked for.
+#[derive(Debug)]
 struct Kept {
-    rows: Vec<Value>,
-    log: Vec<String>,
-    states: BTreeMap<u32, Vec<State>>,
+    records: Vec<Record>,
+    /// How the stack's messages render, in the trace and the log.
+    codecs: Arc<Codecs>,
+    /// The log's lines before the first record's.
+    obstacles: Vec<String>,
+    log: OnceLock<Vec<String>>,
+    states: OnceLock<BTreeMap<u32, Vec<State>>>,
 }
 
 impl Kept {
-    fn observe(&mut self, neko: &mut NekoLog, r: &Record) {
-        self.rows.push(nekosim::trace::to_json(r));
-        if let Some(line) = neko.line(r) {
-            self.log.push(line);
-        }
-        let (robot, pos, vel) = match &r.obs {
-            Observation::Spawn { robot, pos, .. } => (*robot, *pos, Default::default()),
-            Observation::MotionStep { robot, state, .. }
-            | Observation::MotionFinish { robot, state, .. }
-            | Observation::Crash { robot, state } => (*robot, state.pos, state.vel),
-            _ => return,
-        };
-        self.states.entry(robot).or_default().push(State {
-            t: r.t,
-            pos: (pos.x, pos.y),
-            vel: (vel.x, vel.y),
-        });
+    /// The Neko log's lines.
+    fn log(&self) -> &[String] {
+        self.log.get_or_init(|| {
+            // Messages render through the stack's codecs, as in the trace and the log.
+            let _codecs = install(&self.codecs);
+            let mut neko = NekoLog::new();
+            let mut lines = self.obstacles.clone();
+            lines.extend(self.records.iter().filter_map(|r| neko.line(r)));
+            lines
+        })
+    }
+
+    /// The trace as one record batch.
+    fn trace(&self) -> Result<RecordBatch, arrow_schema::ArrowError> {
+        let _codecs = install(&self.codecs);
+        crate::columns::batch(&self.records)
+    }
+
+    /// Every robot's kinematic states, in time order.
+    fn states(&self) -> &BTreeMap<u32, Vec<State>> {
+        self.states.get_or_init(|| {
+            let mut states: BTreeMap<u32, Vec<State>> = BTreeMap::new();
+            for r in &self.records {
+                let (robot, pos, vel) = match &r.obs {
+                    Observation::Spawn { robot, pos, .. } => (*robot, *pos, Default::default()),
+                    Observation::MotionStep { robot, state, .. }
+                    | Observation::MotionFinish { robot, state, .. }
+                    | Observation::Crash { robot, state } => (*robot, state.pos, state.vel),
+                    _ => continue,
+                };
+                states.entry(robot).or_default().push(State {
+                    t: r.t,
+                    pos: (pos.x, pos.y),
+                    vel: (vel.x, vel.y),
+                });
+            }
+            states
+        })
     }
 }
 
@@ -104,18 +133,11 @@ pub fn execute(
             .building(|| source.build(overrides, &registry))
             .map_err(Failure::Scenario)?;
         let codecs = built.codecs.clone();
-        let kept = Rc::new(RefCell::new(Kept {
-            log: nekosim::log::obstacle_lines(&built.world.obstacles),
-            ..Kept::default()
-        }));
+        let obstacles = nekosim::log::obstacle_lines(&built.world.obstacles);
+        let records = Rc::new(RefCell::new(Vec::new()));
         let observe = {
-            let kept = kept.clone();
-            let mut neko = NekoLog::new();
-            Box::new(move |r: &Record| {
-                // Messages render through the stack's codecs, as in the trace and the log.
-                let _codecs = install(&codecs);
-                kept.borrow_mut().observe(&mut neko, r);
-            })
+            let records = records.clone();
+            Box::new(move |r: &Record| records.borrow_mut().push(r.clone()))
         };
         let summary = runner::run_observed(
             built,
@@ -127,7 +149,13 @@ pub fn execute(
             Some(observe),
         )
         .map_err(Failure::Run)?;
-        let kept = std::mem::take(&mut *kept.borrow_mut());
+        let kept = Kept {
+            records: std::mem::take(&mut *records.borrow_mut()),
+            codecs,
+            obstacles,
+            log: OnceLock::new(),
+            states: OnceLock::new(),
+        };
         Ok((summary, kept))
     });
     // The run is over: seed-style algorithms still waiting for a call end.
@@ -200,30 +228,28 @@ impl RunCore {
 
     /// The Neko log's lines, as `nekosim run --log` writes them.
     #[getter]
-    fn log(&self) -> Vec<String> {
-        self.kept.log.clone()
+    fn log(&self, py: Python<'_>) -> Vec<String> {
+        py.detach(|| self.kept.log().to_vec())
     }
 
     /// How many records the run made.
     fn __len__(&self) -> usize {
-        self.kept.rows.len()
+        self.kept.records.len()
     }
 
-    /// The trace as an Arrow IPC stream (one record batch; see the `columns` module).
-    fn trace_ipc<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyBytes>> {
-        let rows = &self.kept.rows;
-        let bytes = py
-            .detach(|| crate::columns::batch(rows).and_then(|b| crate::columns::ipc(&b)))
-            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-        Ok(PyBytes::new(py, &bytes))
+    /// The trace as one Arrow record batch (see the `columns` module).
+    fn trace(&self, py: Python<'_>) -> PyResult<ArrowBatch> {
+        py.detach(|| self.kept.trace())
+            .map(ArrowBatch)
+            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))
     }
 
     /// Every robot's position at simulated time `t`, from its last kinematic state at or
     /// before `t`: `(robots, xs, ys)`, robots in increasing id order, robots not yet born
     /// left out.
-    fn positions(&self, t: f64) -> (Vec<u32>, Vec<f64>, Vec<f64>) {
+    fn positions(&self, py: Python<'_>, t: f64) -> (Vec<u32>, Vec<f64>, Vec<f64>) {
         let mut out = (Vec::new(), Vec::new(), Vec::new());
-        for (robot, states) in &self.kept.states {
+        for (robot, states) in py.detach(|| self.kept.states()) {
             let k = states.partition_point(|s| s.t <= t);
             let Some(s) = k.checked_sub(1).map(|k| states[k]) else {
                 continue;

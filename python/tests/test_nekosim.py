@@ -9,12 +9,14 @@ Run by tests/integration/python_package.rs with NEKOSIM_BIN naming the command l
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 import pytest
 
 import nekosim
@@ -99,6 +101,62 @@ def test_trace_dataframe_equals_the_jsonl_trace_record_for_record(scenario, unti
                 assert plain(row[k]) is MISSING, f"{scenario} record {i}: {k} = {row[k]!r}"
     assert fields == set(df.columns)
     assert run.log == log
+
+
+# Scenarios that make the record kinds SCENARIOS do not: sensors outside Look-Compute-Move,
+# crashes with and without a motion, decisions, deliveries over a stack with crashes.
+MORE_KINDS = [
+    ("examples/scenarios/crossing.ron", 30),
+    ("examples/scenarios/gathering.ron", 30),
+    ("examples/scenarios/meeting_point.ron", None),
+    ("examples/scenarios/consensus_abcast.ron", None),
+    ("examples/scenarios/path_reservation.ron", 30),
+]
+
+# The trace's record kinds that no example scenario makes (failure detector indications
+# reach only algorithms written for them).
+NOT_IN_EXAMPLES = {"suspect", "trust", "leader"}
+
+
+def test_every_record_kind_has_the_jsonl_fields_in_its_columns(tmp_path):
+    """Each record kind the examples make, field by field against the JSONL trace; every kind
+    docs/trace.md lists for a run is among them but for NOT_IN_EXAMPLES."""
+    kinds = set()
+    for scenario, until in SCENARIOS + MORE_KINDS:
+        records, log, _ = cli(scenario, tmp_path, until)
+        run = nekosim.Scenario.load(ROOT / scenario).run(until=until)
+        df = run.trace
+        assert len(df) == len(records)
+        assert df["kind"].tolist() == [r["kind"] for r in records]
+        for kind in sorted({r["kind"] for r in records} - kinds):
+            kinds.add(kind)
+            rows = [i for i, r in enumerate(records) if r["kind"] == kind]
+            fields = {k for i in rows for k in records[i]}
+            for i in rows:
+                row = df.iloc[i]
+                for k in fields:
+                    v = records[i].get(k)
+                    assert same(row[k], v), f"{scenario} {kind} {i} {k}: {row[k]!r} != {v!r}"
+        assert run.log == log
+    # The first cell of each row of the tables under "Kinds" (a run's kinds; the model
+    # checker's own come after).
+    text = (ROOT / "docs/trace.md").read_text()
+    tables = text.split("\n## Kinds\n")[1].split("\n## ")[0]
+    documented = {k for line in tables.splitlines() if line.startswith("| `")
+                  for k in re.findall(r"`([a-z_]+)`", line.split("|")[1])}
+    assert "spawn" in documented and "look" in documented
+    assert documented - NOT_IN_EXAMPLES <= kinds, documented - NOT_IN_EXAMPLES - kinds
+
+
+def test_arrays_in_the_trace_are_typed_columns(tmp_path):
+    """Positions are Arrow lists of float64 (no Python object per cell); their elements read
+    as a column of their own."""
+    records, _, _ = cli("examples/scenarios/collision.ron", tmp_path)
+    df = nekosim.Scenario.load(ROOT / "examples/scenarios/collision.ron").run().trace
+    assert df["pos"].dtype == pd.ArrowDtype(pa.list_(pa.float64()))
+    xs = df["pos"].list[0]
+    assert xs.tolist() == [r["pos"][0] if "pos" in r else pd.NA for r in records]
+    assert df["pos"].iloc[0] == records[0]["pos"]
 
 
 def test_summary_gives_the_printed_figures(tmp_path):
