@@ -11,6 +11,9 @@ from . import _frame, _nekosim
 
 # The report's lines `nekosim check` prints: "  FAILS  name (always): detail".
 _VERDICT = re.compile(r"^  (holds|FAILS|open)\s+ (.*) \((always|sometimes|eventually)\)(?:: (.*))?$")
+# Temporal properties checked on the whole graph: "  FAILS  name <>[] (predicate): detail".
+_TEMPORAL = re.compile(r"^  (holds|FAILS|open)\s+ (.*?) (<>\[\]|\[\]<>|<>) \((.*)\)(?:: (.*))?$")
+_OPERATORS = {"<>[]": "eventually always", "[]<>": "always eventually", "<>": "eventually"}
 _STATES = re.compile(r"^states: (\d+), unique states: (\d+), depth: (\d+),")
 
 
@@ -19,7 +22,8 @@ class Check:
 
     ``verdicts``: one row per property (``property``, ``verdict`` — ``"holds"``,
     ``"fails"`` or ``"open"`` (not settled) —, ``expectation`` and ``detail``), as the
-    report lists them; ``states``: the states generated, the unique states and the depth
+    report lists them, the temporal properties last (``expectation`` ``"eventually"``,
+    ``"eventually always"`` or ``"always eventually"``, ``detail`` their predicate); ``states``: the states generated, the unique states and the depth
     reached; ``counterexample``: the records ``nekosim check --trace`` writes for the first
     counterexample (else a witness; empty when there is neither), one row per record as
     :attr:`nekosim.Run.trace` has them; ``report``: the command's report; ``code``: its
@@ -39,6 +43,11 @@ class Check:
             if m:
                 verdict = {"holds": "holds", "FAILS": "fails", "open": "open"}[m.group(1)]
                 rows.append((m.group(2), verdict, m.group(3), m.group(4) or ""))
+            m = _TEMPORAL.match(line)
+            if m:
+                verdict = {"holds": "holds", "FAILS": "fails", "open": "open"}[m.group(1)]
+                rows.append((m.group(2), verdict, _OPERATORS[m.group(3)],
+                             m.group(4) + (f": {m.group(5)}" if m.group(5) else "")))
             m = _STATES.match(line)
             if m:
                 self.states = {"states": int(m.group(1)), "unique_states": int(m.group(2)),

@@ -26,8 +26,16 @@ def cli(tmp_path, model, *args):
     trace = tmp_path / "check.jsonl"
     done = subprocess.run([BIN, "check", model, "--quiet", "--trace", str(trace), *args],
                           capture_output=True, text=True)
-    verdicts = [tuple(re.match(r"  (\S+)\s+ (.*) \((\w+)\)", l).groups())
-                for l in done.stdout.splitlines() if re.match(r"  (holds|FAILS|open) ", l)]
+    operators = {"<>[]": "eventually always", "[]<>": "always eventually", "<>": "eventually"}
+
+    def verdict(line):
+        m = re.match(r"  (\S+)\s+ (.*?) (<>\[\]|\[\]<>|<>) \(", line)
+        if m:
+            return m.group(1), m.group(2), operators[m.group(3)]
+        return re.match(r"  (\S+)\s+ (.*) \((\w+)\)", line).groups()
+
+    verdicts = [verdict(l) for l in done.stdout.splitlines()
+                if re.match(r"  (holds|FAILS|open) ", l)]
     m = re.search(r"^states: (\d+), unique states: (\d+), depth: (\d+),", done.stdout, re.M)
     states = dict(zip(["states", "unique_states", "depth"], map(int, m.groups())))
     records = [json.loads(l) for l in trace.read_text().splitlines()] if trace.exists() else []
