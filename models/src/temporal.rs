@@ -360,7 +360,11 @@ pub fn explore_stack<'a>(
     let graph = explore(&system, limits);
     let halted = system.halted.get().then(|| system.expanded.get());
     let tasks = system.task_count();
-    (graph.map(|graph| StackGraph { graph, system }), halted, tasks)
+    (
+        graph.map(|graph| StackGraph { graph, system }),
+        halted,
+        tasks,
+    )
 }
 
 impl std::fmt::Debug for StackSystem<'_> {
@@ -577,7 +581,11 @@ pub struct Decision {
 /// Decides every temporal property of `model` on its `graph` ([`explore_stack`]) under
 /// `fairness`, assuming eventual accuracy where the stack rests on it
 /// ([`assumes_accuracy`]). The propositions are the bits read when each state was packed.
-pub fn decide(model: &CheckModel, graph: &StackGraph<'_>, fairness: StackFairness) -> Vec<Decision> {
+pub fn decide(
+    model: &CheckModel,
+    graph: &StackGraph<'_>,
+    fairness: StackFairness,
+) -> Vec<Decision> {
     let assume = assumes_accuracy(model);
     temporal_properties(model)
         .into_iter()

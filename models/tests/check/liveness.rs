@@ -122,7 +122,11 @@ fn replays(model: &CheckModel, lasso: &Lasso<State, Action>) {
         "the cycle closes"
     );
     if !model.cfg.reduction {
-        assert_eq!(states.last(), Some(lasso.entry()), "the cycle closes exactly");
+        assert_eq!(
+            states.last(),
+            Some(lasso.entry()),
+            "the cycle closes exactly"
+        );
     }
 }
 
@@ -261,14 +265,18 @@ fn forgetting_spent_messages_keeps_the_temporal_verdicts_and_matches_the_search(
         timer_budget: 0,
         ..opts(3, 1)
     };
+    let two_proposals = Options {
+        requests: 2,
+        ..no_timers.clone()
+    };
     let cases: [(&str, Options, (usize, usize), bool); 7] = [
-        ("lamport-abcast", opts(2, 2), (0, 0), false),
-        ("sequencer-abcast", opts(3, 1), (0, 0), false),
-        ("consensus-abcast", no_timers.clone(), (0, 0), true),
-        ("ct-consensus", no_timers, (0, 0), true),
-        ("reliable-broadcast", opts(3, 2), (0, 0), true),
-        ("reliable-broadcast", lossy, (0, 0), true),
-        ("reliable-broadcast", crash, (0, 0), true),
+        ("lamport-abcast", opts(2, 2), (26, 26), false),
+        ("sequencer-abcast", opts(3, 1), (5, 5), false),
+        ("consensus-abcast", no_timers.clone(), (94, 678), true),
+        ("ct-consensus", two_proposals, (17, 23), true),
+        ("reliable-broadcast", opts(3, 2), (49, 129), true),
+        ("reliable-broadcast", lossy, (14, 19), true),
+        ("reliable-broadcast", crash, (60, 84), true),
     ];
     let mut found = Vec::new();
     for (name, o, _, same_search) in &cases {
