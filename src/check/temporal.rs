@@ -55,15 +55,15 @@ pub(super) fn check(
         ""
     };
     // The graph forgets spent messages exactly where the search does.
-    let reduction = if model.cfg.reduction && !matches!(network, NetworkKind::Ordered) {
-        "forgetting spent messages"
+    let forgetting = if model.cfg.reduction && !matches!(network, NetworkKind::Ordered) {
+        " forgetting spent messages"
     } else {
-        "without reduction"
+        ""
     };
     w(
         out,
         format!(
-            "liveness: the whole graph, {reduction}; fairness: {}{assumption}",
+            "liveness: the whole graph{forgetting}, without partial-order or symmetry reduction; fairness: {}{assumption}",
             fairness.text(network)
         ),
     );
