@@ -204,8 +204,9 @@ fn fingerprint(record: &[u32]) -> u64 {
         .hash_one(record)
 }
 
-/// The interning tables of a search and how to pack and unpack states with them.
-struct Packer<A: Actor, H> {
+/// The interning tables of a search and how to pack and unpack states with them: a state is
+/// a record of its parts' numbers (see the module doc), with its spent messages forgotten.
+pub struct Packer<A: Actor, H> {
     n: usize,
     ordered: bool,
     history: Table<History<H>>,
@@ -222,15 +223,34 @@ where
     A::Random: Clone + Eq + Hash,
     H: Clone + Hash + PartialEq,
 {
-    /// Packs `s` into `out` (cleared first), consuming it. `parent` (the record and state
-    /// `s` was made from) lets unchanged parts keep their numbers without a lookup.
-    fn pack(
+    /// The tables of an empty search of `n` processes on an `ordered` network or not, which
+    /// forgets the messages `spent` names (on a network that reorders messages only).
+    pub fn new(n: usize, ordered: bool, spent: Option<Spent<A>>) -> Self {
+        Self {
+            n,
+            ordered,
+            history: Table::default(),
+            procs: Table::default(),
+            envelopes: Table::default(),
+            spent,
+        }
+    }
+
+    /// Packs `s` into `out` (cleared first), consuming it, with its spent messages
+    /// forgotten. `parent` (the record and state `s` was made from) lets unchanged parts keep
+    /// their numbers without a lookup.
+    pub fn pack(
         &self,
         mut s: ActorModelState<A, H>,
         parent: Option<(&[u32], &Unpacked<A, H>)>,
         out: &mut Vec<u32>,
     ) {
-        out.clear();
+        self.forget(&mut s, parent);
+        self.pack_forgotten(s, parent, out);
+    }
+
+    /// Forgets the spent messages in flight in `s`, the successor of `parent` (if any).
+    pub fn forget(&self, s: &mut ActorModelState<A, H>, parent: Option<(&[u32], &Unpacked<A, H>)>) {
         if let Some(spent) = &self.spent {
             let (states, crashed) = (&s.actor_states, &s.crashed);
             // A message the parent kept, to a receiver whose state and crash flag the step
@@ -260,6 +280,17 @@ where
                 Network::UnorderedDuplicating(..) => {}
             }
         }
+    }
+
+    /// Packs `s`, whose spent messages are already forgotten ([`Self::forget`]), into `out`
+    /// as [`Self::pack`] does.
+    pub fn pack_forgotten(
+        &self,
+        mut s: ActorModelState<A, H>,
+        parent: Option<(&[u32], &Unpacked<A, H>)>,
+        out: &mut Vec<u32>,
+    ) {
+        out.clear();
         match parent {
             Some((rec, p)) if p.state.history == s.history => out.push(rec[0]),
             _ => out.push(self.history.intern(History(s.history.clone()))),
@@ -333,7 +364,7 @@ where
     }
 
     /// The state a record stands for.
-    fn unpack(&self, rec: &[u32]) -> Unpacked<A, H> {
+    pub fn unpack(&self, rec: &[u32]) -> Unpacked<A, H> {
         let history = {
             let values = self.history.values.read().expect("table lock");
             values[rec[0] as usize].0.clone()
@@ -370,10 +401,39 @@ where
     }
 }
 
+impl<A: Actor, H> Debug for Packer<A, H> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Packer")
+            .field("n", &self.n)
+            .field("ordered", &self.ordered)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<A: Actor, H> Debug for Unpacked<A, H> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Unpacked")
+            .field("envelopes", &self.envelopes.len())
+            .finish_non_exhaustive()
+    }
+}
+
 /// A state unpacked from its record, with its messages in flight and their numbers.
-struct Unpacked<A: Actor, H> {
+pub struct Unpacked<A: Actor, H> {
     state: ActorModelState<A, H>,
     envelopes: Vec<(u32, Envelope<A::Msg>)>,
+}
+
+impl<A: Actor, H> Unpacked<A, H> {
+    /// The state.
+    pub fn state(&self) -> &ActorModelState<A, H> {
+        &self.state
+    }
+
+    /// The state, without the numbers of its messages.
+    pub fn into_state(self) -> ActorModelState<A, H> {
+        self.state
+    }
 }
 
 /// A block of frontier records: `[len, words..]` each, all of one depth.
@@ -525,14 +585,7 @@ where
             .is_some_and(|s| matches!(s.network, Network::Ordered(_)));
         let properties = model.properties().len();
         let search = Arc::new(Search {
-            packer: Packer {
-                n: model.actors.len(),
-                ordered,
-                history: Table::default(),
-                procs: Table::default(),
-                envelopes: Table::default(),
-                spent,
-            },
+            packer: Packer::new(model.actors.len(), ordered, spent),
             model: Arc::new(model),
             images,
             reduction: reduction.filter(|_| ordered && target_max_depth.is_none()),

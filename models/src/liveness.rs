@@ -42,7 +42,7 @@
 
 use std::collections::{HashMap, VecDeque};
 use std::fmt::Debug;
-use std::hash::Hash;
+use std::hash::{BuildHasherDefault, Hash, Hasher};
 
 /// A set of actors, one bit each (at most 64 actors).
 pub type Actors = u64;
@@ -172,9 +172,71 @@ struct Edge {
     tasks: u32,
 }
 
+/// Where each state of a graph is: keyed by a 64-bit fingerprint of the state, so that the
+/// states are kept once (in [`Graph::states`]); states whose fingerprints collide are
+/// compared in full and the later ones indexed by value.
+struct Index<S> {
+    first: HashMap<u64, u32, BuildHasherDefault<Fingerprinted>>,
+    collided: HashMap<S, u32>,
+}
+
+/// A fingerprint is already a hash: the index uses it as it is.
+#[derive(Default)]
+struct Fingerprinted(u64);
+
+impl Hasher for Fingerprinted {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = self.0.rotate_left(8) ^ u64::from(b);
+        }
+    }
+    fn write_u64(&mut self, n: u64) {
+        self.0 = n;
+    }
+}
+
+impl<S: Eq + Hash> Index<S> {
+    fn new() -> Self {
+        Self {
+            first: HashMap::default(),
+            collided: HashMap::new(),
+        }
+    }
+
+    /// The fingerprint of `s` (a fixed-key hash: the same on every run).
+    fn fingerprint(s: &S) -> u64 {
+        ahash::RandomState::with_seeds(0x6c69_7665, 0x6e65_7373, 0x6772_6170, 0x0068_6173)
+            .hash_one(s)
+    }
+
+    /// The number of `s` among `states`, if it is there.
+    fn get(&self, fp: u64, s: &S, states: &[S]) -> Option<u32> {
+        match self.first.get(&fp) {
+            Some(&i) if states[i as usize] == *s => Some(i),
+            Some(_) => self.collided.get(s).copied(),
+            None => None,
+        }
+    }
+
+    /// Numbers `s` (not indexed yet) as `i`.
+    fn insert(&mut self, fp: u64, s: &S, i: u32)
+    where
+        S: Clone,
+    {
+        if let std::collections::hash_map::Entry::Vacant(e) = self.first.entry(fp) {
+            e.insert(i);
+        } else {
+            self.collided.insert(s.clone(), i);
+        }
+    }
+}
+
 /// Explores every state reachable from the initial states, breadth first.
 pub fn explore<T: TransitionSystem>(system: &T, limits: Limits) -> Result<Graph<T>, Exceeded> {
-    let mut index: HashMap<T::State, u32> = HashMap::new();
+    let mut index: Index<T::State> = Index::new();
     let mut g = Graph::<T> {
         states: Vec::new(),
         offsets: vec![0],
@@ -189,7 +251,8 @@ pub fn explore<T: TransitionSystem>(system: &T, limits: Limits) -> Result<Graph<
         transitions: 0,
     };
     let mut add = |s: T::State, g: &mut Graph<T>, initial: bool| -> Result<u32, Exceeded> {
-        if let Some(&i) = index.get(&s) {
+        let fp = Index::fingerprint(&s);
+        if let Some(i) = index.get(fp, &s, &g.states) {
             if initial {
                 g.initial[i as usize] = true;
             }
@@ -201,7 +264,7 @@ pub fn explore<T: TransitionSystem>(system: &T, limits: Limits) -> Result<Graph<
             }
         }
         let i = g.states.len() as u32;
-        index.insert(s.clone(), i);
+        index.insert(fp, &s, i);
         g.states.push(s);
         g.initial.push(initial);
         Ok(i)
@@ -289,11 +352,11 @@ impl<T: TransitionSystem> Graph<T> {
         self.edges.len()
     }
 
-    /// An estimate of the graph's bytes: each state twice (the list and the index), each
-    /// edge and label, and the per-state bookkeeping.
+    /// An estimate of the graph's bytes: each state (as it is held, without what it points
+    /// to) and its index entry, each edge and label, and the per-state bookkeeping.
     pub fn memory(&self) -> u64 {
         let state = std::mem::size_of::<T::State>() as u64;
-        let per_state = 2 * state + 8 + 8 + 1 + 8 + 16;
+        let per_state = state + 16 + 8 + 1 + 8 + 1;
         let per_edge = std::mem::size_of::<Edge>() as u64 + std::mem::size_of::<T::Label>() as u64;
         let tasks = (self.edge_tasks.len() + self.enabled.len()) as u64 * 4;
         self.states.len() as u64 * per_state + self.edges.len() as u64 * per_edge + tasks

@@ -6,6 +6,16 @@
 //! The graph is the very stateright model `nekosim check` searches ([`crate::model::build`]),
 //! explored step by step through its own `actions` and `next_state`, without partial-order
 //! or symmetry reduction: both keep what safety and at-rest properties need, not every cycle.
+//! It does forget spent messages, as the breadth-first search does (on networks that reorder
+//! messages, while the reductions are on): a spent message's delivery is no step, now or
+//! later, so it is never an enabled task, and a state and the same state without it have the
+//! same steps to the same futures, the same propositions, and the same enabled tasks; merging
+//! them changes no fair cycle, so no verdict.
+//!
+//! A state is stored packed ([`Packed`]): a few words of interned parts
+//! ([`crate::compact::Packer`]), its propositions read once when it is made, and a step as its
+//! action's position among the model's `actions` (the few steps of a lasso are found again
+//! when it is printed).
 //!
 //! - **Fairness is owed to tasks** ([`crate::liveness::Task`]): every message in flight (by
 //!   sender, receiver and content) and every timer of every process. A delivery that would
@@ -31,10 +41,11 @@ use std::collections::HashMap;
 use nekosim_protocols::codec::with_codecs;
 use nekosim_protocols::heartbeat::Heartbeat;
 use nekosim_protocols::{Pid, Request};
-use stateright::actor::{ActorModelAction, Id};
+use stateright::actor::{ActorModelAction, Id, Network};
 use stateright::{Model, Path};
 
-use crate::adapter::{ModelTimer, NetMsg, State};
+use crate::adapter::{ModelTimer, NetMsg, ProcessActor, State};
+use crate::compact::{Packer, Unpacked};
 use crate::config::{Action, CheckModel, NetworkKind};
 use crate::family::Family;
 use crate::liveness::{
@@ -254,9 +265,43 @@ pub enum TaskKey {
     Timer { process: Pid, timer: ModelTimer },
 }
 
-/// A stack's model as a [`TransitionSystem`] whose tasks are its messages and timers.
+/// A state of a stack's liveness graph: the bits of the propositions read in it (one per
+/// temporal property, in [`temporal_properties`]' order, and [`ACCURATE`]), then its record
+/// of interned parts ([`crate::compact::Packer`]), with its spent messages forgotten.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Packed(Box<[u32]>);
+
+/// The bit of [`Packed`] that says eventual accuracy's predicate ([`accurate`]) holds.
+pub const ACCURATE: u32 = 1 << 31;
+
+impl Packed {
+    fn holds(&self, bit: u32) -> bool {
+        self.0[0] & bit != 0
+    }
+
+    fn record(&self) -> &[u32] {
+        &self.0[1..]
+    }
+}
+
+/// A step of a stack's liveness graph: where its action is among the model's `actions` of
+/// the state it leaves, and the task it takes ([`NO_TASK`] for a crash or a loss).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Step {
+    action: u32,
+    task: Task,
+}
+
+/// The task of a step that owes nothing to fairness.
+const NO_TASK: Task = Task::MAX;
+
+/// A stack's model as a [`TransitionSystem`] whose tasks are its messages and timers, and
+/// whose states are packed ([`Packed`]): a state's processes, histories and messages are
+/// stored once each, in the tables of a [`compact::Packer`].
 pub struct StackSystem<'a> {
     pub model: &'a CheckModel,
+    properties: Vec<Temporal>,
+    packer: Packer<ProcessActor, ()>,
     tasks: RefCell<HashMap<TaskKey, Task>>,
     keys: RefCell<Vec<TaskKey>>,
     /// The tasks of the last state's steps that left the model, for [`Self::beyond`].
@@ -274,6 +319,29 @@ pub struct StackSystem<'a> {
 /// memory costs a file read).
 pub const POLL_EVERY: u64 = 1024;
 
+/// A stack's whole liveness graph and the system that made it (whose tables its states'
+/// records refer to).
+#[derive(Debug)]
+pub struct StackGraph<'a> {
+    pub graph: Graph<StackSystem<'a>>,
+    pub system: StackSystem<'a>,
+}
+
+impl<'a> std::ops::Deref for StackGraph<'a> {
+    type Target = Graph<StackSystem<'a>>;
+
+    fn deref(&self) -> &Self::Target {
+        &self.graph
+    }
+}
+
+/// `s` as the liveness graph of `model` stores it: with its spent messages forgotten (where
+/// the model's reductions are on and its network reorders messages).
+pub fn stored(model: &CheckModel, s: &State) -> State {
+    let system = StackSystem::new(model);
+    system.unpack(&system.pack(s.clone(), None))
+}
+
 /// Explores the whole graph of `model`, within `max_states` unique states, asking `halt`
 /// now and then whether to stop (the memory budget, Ctrl-C). `Ok(None)`: `halt` stopped it,
 /// after the returned number of states.
@@ -282,7 +350,7 @@ pub fn explore_stack<'a>(
     model: &'a CheckModel,
     max_states: Option<usize>,
     halt: &'a dyn Fn() -> bool,
-) -> (Result<Graph<StackSystem<'a>>, Exceeded>, Option<u64>, usize) {
+) -> (Result<StackGraph<'a>, Exceeded>, Option<u64>, usize) {
     let mut system = StackSystem::new(model);
     system.halt = Some(halt);
     let limits = Limits {
@@ -291,7 +359,12 @@ pub fn explore_stack<'a>(
     };
     let graph = explore(&system, limits);
     let halted = system.halted.get().then(|| system.expanded.get());
-    (graph, halted, system.task_count())
+    let tasks = system.task_count();
+    (
+        graph.map(|graph| StackGraph { graph, system }),
+        halted,
+        tasks,
+    )
 }
 
 impl std::fmt::Debug for StackSystem<'_> {
@@ -303,9 +376,19 @@ impl std::fmt::Debug for StackSystem<'_> {
 }
 
 impl<'a> StackSystem<'a> {
+    /// The system of `model`, which forgets spent messages where the model's reductions are
+    /// on ([`crate::model::spent`]; the packer forgets them only on networks that reorder
+    /// messages, as the breadth-first search does).
     pub fn new(model: &'a CheckModel) -> Self {
+        let ordered = model
+            .init_states()
+            .first()
+            .is_some_and(|s| matches!(s.network, Network::Ordered(_)));
+        let spent = model.cfg.reduction.then(|| crate::model::spent(model));
         Self {
             model,
+            properties: temporal_properties(model),
+            packer: Packer::new(model.actors.len(), ordered, spent),
             tasks: RefCell::new(HashMap::new()),
             keys: RefCell::new(Vec::new()),
             left: RefCell::new(Vec::new()),
@@ -346,21 +429,73 @@ impl<'a> StackSystem<'a> {
             next
         }))
     }
+
+    /// `s`, the successor of `parent` (if any), packed with its spent messages forgotten and
+    /// its propositions read.
+    fn pack(&self, mut s: State, parent: Option<(&[u32], &Unpacked<ProcessActor, ()>)>) -> Packed {
+        self.packer.forget(&mut s, parent);
+        let mut bits = 0;
+        for (k, p) in self.properties.iter().enumerate() {
+            if (p.holds)(self.model, &s) {
+                bits |= 1 << k;
+            }
+        }
+        if accurate(self.model, &s) {
+            bits |= ACCURATE;
+        }
+        let mut record = Vec::new();
+        self.packer.pack_forgotten(s, parent, &mut record);
+        let mut words = Vec::with_capacity(1 + record.len());
+        words.push(bits);
+        words.extend_from_slice(&record);
+        Packed(words.into_boxed_slice())
+    }
+
+    /// The state a packed state stands for.
+    pub fn unpack(&self, p: &Packed) -> State {
+        self.packer.unpack(p.record()).into_state()
+    }
+
+    /// A lasso of the graph as a lasso of the model: each step's action found again among
+    /// the `actions` of the state it leaves, each state unpacked. Its states are the
+    /// graph's, without spent messages.
+    pub fn expand(&self, lasso: &Lasso<Packed, Step>) -> Lasso<State, Action> {
+        // The actions are listed from unpacked states, as the graph listed them; the start
+        // is the model's own initial state, so that the lasso replays as a path.
+        let mut from = self.unpack(&lasso.start);
+        let start = self
+            .model
+            .init_states()
+            .into_iter()
+            .find(|s| self.pack(s.clone(), None) == lasso.start)
+            .unwrap_or_else(|| from.clone());
+        let mut step = |(step, to): &(Step, Packed)| {
+            let mut actions = Vec::new();
+            self.model.actions(&from, &mut actions);
+            let action = actions.swap_remove(step.action as usize);
+            from = self.unpack(to);
+            (action, from.clone())
+        };
+        let stem = lasso.stem.iter().map(&mut step).collect();
+        let cycle = lasso.cycle.iter().map(&mut step).collect();
+        Lasso { start, stem, cycle }
+    }
 }
 
 impl TransitionSystem for StackSystem<'_> {
-    type State = State;
-    type Label = Action;
+    type State = Packed;
+    type Label = Step;
 
-    fn initial_states(&self) -> Vec<State> {
+    fn initial_states(&self) -> Vec<Packed> {
         self.model
             .init_states()
             .into_iter()
             .filter(|s| self.model.within_boundary(s))
+            .map(|s| self.pack(s, None))
             .collect()
     }
 
-    fn successors(&self, state: &State, out: &mut Vec<(Action, State)>) {
+    fn successors(&self, packed: &Packed, out: &mut Vec<(Step, Packed)>) {
         self.left.borrow_mut().clear();
         self.stuck.set(false);
         if self.halted.get() {
@@ -374,12 +509,14 @@ impl TransitionSystem for StackSystem<'_> {
                 return;
             }
         }
+        let parent = self.packer.unpack(packed.record());
+        let state = parent.state();
         let mut actions = Vec::new();
         self.model.actions(state, &mut actions);
         let mut left = self.left.borrow_mut();
         left.clear();
         let before = out.len();
-        for action in actions {
+        for (i, action) in actions.into_iter().enumerate() {
             // A recovered process is outside every model (crash-stop protocols), whatever
             // the bounds: it is no step left out.
             if matches!(
@@ -391,13 +528,16 @@ impl TransitionSystem for StackSystem<'_> {
             let Some(next) = self.model.next_state(state, action.clone()) else {
                 continue;
             };
+            let task = self.task(&action);
             if self.model.within_boundary(&next) {
-                out.push((action, next));
-            } else if let Some(t) = self.task(&action) {
-                left.push(t);
+                let step = Step {
+                    action: u32::try_from(i).expect("fewer than 2^32 actions"),
+                    task: task.unwrap_or(NO_TASK),
+                };
+                out.push((step, self.pack(next, Some((packed.record(), &parent)))));
             } else {
-                // A crash or a loss into a bounded state: the run is cut there.
-                left.push(Task::MAX);
+                // A crash or a loss into a bounded state cuts the run there.
+                left.push(task.unwrap_or(NO_TASK));
             }
         }
         let none = out.len() == before && left.is_empty();
@@ -405,7 +545,7 @@ impl TransitionSystem for StackSystem<'_> {
             .set(none && !crate::property::at_rest(self.model, state));
     }
 
-    fn moved(&self, _: &Action) -> Actors {
+    fn moved(&self, _: &Step) -> Actors {
         0
     }
 
@@ -413,13 +553,15 @@ impl TransitionSystem for StackSystem<'_> {
         self.model.actors.len()
     }
 
-    fn tasks(&self, label: &Action, out: &mut Vec<Task>) {
-        out.extend(self.task(label));
+    fn tasks(&self, step: &Step, out: &mut Vec<Task>) {
+        if step.task != NO_TASK {
+            out.push(step.task);
+        }
     }
 
-    fn beyond(&self, _: &State, out: &mut Vec<Task>) -> bool {
+    fn beyond(&self, _: &Packed, out: &mut Vec<Task>) -> bool {
         let left = self.left.borrow();
-        out.extend(left.iter().copied().filter(|&t| t != Task::MAX));
+        out.extend(left.iter().copied().filter(|&t| t != NO_TASK));
         !left.is_empty() || self.stuck.get()
     }
 }
@@ -437,31 +579,37 @@ pub struct Decision {
 }
 
 /// Decides every temporal property of `model` on its `graph` ([`explore_stack`]) under
-/// `fairness`, assuming eventual accuracy where the
-/// stack rests on it ([`assumes_accuracy`]).
+/// `fairness`, assuming eventual accuracy where the stack rests on it
+/// ([`assumes_accuracy`]). The propositions are the bits read when each state was packed.
 pub fn decide(
     model: &CheckModel,
-    graph: &Graph<StackSystem<'_>>,
+    graph: &StackGraph<'_>,
     fairness: StackFairness,
 ) -> Vec<Decision> {
     let assume = assumes_accuracy(model);
     temporal_properties(model)
         .into_iter()
-        .map(|property| {
+        .enumerate()
+        .map(|(k, property)| {
             let verdict = graph.check_under(
                 property.kind,
                 &|_| fairness.strength(),
-                &|s| !assume || accurate(model, s),
-                |s| (property.holds)(model, s),
+                &|s| !assume || s.holds(ACCURATE),
+                |s| s.holds(1 << k),
             );
+            let verdict = match verdict {
+                Verdict::Holds => Verdict::Holds,
+                Verdict::Fails(lasso) => Verdict::Fails(graph.system.expand(&lasso)),
+            };
             Decision { property, verdict }
         })
         .collect()
 }
 
-/// A lasso as one path of the model: the stem, then the cycle once (the cycle's last state
-/// is its entry again). `None` if it is not a path of the model (never, for a lasso of its
-/// graph: [`Path::from_actions`] replays every step).
+/// A lasso as one path of the model: the stem, then the cycle once. Its states hold the
+/// spent messages the graph forgets, so its last state is the cycle's entry again up to
+/// those ([`stored`]). `None` if it is not a path of the model (never, for a
+/// lasso of its graph: [`Path::from_actions`] replays every step).
 pub fn lasso_path(model: &CheckModel, lasso: &Lasso<State, Action>) -> Option<Path<State, Action>> {
     let actions: Vec<&Action> = lasso
         .stem

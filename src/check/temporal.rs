@@ -1,5 +1,6 @@
-//! The liveness part of a stack check: the model's whole graph, explored without reduction
-//! under the memory budget and Ctrl-C, each family's temporal properties decided on it under
+//! The liveness part of a stack check: the model's whole graph, explored without partial-order
+//! or symmetry reduction (forgetting spent messages, as the search does) under the memory
+//! budget and Ctrl-C, each family's temporal properties decided on it under
 //! the fairness the family needs ([`nekosim_models::temporal`]), and a livelock printed as a
 //! lasso (the stem, then the cycle that repeats for ever, then the reason in the property's
 //! terms) and written with `--trace` and `--rrd` as counterexamples are.
@@ -53,10 +54,16 @@ pub(super) fn check(
     } else {
         ""
     };
+    // The graph forgets spent messages exactly where the search does.
+    let forgetting = if model.cfg.reduction && !matches!(network, NetworkKind::Ordered) {
+        " forgetting spent messages"
+    } else {
+        ""
+    };
     w(
         out,
         format!(
-            "liveness: the whole graph, without reduction; fairness: {}{assumption}",
+            "liveness: the whole graph{forgetting}, without partial-order or symmetry reduction; fairness: {}{assumption}",
             fairness.text(network)
         ),
     );

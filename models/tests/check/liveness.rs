@@ -7,8 +7,14 @@
 use nekosim_models::adapter::State;
 use nekosim_models::config::{Action, UNLIMITED_TIMERS};
 use nekosim_models::liveness::{Lasso, Verdict};
-use nekosim_models::temporal::{decide, explore_stack, lasso_path, Decision, StackFairness};
-use nekosim_models::{build, find, CheckModel, Family, NetworkKind, Options, Target};
+use nekosim_models::temporal::{
+    decide, explore_stack, lasso_path, stored, Decision, StackFairness,
+};
+use nekosim_models::{
+    build, find, run, CheckModel, Exploration, Family, NetworkKind, Options, Target,
+};
+
+use super::opts;
 use nekosim_protocols::consensus::{ChandraToueg, CtMsg};
 use nekosim_protocols::protocol::{FieldError, Microprotocol, NoConfig, Out, Round, Rounds};
 use nekosim_protocols::{
@@ -99,20 +105,37 @@ fn verdict<'a>(d: &'a [Decision], name: &str) -> &'a Verdict<State, Action> {
         .verdict
 }
 
-/// The lasso replays through the model, step by step, and its cycle ends where it began.
+/// The lasso replays through the model, step by step, through the lasso's states (which are
+/// the graph's: spent messages forgotten), and its cycle ends where it began.
 fn replays(model: &CheckModel, lasso: &Lasso<State, Action>) {
     let path = lasso_path(model, lasso).expect("a lasso is a path of the model");
     let states = path.into_states();
     assert_eq!(states.len(), 1 + lasso.stem.len() + lasso.cycle.len());
-    assert_eq!(states[lasso.stem.len()], *lasso.entry());
-    assert_eq!(states.last(), Some(lasso.entry()), "the cycle closes");
+    let graph_states = lasso.stem.iter().chain(&lasso.cycle).map(|(_, s)| s);
+    for (replayed, s) in states[1..].iter().zip(graph_states) {
+        assert_eq!(stored(model, replayed), *s);
+    }
+    assert_eq!(stored(model, &states[lasso.stem.len()]), *lasso.entry());
+    assert_eq!(
+        stored(model, states.last().expect("a state")),
+        *lasso.entry(),
+        "the cycle closes"
+    );
+    if !model.cfg.reduction {
+        assert_eq!(
+            states.last(),
+            Some(lasso.entry()),
+            "the cycle closes exactly"
+        );
+    }
 }
 
-fn ct_model(n: u32, requests: u32, timers: u32, deaf: bool) -> CheckModel {
+fn ct_model(n: u32, requests: u32, timers: u32, deaf: bool, reduction: bool) -> CheckModel {
     let opts = Options {
         processes: n,
         requests,
         timer_budget: timers,
+        reduction,
         ..Options::default()
     };
     let def = find("ct-consensus").expect("shipped");
@@ -126,8 +149,15 @@ fn ct_model(n: u32, requests: u32, timers: u32, deaf: bool) -> CheckModel {
 
 #[test]
 fn a_chandra_toueg_whose_rounds_never_end_livelocks() {
+    // The same verdicts whether spent messages are forgotten or not.
+    for reduction in [true, false] {
+        a_chandra_toueg_whose_rounds_never_end_livelocks_with(reduction);
+    }
+}
+
+fn a_chandra_toueg_whose_rounds_never_end_livelocks_with(reduction: bool) {
     // Two processes: a round needs both, so its coordinator waits for the other's estimate.
-    let model = ct_model(2, 2, UNLIMITED_TIMERS, true);
+    let model = ct_model(2, 2, UNLIMITED_TIMERS, true, reduction);
     let (states, _, d) = liveness(&model, StackFairness::Weak);
     let Verdict::Fails(lasso) = verdict(&d, "termination") else {
         panic!("the deaf coordinator never decides ({states} states)");
@@ -144,7 +174,7 @@ fn a_chandra_toueg_whose_rounds_never_end_livelocks() {
         assert!(s.actor_states.iter().all(|a| a.decided.is_empty()));
     }
     // The correct protocol in the same configuration terminates.
-    let model = ct_model(2, 2, UNLIMITED_TIMERS, false);
+    let model = ct_model(2, 2, UNLIMITED_TIMERS, false, reduction);
     let (states, cut, d) = liveness(&model, StackFairness::Weak);
     assert!(
         matches!(verdict(&d, "termination"), Verdict::Holds),
@@ -152,7 +182,7 @@ fn a_chandra_toueg_whose_rounds_never_end_livelocks() {
     );
 }
 
-fn retransmit(network: NetworkKind) -> CheckModel {
+fn retransmit(network: NetworkKind, reduction: bool) -> CheckModel {
     let target = Target {
         stack: vec![LayerSpec::new("rt", "Retransmit(period: 0.5)", "net", &[])],
         entry: "rt".into(),
@@ -164,6 +194,7 @@ fn retransmit(network: NetworkKind) -> CheckModel {
         requests: 1,
         network,
         timer_budget: UNLIMITED_TIMERS,
+        reduction,
         ..Options::default()
     };
     build(&target, &opts, |_, _| {}).expect("valid model")
@@ -171,7 +202,14 @@ fn retransmit(network: NetworkKind) -> CheckModel {
 
 #[test]
 fn retransmit_over_a_lossy_network_is_live_only_under_fair_loss() {
-    let model = retransmit(NetworkKind::Lossy);
+    // The same verdicts whether spent messages are forgotten or not.
+    for reduction in [true, false] {
+        retransmit_over_a_lossy_network_is_live_only_under_fair_loss_with(reduction);
+    }
+}
+
+fn retransmit_over_a_lossy_network_is_live_only_under_fair_loss_with(reduction: bool) {
+    let model = retransmit(NetworkKind::Lossy, reduction);
     for fairness in [StackFairness::None, StackFairness::Weak] {
         let (states, _, d) = liveness(&model, fairness);
         let Verdict::Fails(lasso) = verdict(&d, "reliable delivery") else {
@@ -197,7 +235,70 @@ fn retransmit_over_a_lossy_network_is_live_only_under_fair_loss() {
         "fair loss: {states} states, {cut} cut"
     );
     // On a reliable network weak fairness (fair delivery) is enough.
-    let model = retransmit(NetworkKind::Unordered);
+    let model = retransmit(NetworkKind::Unordered, reduction);
     let (_, _, d) = liveness(&model, StackFairness::Weak);
     assert!(matches!(verdict(&d, "reliable delivery"), Verdict::Holds));
+}
+
+/// Each verdict as whether it holds, and a failing one's lasso shape.
+fn shapes(d: &[Decision]) -> Vec<(&'static str, bool)> {
+    d.iter()
+        .map(|d| (d.property.name, matches!(d.verdict, Verdict::Holds)))
+        .collect()
+}
+
+#[test]
+fn forgetting_spent_messages_keeps_the_temporal_verdicts_and_matches_the_search() {
+    // (model, options, (graph states with spent messages forgotten, without), whether the
+    // breadth-first search explores the same states: on a network that reorders messages,
+    // where it applies no partial-order reduction, and where the liveness graph's bounds
+    // cut the same runs.)
+    let lossy = Options {
+        network: NetworkKind::Lossy,
+        ..opts(3, 1)
+    };
+    let crash = Options {
+        crashes: 1,
+        ..opts(3, 1)
+    };
+    let no_timers = Options {
+        timer_budget: 0,
+        ..opts(3, 1)
+    };
+    let two_proposals = Options {
+        requests: 2,
+        ..no_timers.clone()
+    };
+    let cases: [(&str, Options, (usize, usize), bool); 7] = [
+        ("lamport-abcast", opts(2, 2), (26, 26), false),
+        ("sequencer-abcast", opts(3, 1), (5, 5), false),
+        ("consensus-abcast", no_timers.clone(), (94, 678), true),
+        ("ct-consensus", two_proposals, (17, 23), true),
+        ("reliable-broadcast", opts(3, 2), (49, 129), true),
+        ("reliable-broadcast", lossy, (14, 19), true),
+        ("reliable-broadcast", crash, (60, 84), true),
+    ];
+    let mut found = Vec::new();
+    for (name, o, _, same_search) in &cases {
+        let model = |reduction| {
+            let o = Options {
+                reduction,
+                ..o.clone()
+            };
+            build(&find(name).unwrap().target(), &o, |_, _| {}).unwrap()
+        };
+        let (on, off) = (model(true), model(false));
+        let fairness = StackFairness::of(o.network);
+        let (states_on, _, d_on) = liveness(&on, fairness);
+        let (states_off, _, d_off) = liveness(&off, fairness);
+        assert_eq!(shapes(&d_on), shapes(&d_off), "{name} {o:?}");
+        assert!(states_on <= states_off, "{name} {o:?}");
+        if *same_search {
+            let searched = run(on.clone(), Exploration::default());
+            assert_eq!(states_on, searched.unique_states, "{name} {o:?}");
+        }
+        found.push((states_on, states_off));
+    }
+    let pinned: Vec<(usize, usize)> = cases.iter().map(|c| c.2).collect();
+    assert_eq!(found, pinned);
 }
