@@ -35,7 +35,7 @@ mod temporal;
 mod trace;
 
 pub use trace::{trace_lines, CheckEvent, CheckRecord};
-use trace::{write_lasso_trace, write_recording, write_trace};
+use trace::{write_recording, write_trace};
 
 /// The models `nekosim check NAME` knows: each is a scenario file shipped under
 /// `examples/check/` (name, file, what it checks), so `check lamport-abcast` and
@@ -826,8 +826,8 @@ pub fn check_live(
     });
     if let Some(path) = &args.trace {
         let written = match lasso {
-            Some((o, stem, why)) => write_lasso_trace(&model, o, (*stem, why), path),
-            None => write_trace(&model, &outcome, path),
+            Some((o, stem, why)) => write_trace(&model, o, Some((*stem, why)), path),
+            None => write_trace(&model, &outcome, None, path),
         };
         written.map_err(|source| CheckError::Trace {
             path: path.clone(),

@@ -153,9 +153,10 @@ struct History<H>(H);
 
 impl<H: PartialEq> Eq for History<H> {}
 
-/// A fingerprint is already a hash: the visited set uses it as it is.
+/// A fingerprint is already a hash: an index keyed by fingerprints (the visited set, the
+/// liveness graph's) uses it as it is.
 #[derive(Default)]
-struct Identity(u64);
+pub(crate) struct Identity(u64);
 
 impl Hasher for Identity {
     fn finish(&self) -> u64 {

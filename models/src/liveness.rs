@@ -42,7 +42,9 @@
 
 use std::collections::{HashMap, VecDeque};
 use std::fmt::Debug;
-use std::hash::{BuildHasherDefault, Hash, Hasher};
+use std::hash::{BuildHasherDefault, Hash};
+
+use crate::compact::Identity;
 
 /// A set of actors, one bit each (at most 64 actors).
 pub type Actors = u64;
@@ -176,26 +178,8 @@ struct Edge {
 /// states are kept once (in [`Graph::states`]); states whose fingerprints collide are
 /// compared in full and the later ones indexed by value.
 struct Index<S> {
-    first: HashMap<u64, u32, BuildHasherDefault<Fingerprinted>>,
+    first: HashMap<u64, u32, BuildHasherDefault<Identity>>,
     collided: HashMap<S, u32>,
-}
-
-/// A fingerprint is already a hash: the index uses it as it is.
-#[derive(Default)]
-struct Fingerprinted(u64);
-
-impl Hasher for Fingerprinted {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = self.0.rotate_left(8) ^ u64::from(b);
-        }
-    }
-    fn write_u64(&mut self, n: u64) {
-        self.0 = n;
-    }
 }
 
 impl<S: Eq + Hash> Index<S> {

@@ -209,26 +209,14 @@ fn traced(outcome: &Outcome) -> Option<&nekosim_models::Verdict> {
         })
 }
 
-/// Writes the traced path as JSONL (schema: docs/trace.md); no path, no file.
-pub(super) fn write_trace(model: &CheckModel, outcome: &Outcome, path: &Path) -> io::Result<()> {
-    let Some(v) = traced(outcome) else {
-        return Ok(());
-    };
-    let steps = explain(model, v.path.as_ref().expect("traced paths exist"));
-    let mut file = AtomicFile::create(path)?;
-    for line in trace_lines(model, &steps) {
-        file.line(&line);
-    }
-    file.commit()
-}
-
-/// Writes a lasso (its path: the stem, then the cycle once) as JSONL, then a last record
-/// `{"kind":"lasso","cycle_from":K,"reason":...}`: the cycle runs from the state after step
-/// `K` back to it and repeats for ever.
-pub(super) fn write_lasso_trace(
+/// Writes the traced path as JSONL (schema: docs/trace.md); no path, no file. A lasso's path
+/// (its stem, then its cycle once) ends with a record `{"kind":"lasso","cycle_from":K,
+/// "reason":...}`: the cycle runs from the state after step `K` back to it and repeats for
+/// ever.
+pub(super) fn write_trace(
     model: &CheckModel,
     outcome: &Outcome,
-    (cycle_from, reason): (usize, &str),
+    lasso: Option<(usize, &str)>,
     path: &Path,
 ) -> io::Result<()> {
     let Some(v) = traced(outcome) else {
@@ -239,13 +227,15 @@ pub(super) fn write_lasso_trace(
     for line in trace_lines(model, &steps) {
         file.line(&line);
     }
-    let last = serde_json::json!({
-        "kind": "lasso",
-        "property": v.name,
-        "cycle_from": cycle_from,
-        "reason": reason,
-    });
-    file.line(&last.to_string());
+    if let Some((cycle_from, reason)) = lasso {
+        let last = serde_json::json!({
+            "kind": "lasso",
+            "property": v.name,
+            "cycle_from": cycle_from,
+            "reason": reason,
+        });
+        file.line(&last.to_string());
+    }
     file.commit()
 }
 
