@@ -39,6 +39,12 @@ pub struct Deliver {
     /// random-movement run are the motion manager's and follow another of its own, and each
     /// would otherwise pay a round trip between the scheduler and the manager.
     pub then: Vec<Event>,
+    /// How many events the actor may take on at once after this one, at this instant and
+    /// with no run: the events its own handlings schedule for itself at this instant, when
+    /// each is the next event of the whole run, as nothing else is pending at this instant
+    /// ([`handle_run`]). Zero where the scheduler takes every event itself. A sensor request
+    /// and its trigger, the seed's two steps at one instant, are one round trip this way.
+    pub inline: u32,
     /// Whether the scheduler looks ahead (a large queue): the host then asks the handler,
     /// before each handling of the run, for what the next ones will read
     /// ([`HandleEvent::look_ahead`]).
@@ -57,6 +63,10 @@ pub struct Reply {
     pub effects: Vec<Effect>,
     pub ends: smallvec::SmallVec<[u32; RUN]>,
     pub then: Vec<Event>,
+    /// How many of the handled events, after the delivered one, the actor scheduled for
+    /// itself and took on at once ([`Deliver::inline`]); their schedules are not among the
+    /// effects.
+    pub inline: u32,
 }
 
 /// The way back to the scheduler for one delivery's reply: one message, no channel. Dropped
@@ -100,7 +110,15 @@ pub struct Replied(pub Result<Reply, String>);
 /// all come after every pending one at equal times, their cause being newer), they did not
 /// cancel it, and they asked for no instant's end event (which could come between). The
 /// first event that fails this, and those after it, go back unhandled in the [`Reply`].
+///
+/// With no run, it then takes on the events its handlings schedule for the same actor at the
+/// same instant, as long as each is the next event there is (see [`own_next`]), up to
+/// [`Deliver::inline`] of them.
 pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) -> Reply {
+    let (own, inline) = (msg.event.target, msg.inline);
+    if msg.then.is_empty() && inline > 0 {
+        return handle_inline(handler, msg, own, inline);
+    }
     // The run's events in reverse: the next one last.
     let mut then = std::mem::take(&mut msg.then);
     then.reverse();
@@ -152,7 +170,62 @@ pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) ->
         effects,
         ends,
         then,
+        inline: 0,
     }
+}
+
+/// [`handle_run`] with no run: the delivered event, then up to `room` events that the
+/// handlings schedule for `own` at this instant, each taken out of the effects and handled
+/// while it is the next event there is.
+fn handle_inline<H: HandleEvent + ?Sized>(
+    handler: &mut H,
+    msg: Deliver,
+    own: crate::world::event::Target,
+    room: u32,
+) -> Reply {
+    let now = msg.now;
+    let mut seq = msg.seq;
+    let mut effects = handle_one(handler, now, seq, msg.event, msg.effects);
+    let mut ends: smallvec::SmallVec<[u32; RUN]> = smallvec::smallvec![effects.len() as u32];
+    let mut inline = 0;
+    while inline < room {
+        let Some(k) = own_next(&effects, now, own) else {
+            break;
+        };
+        let Effect::Schedule(event) = effects.remove(k) else {
+            unreachable!("own_next names a plain schedule");
+        };
+        for end in ends.iter_mut().filter(|e| **e as usize > k) {
+            *end -= 1;
+        }
+        seq += 1;
+        inline += 1;
+        effects = handle_one(handler, now, seq, event, effects);
+        ends.push(u32::try_from(effects.len()).expect("fewer than 2^32 effects"));
+    }
+    Reply {
+        effects,
+        ends,
+        then: Vec::new(),
+        inline,
+    }
+}
+
+/// The position among `effects` of the event that comes next when nothing was pending at
+/// `now` before them, if it is a plain schedule for `own`: of the events scheduled at `now`,
+/// the first scheduled (at one instant, events come in the order of their causes, and these
+/// are the newest). Nothing when an instant's end event was asked for, which the scheduler
+/// takes in its own turn.
+fn own_next(effects: &[Effect], now: f64, own: crate::world::event::Target) -> Option<usize> {
+    for (k, e) in effects.iter().enumerate() {
+        match e {
+            Effect::Schedule(ev) if ev.time == now => return (ev.target == own).then_some(k),
+            Effect::ScheduleIn(ev, _) if ev.time == now => return None,
+            Effect::AtInstantEnd(_) | Effect::WithdrawAtInstantEnd(_) => return None,
+            _ => {}
+        }
+    }
+    None
 }
 
 /// [`HandleEvent::look_ahead`] for the next two events of a run kept in reverse (the next

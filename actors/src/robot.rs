@@ -82,15 +82,34 @@ pub struct MotionTicket(pub u64);
 /// What the algorithm asked for during one poll.
 #[derive(Debug)]
 enum Request {
-    Motion { ticket: u64, motion: Motion },
-    Sensor { ticket: u64, query: SensorQuery },
-    Timer { ticket: u64, at: f64 },
-    ListEvents { of: RobotId, ticket: u64 },
+    Motion {
+        ticket: u64,
+        motion: Motion,
+    },
+    Sensor {
+        ticket: u64,
+        query: SensorQuery,
+        at: f64,
+    },
+    Timer {
+        ticket: u64,
+        at: f64,
+    },
+    ListEvents {
+        of: RobotId,
+        ticket: u64,
+    },
     Log(String),
     Record(Observation),
     Light(crate::lcm::LightState),
-    Net { to: Vec<RobotId>, msg: MsgPayload },
-    Layer { ix: LayerIx, req: ProtoRequest },
+    Net {
+        to: Vec<RobotId>,
+        msg: MsgPayload,
+    },
+    Layer {
+        ix: LayerIx,
+        req: ProtoRequest,
+    },
 }
 
 #[derive(Debug)]
@@ -449,8 +468,15 @@ impl Robot {
 
     /// Sends a sensor request and waits for the reply.
     pub async fn sense(&self, query: SensorQuery) -> SensorValue {
+        self.sense_at(self.now(), query).await
+    }
+
+    /// Sends a sensor request that reaches the sensor manager at virtual time `at` (at once if
+    /// it has come) and waits for the reply: a read at `at` that does not wake the robot
+    /// before it.
+    async fn sense_at(&self, at: f64, query: SensorQuery) -> SensorValue {
         let ticket = self.ticket();
-        self.push(Request::Sensor { ticket, query });
+        self.push(Request::Sensor { ticket, query, at });
         let v = self
             .take(|n| match n {
                 Notice::SensorReply { ticket: t, value } if *t == ticket => Some(value.clone()),
@@ -468,6 +494,20 @@ impl Robot {
         query: &S::Query,
     ) -> Result<S::Reply, String> {
         self.sense(SensorQuery::new::<S>(name, query.clone()))
+            .await
+            .decode()
+    }
+
+    /// Reads the pull sensor registered as `name` at virtual time `at`: the same reply as
+    /// sleeping until `at` and then [`Robot::read`], one event fewer (the robot is not woken
+    /// at `at` to send the request).
+    pub async fn read_at<S: SensorModel>(
+        &self,
+        at: f64,
+        name: &str,
+        query: &S::Query,
+    ) -> Result<S::Reply, String> {
+        self.sense_at(at, SensorQuery::new::<S>(name, query.clone()))
             .await
             .decode()
     }
@@ -844,8 +884,8 @@ impl HandleEvent for RobotActor {
                         motion: Box::new(motion),
                     },
                 ),
-                Request::Sensor { ticket, query } => out.schedule(
-                    now,
+                Request::Sensor { ticket, query, at } => out.schedule(
+                    at.max(now),
                     Target::SensorManager,
                     EventClass::Eventual,
                     me,

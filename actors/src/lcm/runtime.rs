@@ -135,12 +135,11 @@ async fn cycles<A: LookComputeMove + ?Sized>(
             move_end: plan.move_end,
             round: plan.round,
         }));
-        wait_until(&robot, plan.look).await;
         let query = LookQuery {
             read: plan.read,
             ..query
         };
-        let snapshot = match robot.read::<Look>(LOOK, &query).await {
+        let snapshot = match robot.read_at::<Look>(plan.look, LOOK, &query).await {
             Ok(s) => s,
             Err(e) => {
                 robot.log(format!("Look refused: {e}"));

@@ -243,14 +243,18 @@ impl Core {
             mut effects,
             ends,
             mut then,
+            inline,
         } = reply;
         self.prefetch_cancelled(&effects);
         let handled = ends.len() - 1;
+        let from_run = handled - inline as usize;
         assert_eq!(
-            handled + then.len(),
+            from_run + then.len(),
             self.run.len(),
             "a run's events handled or handed back"
         );
+        // The events taken on at once are at the delivered event's instant.
+        let instant = self.now;
         for (ev, &(_, slot)) in then.drain(..).rev().zip(self.run.iter().rev()) {
             self.queue.put_back(ev, slot);
         }
@@ -258,13 +262,13 @@ impl Core {
         for (k, e) in effects.drain(..).enumerate() {
             while k as u32 >= ends[j] {
                 j += 1;
-                self.enter(self.run[j - 1].0);
+                self.enter(self.run.get(j - 1).map_or(instant, |r| r.0));
             }
             self.apply_one(e);
         }
         while j < handled {
             j += 1;
-            self.enter(self.run[j - 1].0);
+            self.enter(self.run.get(j - 1).map_or(instant, |r| r.0));
         }
         self.run.clear();
         self.keep_spare(effects);
@@ -348,6 +352,30 @@ impl Core {
             then.push(ev);
         }
         then
+    }
+
+    /// How many events a manager may take on at once after the one being delivered
+    /// ([`Deliver::inline`]): the events it schedules for itself at this instant, which come
+    /// next when nothing else is pending at this instant (their causes are the newest), so
+    /// long as the instant's event limit allows them, no instant's end event is pending and
+    /// the delivery carries no run. Robots, their sensors and layers take every event from
+    /// the scheduler, which watches them for livelocks and crashes.
+    fn inline_room(&mut self, target: Target, then: &[Event]) -> u32 {
+        let manager = matches!(
+            target,
+            Target::MotionManager | Target::SensorManager | Target::Network
+        );
+        if !manager
+            || !self.runs
+            || !then.is_empty()
+            || !self.closing.is_empty()
+            || self.stopped()
+            || self.queue.peek_time().is_some_and(|t| t <= self.now)
+        {
+            return 0;
+        }
+        let left = self.instant_limit.saturating_sub(self.at_instant);
+        u32::try_from(left.min(RUN as u64 - 1)).expect("below RUN")
     }
 
     /// Applies one effect.
@@ -467,6 +495,7 @@ impl Core {
             } else {
                 Ahead::default()
             };
+            let inline = self.inline_room(target, &then);
             let deliver = Deliver {
                 now: self.now,
                 seq: self.seq,
@@ -474,6 +503,7 @@ impl Core {
                 effects: std::mem::take(&mut self.spare),
                 reply: None,
                 then,
+                inline,
                 look_ahead,
             };
             return Next::Deliver(target, deliver);

@@ -209,14 +209,22 @@ impl HandleEvent for Scrambler {
         };
         let now = out.now();
         for _ in 0..draw(3) {
-            let r = draw(u64::from(self.robots)) as RobotId;
-            let at = now + [0.0, 0.0, 0.25, 0.5, 1.0][draw(5) as usize];
+            // Robots, and as often the motion manager (robot number MANAGER), which may
+            // take on at once what it schedules for itself at its instant.
+            let r = match draw(2 * u64::from(self.robots)) as RobotId {
+                r if r >= self.robots => MANAGER,
+                r => r,
+            };
+            let at = now + [0.0, 0.0, 0.0, 0.25, 0.5, 1.0][draw(6) as usize];
             let robots = [Some(r), None];
             let payload = Payload::Timer {
                 robot: r,
                 ticket: 0,
             };
-            let target = Target::Robot(r);
+            let target = match r {
+                MANAGER => Target::MotionManager,
+                r => Target::Robot(r),
+            };
             if draw(2) == 0 {
                 out.schedule(at, target, EventClass::Eventual, robots, payload);
             } else {
@@ -256,6 +264,9 @@ impl HandleEvent for Scrambler {
     }
 }
 
+/// The robot number a [`Scrambler`] logs for the motion manager's events.
+const MANAGER: RobotId = 50;
+
 /// Runs a core over a [`Scrambler`], deliveries carrying runs or not; returns the
 /// handlings, the events taken, those cancelled, and how many deliveries there were.
 fn scrambled(seed: u64, robots: RobotId, runs: bool) -> (Vec<(f64, u64, RobotId)>, u64, u64, u64) {
@@ -284,9 +295,10 @@ fn scrambled(seed: u64, robots: RobotId, runs: bool) -> (Vec<(f64, u64, RobotId)
 }
 
 proptest::proptest! {
-    /// Deliveries that carry runs take the same events in the same order, with the same
-    /// numbers, as deliveries of one event each, whatever the handlings schedule, cancel
-    /// or leave to the end of an instant; and they need fewer deliveries.
+    /// Deliveries that carry runs, or take on what a manager schedules for itself at its
+    /// instant, take the same events in the same order, with the same numbers, as
+    /// deliveries of one event each, whatever the handlings schedule, cancel or leave to
+    /// the end of an instant; and they need fewer deliveries.
     #[test]
     fn runs_take_the_events_of_one_by_one_delivery(seed in proptest::prelude::any::<u64>(), robots in 1u32..4) {
         let (one, events, cancelled, singles) = scrambled(seed, robots, false);
@@ -543,4 +555,80 @@ fn robots_taking_turns_at_one_instant_are_no_livelock() {
     let (events, failure) = run_instant(10, 50, |_, acted| acted < 200);
     assert_eq!(failure, None);
     assert_eq!(events, 10 * 200);
+}
+
+#[test]
+fn a_manager_takes_on_what_it_schedules_for_itself_at_a_quiet_instant() {
+    // The motion manager's event at t = 1 schedules two more of its own at t = 1 and one for
+    // a robot in between; at t = 2 it schedules one of its own while a robot's event waits
+    // at t = 2, which must come first.
+    #[derive(Default)]
+    struct Chain {
+        log: Vec<(f64, u64, RobotId)>,
+    }
+    impl HandleEvent for Chain {
+        fn handle_event(&mut self, event: Event, out: &mut Outbox) {
+            self.log
+                .push((out.now(), out.cause(), robot_of(&event.payload)));
+            let at = |r: RobotId| {
+                let target = if r == MANAGER {
+                    Target::MotionManager
+                } else {
+                    Target::Robot(r)
+                };
+                (target, [Some(r), None], timer(r))
+            };
+            let now = out.now();
+            let n = self.log.len();
+            let mut put = |r: RobotId| {
+                let (target, robots, payload) = at(r);
+                out.schedule(now, target, EventClass::Eventual, robots, payload);
+            };
+            if n == 1 {
+                put(MANAGER);
+                put(0);
+                put(MANAGER);
+            } else if n == 6 {
+                put(MANAGER);
+            }
+        }
+    }
+    let run = |runs: bool| {
+        let mut setup = Outbox::new(0.0, 0);
+        for (t, r) in [(1.0, MANAGER), (2.0, 1), (2.0, MANAGER)] {
+            let target = if r == MANAGER {
+                Target::MotionManager
+            } else {
+                Target::Robot(r)
+            };
+            setup.schedule(t, target, EventClass::Eventual, [Some(r), None], timer(r));
+        }
+        let mut core = Core::new(5.0, setup, Observers::default());
+        core.runs = runs;
+        let mut chain = Chain::default();
+        let mut deliveries = Vec::new();
+        while let Next::Deliver(_, d) = core.next() {
+            deliveries.push((d.now, d.inline));
+            let reply = handle_run(&mut chain, d);
+            core.apply_reply(reply);
+        }
+        (chain.log, core.finish().stats.events, deliveries)
+    };
+    let (one, events, _) = run(false);
+    let (taken_on, taken_events, deliveries) = run(true);
+    assert_eq!(taken_on, one);
+    assert_eq!(taken_events, events);
+    // One by one: 1 (manager), then its three at t = 1, then at t = 2 the robot (set up
+    // first), the manager, and the manager's own.
+    let robots: Vec<RobotId> = one.iter().map(|h| h.2).collect();
+    assert_eq!(robots, [MANAGER, MANAGER, 0, MANAGER, 1, MANAGER, MANAGER]);
+    // Taken on at once: the first manager event at t = 1 takes on the next (its own, first
+    // scheduled) but not the robot's, which comes in a delivery of its own, as does the
+    // manager's last at t = 1. At t = 2 the manager's event comes after the robot's, and
+    // takes on the one it schedules for itself.
+    assert_eq!(deliveries.len(), 5, "{deliveries:?}");
+    assert_eq!(
+        deliveries.iter().map(|d| d.1 > 0).collect::<Vec<_>>(),
+        [true, false, true, false, true]
+    );
 }
