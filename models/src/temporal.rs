@@ -10,7 +10,9 @@
 //! messages, while the reductions are on): a spent message's delivery is no step, now or
 //! later, so it is never an enabled task, and a state and the same state without it have the
 //! same steps to the same futures, the same propositions, and the same enabled tasks; merging
-//! them changes no fair cycle, so no verdict.
+//! them changes no fair cycle, so no verdict. By the same argument it forgets, with unlimited
+//! timers, every message to a crashed process (`forget_undeliverable`), and keeps of a
+//! detector's indications only the suspicions in force (`keep_suspicions_in_force`).
 //!
 //! A state is stored packed ([`Packed`]): a few words of interned parts
 //! ([`crate::compact::Packer`]), its propositions read once when it is made, and a step as its
@@ -36,7 +38,8 @@
 //!   in a state at rest ([`crate::property::at_rest`]), where the at-rest properties are read.
 
 use std::cell::{Cell, RefCell};
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
+use std::sync::Arc;
 
 use nekosim_protocols::codec::with_codecs;
 use nekosim_protocols::heartbeat::Heartbeat;
@@ -44,9 +47,11 @@ use nekosim_protocols::{Pid, Request};
 use stateright::actor::{ActorModelAction, Id, Network};
 use stateright::{Model, Path};
 
+#[cfg(doc)]
+use crate::adapter::ProcessState;
 use crate::adapter::{ModelTimer, NetMsg, ProcessActor, State};
 use crate::compact::{Packer, Unpacked};
-use crate::config::{Action, CheckModel, NetworkKind};
+use crate::config::{Action, CheckModel, NetworkKind, UNLIMITED_TIMERS};
 use crate::family::Family;
 use crate::liveness::{
     explore, Actors, Exceeded, Graph, Lasso, Limits, Liveness, Strength, Task, TransitionSystem,
@@ -285,7 +290,7 @@ impl Packed {
 }
 
 /// A step of a stack's liveness graph: where its action is among the model's `actions` of
-/// the state it leaves, and the task it takes ([`NO_TASK`] for a crash or a loss).
+/// the state it leaves, and the task it takes (`NO_TASK` for a crash or a loss).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Step {
     action: u32,
@@ -297,11 +302,14 @@ const NO_TASK: Task = Task::MAX;
 
 /// A stack's model as a [`TransitionSystem`] whose tasks are its messages and timers, and
 /// whose states are packed ([`Packed`]): a state's processes, histories and messages are
-/// stored once each, in the tables of a [`compact::Packer`].
+/// stored once each, in the tables of a [`crate::compact::Packer`].
 pub struct StackSystem<'a> {
     pub model: &'a CheckModel,
     properties: Vec<Temporal>,
     packer: Packer<ProcessActor, ()>,
+    /// Whether every message to a crashed process is forgotten, whatever the network and the
+    /// reductions ([`forget_undeliverable`]).
+    undeliverable: bool,
     tasks: RefCell<HashMap<TaskKey, Task>>,
     keys: RefCell<Vec<TaskKey>>,
     /// The tasks of the last state's steps that left the model, for [`Self::beyond`].
@@ -389,6 +397,7 @@ impl<'a> StackSystem<'a> {
             model,
             properties: temporal_properties(model),
             packer: Packer::new(model.actors.len(), ordered, spent),
+            undeliverable: model.cfg.timer_budget == UNLIMITED_TIMERS,
             tasks: RefCell::new(HashMap::new()),
             keys: RefCell::new(Vec::new()),
             left: RefCell::new(Vec::new()),
@@ -434,6 +443,10 @@ impl<'a> StackSystem<'a> {
     /// its propositions read.
     fn pack(&self, mut s: State, parent: Option<(&[u32], &Unpacked<ProcessActor, ()>)>) -> Packed {
         self.packer.forget(&mut s, parent);
+        if self.undeliverable {
+            forget_undeliverable(&mut s);
+        }
+        keep_suspicions_in_force(&mut s);
         let mut bits = 0;
         for (k, p) in self.properties.iter().enumerate() {
             if (p.holds)(self.model, &s) {
@@ -563,6 +576,51 @@ impl TransitionSystem for StackSystem<'_> {
         let left = self.left.borrow();
         out.extend(left.iter().copied().filter(|&t| t != NO_TASK));
         !left.is_empty() || self.stuck.get()
+    }
+}
+
+/// Keeps, of each process's detector indications, only the suspicions in force: a
+/// `(q, true)` for each process `q` whose last indication suspects it, in the order of the
+/// processes ([`ProcessState::detections`]). No step reads the indications (a process only
+/// appends to them) and every proposition of the graph reads only whether the last one about
+/// a process suspects it, so a state and its summary have the same steps to the same
+/// futures, up to the same summary, and the same propositions; merging them keeps every fair
+/// cycle. Without it a detector that keeps suspecting and trusting again (as `Heartbeat` may
+/// in a time-free model) makes the graph infinite.
+fn keep_suspicions_in_force(s: &mut State) {
+    for p in &mut s.actor_states {
+        let mut last = BTreeMap::new();
+        for &(q, suspected) in &p.detections {
+            last.insert(q, suspected);
+        }
+        last.retain(|_, suspected| *suspected);
+        if !last
+            .iter()
+            .map(|(q, b)| (*q, *b))
+            .eq(p.detections.iter().copied())
+        {
+            Arc::make_mut(p).detections = last.into_iter().collect();
+        }
+    }
+}
+
+/// Forgets every message in flight to a crashed process. Such a message is never delivered
+/// (the protocols are crash-stop, and a recovery is outside every model), so, as a spent
+/// message, it is never an enabled task and a state and the same state without it have the
+/// same steps, propositions and fair cycles. The graph forgets them wherever timers are
+/// unlimited: there a second copy of a message on one link is outside the model, so a
+/// process that keeps sending to every process (a heartbeat) would otherwise be stopped,
+/// after its first message to a crashed one, and every run after a crash cut short, with no
+/// verdict resting on it. (Where the reductions are on and the network reorders messages,
+/// the spent messages the search forgets include these.)
+fn forget_undeliverable(s: &mut State) {
+    let crashed = &s.crashed;
+    match &mut s.network {
+        Network::UnorderedNonDuplicating(multiset) => {
+            multiset.retain(|env, _| !crashed[usize::from(env.dst)]);
+        }
+        Network::Ordered(channels) => channels.retain(|(_, dst), _| !crashed[usize::from(*dst)]),
+        Network::UnorderedDuplicating(set, _) => set.retain(|env| !crashed[usize::from(env.dst)]),
     }
 }
 
