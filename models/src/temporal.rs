@@ -676,6 +676,9 @@ impl TransitionSystem for StackSystem<'_> {
 /// in a time-free model) makes the graph infinite.
 fn keep_suspicions_in_force(s: &mut State) {
     for p in &mut s.actor_states {
+        if p.detections.is_empty() {
+            continue;
+        }
         let mut last = BTreeMap::new();
         for &(q, suspected) in &p.detections {
             last.insert(q, suspected);
