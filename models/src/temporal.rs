@@ -10,7 +10,9 @@
 //! messages, while the reductions are on): a spent message's delivery is no step, now or
 //! later, so it is never an enabled task, and a state and the same state without it have the
 //! same steps to the same futures, the same propositions, and the same enabled tasks; merging
-//! them changes no fair cycle, so no verdict.
+//! them changes no fair cycle, so no verdict. By the same argument it forgets, with unlimited
+//! timers, every message to a crashed process (`forget_undeliverable`), and keeps of a
+//! detector's indications only the suspicions in force (`keep_suspicions_in_force`).
 //!
 //! A state is stored packed ([`Packed`]): a few words of interned parts
 //! ([`crate::compact::Packer`]), its propositions read once when it is made, and a step as its
@@ -29,30 +31,38 @@
 //! - **Eventual accuracy** of the failure detectors a stack uses is an assumption `<>[] A`:
 //!   from some point on no live process's detector suspects a live process. A run that keeps
 //!   a false suspicion is not judged. The detectors read are the built-in `Heartbeat` layers
-//!   (a user's detector is not read, so nothing is assumed of it).
+//!   (a user's detector is not read, so nothing is assumed of it). A time-free model cannot
+//!   check it of a detector (a check may always come before the heartbeat it waits for); a
+//!   failure detector states its time-free core instead, that no false suspicion lasts for
+//!   ever (`eventual trust`, a property of each pair of processes, [`Holds::Pairs`]).
 //! - **Bounds** (the timer budget after a crash, the round bound, the copy bound of unlimited
 //!   timers) never make a counterexample: a state a bound cut short is never where a run ends,
 //!   and the steps it leaves out count as enabled there ([`crate::liveness`]). A run ends only
 //!   in a state at rest ([`crate::property::at_rest`]), where the at-rest properties are read.
 
 use std::cell::{Cell, RefCell};
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
+use std::sync::Arc;
 
-use nekosim_protocols::codec::with_codecs;
 use nekosim_protocols::heartbeat::Heartbeat;
 use nekosim_protocols::{Pid, Request};
 use stateright::actor::{ActorModelAction, Id, Network};
 use stateright::{Model, Path};
 
+#[cfg(doc)]
+use crate::adapter::ProcessState;
 use crate::adapter::{ModelTimer, NetMsg, ProcessActor, State};
 use crate::compact::{Packer, Unpacked};
-use crate::config::{Action, CheckModel, NetworkKind};
+use crate::config::{Action, CheckModel, NetworkKind, UNLIMITED_TIMERS};
 use crate::family::Family;
 use crate::liveness::{
     explore, Actors, Exceeded, Graph, Lasso, Limits, Liveness, Strength, Task, TransitionSystem,
     Verdict,
 };
 use crate::property::{all_received, decided_all, live, suspects};
+
+mod reason;
+pub use reason::reason;
 
 /// The fairness a liveness check assumes of the tasks of a stack.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -120,18 +130,63 @@ pub struct Temporal {
     pub kind: Liveness,
     /// The state predicate, in words.
     pub predicate: &'static str,
-    pub holds: fn(&CheckModel, &State) -> bool,
+    pub holds: Holds,
+}
+
+/// The predicate of a temporal property.
+#[derive(Clone, Copy, Debug)]
+pub enum Holds {
+    /// A predicate of a state.
+    State(fn(&CheckModel, &State) -> bool),
+    /// A predicate of a state and an ordered pair of distinct processes `(a, b)`; the
+    /// property holds when it holds of each pair (`[]<> P(a, b)` for every pair says more
+    /// than `[]<>` of their conjunction: each pair may be true at its own times).
+    Pairs(fn(&CheckModel, &State, Pid, Pid) -> bool),
+}
+
+impl Temporal {
+    /// Whether the predicate holds in `s` (of `pair`, for a property of pairs).
+    pub fn holds_in(&self, m: &CheckModel, s: &State, pair: Option<(Pid, Pid)>) -> bool {
+        match (self.holds, pair) {
+            (Holds::State(f), _) => f(m, s),
+            (Holds::Pairs(f), Some((a, b))) => f(m, s, a, b),
+            (Holds::Pairs(f), None) => pairs(m.cfg.n).all(|(a, b)| f(m, s, a, b)),
+        }
+    }
+
+    /// How many propositions it reads in a state of `n` processes.
+    fn width(&self, n: u32) -> u32 {
+        match self.holds {
+            Holds::State(_) => 1,
+            Holds::Pairs(_) => n * (n - 1),
+        }
+    }
+}
+
+/// The ordered pairs of distinct processes among `n`, in the order of their propositions.
+fn pairs(n: u32) -> impl Iterator<Item = (Pid, Pid)> {
+    (0..n).flat_map(move |a| (0..n).filter(move |&b| b != a).map(move |b| (a, b)))
 }
 
 /// What a family states as its liveness (docs/model-checking.md, "Temporal properties").
 pub fn temporal_properties(model: &CheckModel) -> Vec<Temporal> {
-    use Liveness::{Eventually, EventuallyAlways};
+    use Liveness::{AlwaysEventually, Eventually, EventuallyAlways};
     let t = |name, kind, predicate, holds| Temporal {
         name,
         kind,
         predicate,
-        holds,
+        holds: Holds::State(holds),
     };
+    // No false suspicion lasts for ever: what a time-free model can check of eventual
+    // accuracy. With a timer budget a run ends when the budget is spent, possibly just after
+    // a check that came before the last heartbeat, so it is stated with unlimited timers only.
+    let trust = Temporal {
+        name: "eventual trust",
+        kind: AlwaysEventually,
+        predicate: "for each two live processes p and q, p does not suspect q",
+        holds: Holds::Pairs(trusts),
+    };
+    let unlimited = model.cfg.timer_budget == UNLIMITED_TIMERS;
     match model.cfg.family {
         Family::Abcast => vec![
             t("validity", EventuallyAlways, "every live process delivered every message it broadcast", own_delivered),
@@ -153,13 +208,21 @@ pub fn temporal_properties(model: &CheckModel) -> Vec<Temporal> {
             "every message a live process sent to a live process was delivered",
             all_delivered,
         )],
-        Family::FailureDetector if model.max_crashes > 0 => vec![t(
-            "strong completeness",
-            EventuallyAlways,
-            "every live process suspects every crashed process",
-            complete,
-        )],
-        Family::FailureDetector => Vec::new(),
+        Family::FailureDetector => {
+            let mut v = Vec::new();
+            if model.max_crashes > 0 {
+                v.push(t(
+                    "strong completeness",
+                    EventuallyAlways,
+                    "every live process suspects every crashed process",
+                    complete,
+                ));
+            }
+            if unlimited {
+                v.push(trust);
+            }
+            v
+        }
         Family::Leader => vec![t(
             "stable leader",
             EventuallyAlways,
@@ -226,6 +289,11 @@ fn complete(_: &CheckModel, s: &State) -> bool {
     live(s).all(|a| crashed.iter().all(|&t| suspects(s, a, t)))
 }
 
+/// `a` does not suspect `b`, or one of them crashed.
+fn trusts(_: &CheckModel, s: &State, a: Pid, b: Pid) -> bool {
+    s.crashed[a as usize] || s.crashed[b as usize] || !suspects(s, a as usize, b)
+}
+
 fn common_leader(_: &CheckModel, s: &State) -> bool {
     let mut leaders = live(s).map(|i| s.actor_states[i].leader);
     let Some(Some(first)) = leaders.next() else {
@@ -265,27 +333,21 @@ pub enum TaskKey {
     Timer { process: Pid, timer: ModelTimer },
 }
 
-/// A state of a stack's liveness graph: the bits of the propositions read in it (one per
-/// temporal property, in [`temporal_properties`]' order, and [`ACCURATE`]), then its record
-/// of interned parts ([`crate::compact::Packer`]), with its spent messages forgotten.
+/// A state of a stack's liveness graph: a few words of bits, the propositions read in it
+/// (those of each temporal property in [`temporal_properties`]' order, one or one per pair
+/// of processes, then eventual accuracy's, [`accurate`]), then its record of interned parts
+/// ([`crate::compact::Packer`]), with its spent messages forgotten.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Packed(Box<[u32]>);
 
-/// The bit of [`Packed`] that says eventual accuracy's predicate ([`accurate`]) holds.
-pub const ACCURATE: u32 = 1 << 31;
-
 impl Packed {
-    fn holds(&self, bit: u32) -> bool {
-        self.0[0] & bit != 0
-    }
-
-    fn record(&self) -> &[u32] {
-        &self.0[1..]
+    fn bit(&self, i: u32) -> bool {
+        self.0[i as usize / 32] & (1 << (i % 32)) != 0
     }
 }
 
 /// A step of a stack's liveness graph: where its action is among the model's `actions` of
-/// the state it leaves, and the task it takes ([`NO_TASK`] for a crash or a loss).
+/// the state it leaves, and the task it takes (`NO_TASK` for a crash or a loss).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Step {
     action: u32,
@@ -297,11 +359,19 @@ const NO_TASK: Task = Task::MAX;
 
 /// A stack's model as a [`TransitionSystem`] whose tasks are its messages and timers, and
 /// whose states are packed ([`Packed`]): a state's processes, histories and messages are
-/// stored once each, in the tables of a [`compact::Packer`].
+/// stored once each, in the tables of a [`crate::compact::Packer`].
 pub struct StackSystem<'a> {
     pub model: &'a CheckModel,
     properties: Vec<Temporal>,
     packer: Packer<ProcessActor, ()>,
+    /// The first bit of each property's propositions in a [`Packed`] state, the bit of
+    /// eventual accuracy, and how many words the bits take.
+    first: Vec<u32>,
+    accurate_bit: u32,
+    head: usize,
+    /// Whether every message to a crashed process is forgotten, whatever the network and the
+    /// reductions ([`forget_undeliverable`]).
+    undeliverable: bool,
     tasks: RefCell<HashMap<TaskKey, Task>>,
     keys: RefCell<Vec<TaskKey>>,
     /// The tasks of the last state's steps that left the model, for [`Self::beyond`].
@@ -385,10 +455,21 @@ impl<'a> StackSystem<'a> {
             .first()
             .is_some_and(|s| matches!(s.network, Network::Ordered(_)));
         let spent = model.cfg.reduction.then(|| crate::model::spent(model));
+        let properties = temporal_properties(model);
+        let mut first = Vec::new();
+        let mut bits = 0;
+        for p in &properties {
+            first.push(bits);
+            bits += p.width(model.cfg.n);
+        }
         Self {
             model,
-            properties: temporal_properties(model),
+            properties,
+            first,
+            accurate_bit: bits,
+            head: bits as usize / 32 + 1,
             packer: Packer::new(model.actors.len(), ordered, spent),
+            undeliverable: model.cfg.timer_budget == UNLIMITED_TIMERS,
             tasks: RefCell::new(HashMap::new()),
             keys: RefCell::new(Vec::new()),
             left: RefCell::new(Vec::new()),
@@ -434,26 +515,45 @@ impl<'a> StackSystem<'a> {
     /// its propositions read.
     fn pack(&self, mut s: State, parent: Option<(&[u32], &Unpacked<ProcessActor, ()>)>) -> Packed {
         self.packer.forget(&mut s, parent);
-        let mut bits = 0;
-        for (k, p) in self.properties.iter().enumerate() {
-            if (p.holds)(self.model, &s) {
-                bits |= 1 << k;
+        if self.undeliverable {
+            forget_undeliverable(&mut s);
+        }
+        keep_suspicions_in_force(&mut s);
+        let mut words = vec![0u32; self.head];
+        let mut set = |i: u32| words[i as usize / 32] |= 1 << (i % 32);
+        for (p, &first) in self.properties.iter().zip(&self.first) {
+            match p.holds {
+                Holds::State(f) => {
+                    if f(self.model, &s) {
+                        set(first);
+                    }
+                }
+                Holds::Pairs(f) => {
+                    for (j, (a, b)) in (0..).zip(pairs(self.model.cfg.n)) {
+                        if f(self.model, &s, a, b) {
+                            set(first + j);
+                        }
+                    }
+                }
             }
         }
         if accurate(self.model, &s) {
-            bits |= ACCURATE;
+            set(self.accurate_bit);
         }
         let mut record = Vec::new();
         self.packer.pack_forgotten(s, parent, &mut record);
-        let mut words = Vec::with_capacity(1 + record.len());
-        words.push(bits);
         words.extend_from_slice(&record);
         Packed(words.into_boxed_slice())
     }
 
+    /// The record of interned parts of a packed state.
+    fn record<'p>(&self, p: &'p Packed) -> &'p [u32] {
+        &p.0[self.head..]
+    }
+
     /// The state a packed state stands for.
     pub fn unpack(&self, p: &Packed) -> State {
-        self.packer.unpack(p.record()).into_state()
+        self.packer.unpack(self.record(p)).into_state()
     }
 
     /// A lasso of the graph as a lasso of the model: each step's action found again among
@@ -509,7 +609,7 @@ impl TransitionSystem for StackSystem<'_> {
                 return;
             }
         }
-        let parent = self.packer.unpack(packed.record());
+        let parent = self.packer.unpack(self.record(packed));
         let state = parent.state();
         let mut actions = Vec::new();
         self.model.actions(state, &mut actions);
@@ -534,7 +634,7 @@ impl TransitionSystem for StackSystem<'_> {
                     action: u32::try_from(i).expect("fewer than 2^32 actions"),
                     task: task.unwrap_or(NO_TASK),
                 };
-                out.push((step, self.pack(next, Some((packed.record(), &parent)))));
+                out.push((step, self.pack(next, Some((self.record(packed), &parent)))));
             } else {
                 // A crash or a loss into a bounded state cuts the run there.
                 left.push(task.unwrap_or(NO_TASK));
@@ -566,6 +666,54 @@ impl TransitionSystem for StackSystem<'_> {
     }
 }
 
+/// Keeps, of each process's detector indications, only the suspicions in force: a
+/// `(q, true)` for each process `q` whose last indication suspects it, in the order of the
+/// processes ([`ProcessState::detections`]). No step reads the indications (a process only
+/// appends to them) and every proposition of the graph reads only whether the last one about
+/// a process suspects it, so a state and its summary have the same steps to the same
+/// futures, up to the same summary, and the same propositions; merging them keeps every fair
+/// cycle. Without it a detector that keeps suspecting and trusting again (as `Heartbeat` may
+/// in a time-free model) makes the graph infinite.
+fn keep_suspicions_in_force(s: &mut State) {
+    for p in &mut s.actor_states {
+        if p.detections.is_empty() {
+            continue;
+        }
+        let mut last = BTreeMap::new();
+        for &(q, suspected) in &p.detections {
+            last.insert(q, suspected);
+        }
+        last.retain(|_, suspected| *suspected);
+        if !last
+            .iter()
+            .map(|(q, b)| (*q, *b))
+            .eq(p.detections.iter().copied())
+        {
+            Arc::make_mut(p).detections = last.into_iter().collect();
+        }
+    }
+}
+
+/// Forgets every message in flight to a crashed process. Such a message is never delivered
+/// (the protocols are crash-stop, and a recovery is outside every model), so, as a spent
+/// message, it is never an enabled task and a state and the same state without it have the
+/// same steps, propositions and fair cycles. The graph forgets them wherever timers are
+/// unlimited: there a second copy of a message on one link is outside the model, so a
+/// process that keeps sending to every process (a heartbeat) would otherwise be stopped,
+/// after its first message to a crashed one, and every run after a crash cut short, with no
+/// verdict resting on it. (Where the reductions are on and the network reorders messages,
+/// the spent messages the search forgets include these.)
+fn forget_undeliverable(s: &mut State) {
+    let crashed = &s.crashed;
+    match &mut s.network {
+        Network::UnorderedNonDuplicating(multiset) => {
+            multiset.retain(|env, _| !crashed[usize::from(env.dst)]);
+        }
+        Network::Ordered(channels) => channels.retain(|(_, dst), _| !crashed[usize::from(*dst)]),
+        Network::UnorderedDuplicating(set, _) => set.retain(|env| !crashed[usize::from(env.dst)]),
+    }
+}
+
 /// The pid of an actor id.
 pub fn pid(id: Id) -> Pid {
     usize::from(id) as Pid
@@ -575,6 +723,8 @@ pub fn pid(id: Id) -> Pid {
 #[derive(Clone, Debug)]
 pub struct Decision {
     pub property: Temporal,
+    /// For a property of pairs that fails, the pair its lasso is about.
+    pub pair: Option<(Pid, Pid)>,
     pub verdict: Verdict<State, Action>,
 }
 
@@ -587,21 +737,35 @@ pub fn decide(
     fairness: StackFairness,
 ) -> Vec<Decision> {
     let assume = assumes_accuracy(model);
-    temporal_properties(model)
-        .into_iter()
-        .enumerate()
-        .map(|(k, property)| {
-            let verdict = graph.check_under(
-                property.kind,
-                &|_| fairness.strength(),
-                &|s| !assume || s.holds(ACCURATE),
-                |s| s.holds(1 << k),
-            );
-            let verdict = match verdict {
-                Verdict::Holds => Verdict::Holds,
-                Verdict::Fails(lasso) => Verdict::Fails(graph.system.expand(&lasso)),
+    let system = &graph.system;
+    let check = |bit: u32, kind| match graph.check_under(
+        kind,
+        &|_| fairness.strength(),
+        &|s| !assume || s.bit(system.accurate_bit),
+        |s| s.bit(bit),
+    ) {
+        Verdict::Holds => Verdict::Holds,
+        Verdict::Fails(lasso) => Verdict::Fails(system.expand(&lasso)),
+    };
+    system
+        .properties
+        .iter()
+        .zip(&system.first)
+        .map(|(&property, &first)| {
+            let (pair, verdict) = match property.holds {
+                Holds::State(_) => (None, check(first, property.kind)),
+                // The first pair that fails, if any.
+                Holds::Pairs(_) => (0..)
+                    .zip(pairs(model.cfg.n))
+                    .map(|(j, pair)| (Some(pair), check(first + j, property.kind)))
+                    .find(|(_, v)| matches!(v, Verdict::Fails(_)))
+                    .unwrap_or((None, Verdict::Holds)),
             };
-            Decision { property, verdict }
+            Decision {
+                property,
+                pair,
+                verdict,
+            }
         })
         .collect()
 }
@@ -618,147 +782,4 @@ pub fn lasso_path(model: &CheckModel, lasso: &Lasso<State, Action>) -> Option<Pa
         .map(|(a, _)| a)
         .collect();
     Path::from_actions(model, lasso.start.clone(), actions)
-}
-
-/// Why a lasso violates its property, in the property's terms: what is missing, read in a
-/// state of the cycle where the predicate is false (the entry, for `eventually`), and why the
-/// cycle counts.
-pub fn reason(
-    model: &CheckModel,
-    d: &Decision,
-    lasso: &Lasso<State, Action>,
-    fairness: StackFairness,
-) -> String {
-    let p = d.property;
-    let states: Vec<&State> = std::iter::once(lasso.entry())
-        .chain(lasso.cycle.iter().map(|(_, s)| s))
-        .collect();
-    let bad = states
-        .iter()
-        .find(|s| !(p.holds)(model, s))
-        .copied()
-        .unwrap_or(lasso.entry());
-    let missing = with_codecs(&model.actors[0].shared.wiring.codecs, || {
-        missing(model, p.name, bad)
-    });
-    let fair = match fairness {
-        StackFairness::None => "",
-        _ => ", and the cycle is fair: every message and timer it keeps enabled it also takes, or disables in one of its states",
-    };
-    if lasso.cycle.is_empty() {
-        return format!(
-            "{missing}; the run ends there (nothing is left to happen) and stays for ever"
-        );
-    }
-    let false_in = lasso
-        .cycle
-        .iter()
-        .filter(|(_, s)| !(p.holds)(model, s))
-        .count();
-    match p.kind {
-        Liveness::Eventually => format!(
-            "{missing}; it is so in every state of the stem and of the cycle of {} steps, which repeats for ever{fair}",
-            lasso.cycle.len()
-        ),
-        Liveness::EventuallyAlways | Liveness::AlwaysEventually => format!(
-            "{missing}; the cycle of {} steps repeats for ever and this is so in {false_in} of its states{fair}",
-            lasso.cycle.len()
-        ),
-    }
-}
-
-/// What `name`'s predicate misses in `s`.
-fn missing(m: &CheckModel, name: &str, s: &State) -> String {
-    let list = |ps: Vec<usize>| {
-        ps.iter()
-            .map(|p| format!("p{p}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    match name {
-        "termination" => {
-            let undecided: Vec<usize> = live(s).filter(|&i| !decided_all(m, s, i)).collect();
-            format!(
-                "{} never decide{}",
-                list(undecided.clone()),
-                if undecided.len() == 1 { "s" } else { "" }
-            )
-        }
-        "validity" => live(s)
-            .find_map(|i| {
-                let a = &s.actor_states[i];
-                (0..a.issued as u64)
-                    .find(|&n| {
-                        !a.delivered
-                            .iter()
-                            .any(|(d, _)| d.origin as usize == i && d.n == n)
-                    })
-                    .map(|n| format!("p{i} never delivers its own broadcast {i}:{n}"))
-            })
-            .unwrap_or_else(|| "a live process misses its own broadcast".into()),
-        "agreement" | "uniform agreement" => {
-            for i in live(s) {
-                for (j, b) in s.actor_states.iter().enumerate() {
-                    if name == "agreement" && s.crashed[j] {
-                        continue;
-                    }
-                    if let Some((id, _)) = b
-                        .delivered
-                        .iter()
-                        .find(|(id, _)| !s.actor_states[i].delivered.iter().any(|(d, _)| d == id))
-                    {
-                        return format!("p{i} never delivers {id}, which p{j} delivered");
-                    }
-                }
-            }
-            "a live process misses a delivery".into()
-        }
-        "reliable delivery" => m
-            .cfg
-            .requests
-            .iter()
-            .enumerate()
-            .find_map(|(g, (p, req))| {
-                let Request::Send { to, msg } = req else {
-                    return None;
-                };
-                if s.crashed[*p as usize] || !crate::property::has_issued(m, s, *p, g) {
-                    return None;
-                }
-                to.iter()
-                    .find(|&&q| {
-                        !s.crashed[q as usize]
-                            && !s.actor_states[q as usize]
-                                .received
-                                .iter()
-                                .any(|(f, got)| f == p && got == msg)
-                    })
-                    .map(|q| format!("p{q} never gets {msg} from p{p}"))
-            })
-            .unwrap_or_else(|| "a message is never delivered".into()),
-        "strong completeness" => {
-            let crashed: Vec<usize> = (0..s.crashed.len()).filter(|&i| s.crashed[i]).collect();
-            live(s)
-                .find_map(|a| {
-                    crashed
-                        .iter()
-                        .find(|&&t| !suspects(s, a, t as Pid))
-                        .map(|t| format!("p{a} never suspects p{t}, which crashed"))
-                })
-                .unwrap_or_else(|| "a crashed process is never suspected".into())
-        }
-        "stable leader" => {
-            let leaders: Vec<String> = live(s)
-                .map(|i| match s.actor_states[i].leader {
-                    Some(l) => format!("p{i} trusts p{l}"),
-                    None => format!("p{i} trusts nobody"),
-                })
-                .collect();
-            format!(
-                "the live processes never settle on one live leader ({})",
-                leaders.join(", ")
-            )
-        }
-        _ => format!("{name} never holds"),
-    }
 }

@@ -1153,3 +1153,43 @@ fn the_shipped_models_state_their_liveness_and_keep_their_verdicts() {
         assert!(!out.contains("FAILS"), "{name}: {out}");
     }
 }
+
+#[test]
+fn a_leader_election_over_heartbeat_keeps_a_stable_leader_after_a_crash() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("omega.ron");
+    std::fs::write(
+        &file,
+        r#"Scenario(
+    world: (size: Infinite),
+    network: RandomDelay(lambda: 10.0),
+    stack: [
+        Layer(id: "fd", protocol: Heartbeat(period: 1.0, timeout: 2.0), below: "net"),
+        Layer(id: "omega", protocol: Omega, below: "net", uses: ["fd"]),
+    ],
+    robots: [
+        Group(count: 2, radius: 1.0, born: Points([(0.0, 0.0), (20.0, 0.0)])),
+    ],
+)"#,
+    )
+    .unwrap();
+    let file = file.to_str().unwrap();
+    let args = ["check", file, "--timers", "unlimited", "--crashes", "1"];
+    // Under fair timers the survivor suspects the crashed process and leads itself.
+    let o = nekosim(&args);
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(0), "{out}");
+    assert!(out.contains("assuming eventual accuracy"), "{out}");
+    assert!(out.contains("liveness graph: 512 states,"), "{out}");
+    assert!(out.contains("holds  stable leader <>[]"), "{out}");
+    // Without them it may beat for ever and never check: it keeps the crashed leader.
+    let o = nekosim(&[&args[..], &["--fairness", "none"]].concat());
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    assert!(out.contains("FAILS  stable leader <>[]"), "{out}");
+    assert!(out.contains("step   1: p0 crashes"), "{out}");
+    assert!(
+        out.contains("never settle on one live leader (p1 trusts p0)"),
+        "{out}"
+    );
+}
