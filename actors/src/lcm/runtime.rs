@@ -200,20 +200,20 @@ async fn wait_until(robot: &Robot, t: f64) {
 
 /// The Compute phase: the new light is being written until the phase ends, then shows.
 async fn compute(robot: &Robot, plan: &Plan, light: &mut Light, new: Option<Light>) {
-    let lasts = plan.compute_end > robot.now();
-    if let Some(n) = new {
-        if lasts {
-            robot.set_light(LightState {
-                shown: *light,
-                pending: Some(n),
-            });
-        }
+    // Without a light to write, the end of the Compute changes nothing the robot must be
+    // woken for: the Move phase waits for its own start.
+    let Some(n) = new else {
+        return;
+    };
+    if plan.compute_end > robot.now() {
+        robot.set_light(LightState {
+            shown: *light,
+            pending: Some(n),
+        });
     }
     wait_until(robot, plan.compute_end).await;
-    if let Some(n) = new {
-        robot.set_light(LightState::steady(n));
-        *light = n;
-    }
+    robot.set_light(LightState::steady(n));
+    *light = n;
 }
 
 /// The Move phase: glides from `from` towards `to` until the adversary's stop, ending at the
@@ -226,12 +226,14 @@ async fn go(
     to: Option<Point>,
     cycle: u64,
 ) -> Point {
-    wait_until(robot, plan.move_start).await;
-    let duration = plan.move_end - robot.now();
-    let Some(to) = to.filter(|_| duration > 0.0) else {
+    // A robot that stays sleeps through its Move phase at once.
+    let start = plan.move_start.max(robot.now());
+    let Some(to) = to.filter(|_| plan.move_end > start) else {
         wait_until(robot, plan.move_end).await;
         return from;
     };
+    wait_until(robot, plan.move_start).await;
+    let duration = plan.move_end - robot.now();
     let length = (to - from).norm();
     let reach = adversary.stop(plan, length);
     let stop = if reach >= length {
