@@ -15,7 +15,8 @@
 //! property, reconstructed into a [`Path`] by replaying the model along the parents'
 //! fingerprints. It implements stateright's [`Checker`], so budgets and verdicts treat it like
 //! stateright's checkers. With a partial-order reduction ([`crate::reduction`]) it explores
-//! fewer states, reaching the same verdicts.
+//! fewer states, reaching the same verdicts. When memory runs short it spills its visited set
+//! and frontier to disk ([`crate::spill`]), exploring the same states in the same order.
 
 use std::collections::{HashMap, VecDeque};
 use std::fmt::Debug;
@@ -32,6 +33,7 @@ use stateright::actor::{
 use stateright::{Checker, Expectation, Model, Path};
 
 use crate::reduction::{self, Invisible};
+use crate::spill::{self, Failure, Spill, Store};
 
 /// One process's part of a state: its state, timers, random choices, crash flag and storage.
 type ProcPart<A> = (
@@ -93,7 +95,7 @@ type ModelAction<A, C, H> = <ActorModel<A, C, H> as Model>::Action;
 /// A path of an actor model.
 type ModelPath<A, C, H> = Path<ActorModelState<A, H>, ModelAction<A, C, H>>;
 
-/// Records per frontier block: the unit of work a thread takes.
+/// Records per frontier block: the unit of work a thread takes (at most).
 const BLOCK: usize = 1024;
 
 /// Distinct values, each numbered once: the number of an equal value is always the same.
@@ -442,9 +444,31 @@ impl<A: Actor, H> Unpacked<A, H> {
 struct Block {
     words: Vec<u32>,
     count: usize,
+    /// None of its records is a state the spilled visited set holds ([`crate::spill`]).
+    confirmed: bool,
 }
 
 impl Block {
+    /// The block of `words` as [`Block::records`] reads them.
+    fn of_words(words: Vec<u32>, count: usize) -> Self {
+        Self {
+            words,
+            count,
+            confirmed: true,
+        }
+    }
+
+    /// Keeps the records `keep` says, in order.
+    fn retain(&mut self, mut keep: impl FnMut(&[u32]) -> bool) {
+        let mut kept = Block::default();
+        for rec in self.records() {
+            if keep(rec) {
+                kept.push(rec);
+            }
+        }
+        *self = kept;
+    }
+
     fn push(&mut self, rec: &[u32]) {
         self.words
             .push(u32::try_from(rec.len()).expect("a record fits in u32 words"));
@@ -461,6 +485,19 @@ impl Block {
             Some(rec)
         })
     }
+}
+
+/// A block of the frontier where it is kept.
+enum Stored {
+    Memory(Block),
+    /// In the level's spill file ([`Store::write_block`]).
+    Disk {
+        at: u64,
+        len: u32,
+        count: usize,
+    },
+    /// Expanded, and let go.
+    Spent,
 }
 
 /// What every search thread shares.
@@ -488,10 +525,15 @@ where
     found: Vec<AtomicBool>,
     done: AtomicBool,
     /// The current depth's blocks, and the next block to take.
-    level: RwLock<Vec<Block>>,
+    level: RwLock<Vec<Stored>>,
     cursor: AtomicUsize,
     /// The next depth's blocks, as threads finish them.
-    next: Mutex<Vec<Block>>,
+    next: Mutex<Vec<Stored>>,
+    /// Whether the threads go on to the next depth after a pause (the leader says).
+    advance: AtomicBool,
+    /// Records per block made ([`BLOCK`], or fewer to spill small searches).
+    block: usize,
+    spill: Option<Arc<Store>>,
 }
 
 /// Stateright's breadth-first search over compact states (see the module doc).
@@ -570,6 +612,24 @@ where
         reductions: Reductions<A, H>,
         closed: Option<Arc<AtomicBool>>,
     ) -> Self {
+        let how = (threads, target_max_depth, finish_on_failure);
+        Self::spawn_spilling(model, how, reductions, closed, None)
+    }
+
+    /// [`Self::spawn`] with `(threads, target_max_depth, finish_on_failure)` and, with
+    /// `spill`, the visited set and the frontier going to disk when [`Store::look`] asks for
+    /// it or [`Spill::after_states`] says ([`crate::spill`]); a spill that fails closes the
+    /// boundary as a budget does.
+    ///
+    /// # Panics
+    /// If `!supports(&model)`.
+    pub fn spawn_spilling(
+        model: ActorModel<A, C, H>,
+        (threads, target_max_depth, finish_on_failure): (usize, Option<usize>, bool),
+        reductions: Reductions<A, H>,
+        closed: Option<Arc<AtomicBool>>,
+        spill: Option<Spill>,
+    ) -> Self {
         let Reductions {
             images,
             invisible: reduction,
@@ -603,6 +663,14 @@ where
             level: RwLock::new(Vec::new()),
             cursor: AtomicUsize::new(0),
             next: Mutex::new(Vec::new()),
+            advance: AtomicBool::new(false),
+            // A spill waits for the blocks being expanded: they are a small part of what
+            // memory holds between two spills.
+            block: spill
+                .as_ref()
+                .and_then(|s| s.after_states)
+                .map_or(BLOCK, |n| (n / 4).clamp(1, BLOCK)),
+            spill: spill.map(|s| Arc::new(Store::new(s))),
         });
         let mut first = Block::default();
         let (mut rec, mut tmp) = (Vec::new(), Vec::new());
@@ -620,7 +688,7 @@ where
                 first.push(&rec);
             }
         }
-        *search.level.write().expect("level lock") = vec![first];
+        *search.level.write().expect("level lock") = vec![Stored::Memory(first)];
         let threads = threads.max(1);
         let barrier = Arc::new(std::sync::Barrier::new(threads));
         let handles = (0..threads)
@@ -643,7 +711,12 @@ where
         search
             .packer
             .pack_least(s.clone(), None, search.images.as_ref(), &mut rec, &mut tmp);
-        search.visited.contains_key(&fingerprint(&rec))
+        search.seen(fingerprint(&rec)).is_some()
+    }
+
+    /// The disk side of the search, when it may spill.
+    pub fn spill(&self) -> Option<Arc<Store>> {
+        self.search.spill.clone()
     }
 
     /// The tables' sizes: distinct histories, process parts and envelopes.
@@ -663,8 +736,8 @@ where
     A::Random: Clone + Eq + Hash,
     H: Clone + Debug + Hash + PartialEq,
 {
-    /// One thread's loop: take blocks of the current depth until none is left, wait for the
-    /// others, and (the leader) swap in the next depth.
+    /// One thread's loop: take blocks of the current depth until none is left (or a spill is
+    /// wanted), wait for the others, and (the leader) swap in the next depth or spill.
     fn work(&self, leader: bool, barrier: &std::sync::Barrier) {
         let mut depth = 1;
         loop {
@@ -672,31 +745,214 @@ where
                 let level = self.level.read().expect("level lock");
                 let mut out = Block::default();
                 loop {
-                    if self.done.load(Ordering::Relaxed) {
+                    if self.done.load(Ordering::Relaxed) || self.spill_wanted() {
                         break;
                     }
                     let i = self.cursor.fetch_add(1, Ordering::Relaxed);
-                    let Some(block) = level.get(i) else { break };
-                    self.expand_block(block, depth, &mut out);
+                    match level.get(i) {
+                        None => break,
+                        Some(Stored::Memory(block)) => self.expand_block(block, depth, &mut out),
+                        Some(&Stored::Disk { at, len, count }) => {
+                            let Some(block) = self.read_block(depth, at, len, count) else {
+                                break;
+                            };
+                            self.expand_block(&block, depth, &mut out);
+                        }
+                        Some(Stored::Spent) => unreachable!("a block is let go once expanded"),
+                    }
                 }
                 if out.count > 0 {
-                    self.next.lock().expect("next lock").push(out);
+                    self.next
+                        .lock()
+                        .expect("next lock")
+                        .push(Stored::Memory(out));
                 }
             }
             barrier.wait();
             if leader {
-                let next = std::mem::take(&mut *self.next.lock().expect("next lock"));
-                if next.is_empty() {
-                    self.done.store(true, Ordering::Relaxed);
-                }
-                *self.level.write().expect("level lock") = next;
-                self.cursor.store(0, Ordering::Relaxed);
+                self.pause(depth);
             }
             barrier.wait();
             if self.done.load(Ordering::Relaxed) {
                 return;
             }
-            depth += 1;
+            if self.advance.load(Ordering::Relaxed) {
+                depth += 1;
+            }
+        }
+    }
+
+    /// Whether the threads should pause for a spill.
+    fn spill_wanted(&self) -> bool {
+        self.spill
+            .as_ref()
+            .is_some_and(|s| s.wanted(|| self.visited.len()))
+    }
+
+    /// The leader's work while the other threads wait, at `depth`: checks the states the
+    /// level entered against the spilled visited set, spills if wanted, and, once the level
+    /// is expanded, swaps in the next one.
+    fn pause(&self, depth: usize) {
+        let mut level = self.level.write().expect("level lock");
+        let mut next = self.next.lock().expect("next lock");
+        let taken = self.cursor.load(Ordering::Relaxed).min(level.len());
+        let expanded = taken == level.len();
+        if let Some(store) = self.spill.as_deref() {
+            // Also when the search ends: its unique states are then counted exactly.
+            self.confirm(store, depth, &mut next);
+            if !self.done.load(Ordering::Relaxed) && self.spill_wanted() {
+                for b in &mut level[..taken] {
+                    *b = Stored::Spent;
+                }
+                if let Err(why) = self.spill_out(store, depth, &mut level[taken..], &mut next) {
+                    store.fail(why);
+                    self.close();
+                }
+            }
+        }
+        if expanded {
+            let next = std::mem::take(&mut *next);
+            if next.is_empty() {
+                self.done.store(true, Ordering::Relaxed);
+            }
+            *level = next;
+            self.cursor.store(0, Ordering::Relaxed);
+            if let Some(store) = &self.spill {
+                store.end_level(depth);
+            }
+        }
+        self.advance.store(expanded, Ordering::Relaxed);
+    }
+
+    /// Removes from the visited set and from `next` the states the level at `depth` entered
+    /// that the spilled visited set holds: they were reached before (delayed duplicate
+    /// detection, [`crate::spill`]).
+    fn confirm(&self, store: &Store, depth: usize, next: &mut Vec<Stored>) {
+        if !store.has_run() {
+            return;
+        }
+        let entered = u32::try_from(depth + 1).expect("a depth fits in u32");
+        let mut fps: Vec<u64> = self
+            .visited
+            .iter()
+            .filter(|e| e.depth == entered && store.may_hold(*e.key()))
+            .map(|e| *e.key())
+            .collect();
+        fps.sort_unstable();
+        let again = match store.held(&fps) {
+            Ok(again) => again,
+            Err(e) => {
+                // What the level entered cannot be told new: the search cannot go on exactly.
+                store.fail(Failure::Io(e));
+                self.done.store(true, Ordering::Relaxed);
+                return;
+            }
+        };
+        for fp in &again {
+            self.visited.remove(fp);
+        }
+        self.unique.fetch_sub(again.len(), Ordering::Relaxed);
+        for stored in next.iter_mut() {
+            if let Stored::Memory(b) = stored {
+                if !b.confirmed {
+                    if !again.is_empty() {
+                        b.retain(|rec| again.binary_search(&fingerprint(rec)).is_err());
+                    }
+                    b.confirmed = true;
+                }
+            }
+        }
+        next.retain(|s| !matches!(s, Stored::Memory(b) if b.count == 0));
+    }
+
+    /// Moves the visited set and the blocks in memory (`rest` of the level at `depth`, not
+    /// expanded yet, and `next`) to disk. What is not moved stays in memory.
+    fn spill_out(
+        &self,
+        store: &Store,
+        depth: usize,
+        rest: &mut [Stored],
+        next: &mut [Stored],
+    ) -> Result<(), Failure> {
+        store.merge(self.visited.len(), |s| {
+            self.visited
+                .iter()
+                .filter(|e| spill::slice_of(*e.key()) == s)
+                .map(|e| (*e.key(), e.parent, e.depth))
+                .collect()
+        })?;
+        self.visited.clear();
+        self.visited.shrink_to_fit();
+        for (d, blocks) in [(depth, rest), (depth + 1, next)] {
+            for stored in blocks.iter_mut() {
+                if let Stored::Memory(b) = stored {
+                    let (at, len) = store.write_block(d, &b.words, b.count)?;
+                    *stored = Stored::Disk {
+                        at,
+                        len,
+                        count: b.count,
+                    };
+                }
+            }
+        }
+        store.spilled();
+        Ok(())
+    }
+
+    /// A spilled block of the level at `depth`; `None` if it cannot be read, and then the
+    /// search ends.
+    fn read_block(&self, depth: usize, at: u64, len: u32, count: usize) -> Option<Block> {
+        let store = self.spill.as_deref().expect("spilled blocks have a store");
+        match store.read_block(depth, at, len) {
+            Ok(words) => Some(Block::of_words(words, count)),
+            Err(e) => {
+                store.fail(Failure::Io(e));
+                self.done.store(true, Ordering::Relaxed);
+                None
+            }
+        }
+    }
+
+    /// Closes the model's boundary, as a budget does; without one, ends the search.
+    fn close(&self) {
+        match &self.closed {
+            Some(c) => c.store(true, Ordering::Relaxed),
+            None => self.done.store(true, Ordering::Relaxed),
+        }
+    }
+
+    /// How the state with fingerprint `fp` was first reached, in memory or on disk.
+    fn seen(&self, fp: u64) -> Option<Seen> {
+        if let Some(s) = self.visited.get(&fp) {
+            return Some(*s);
+        }
+        let store = self.spill.as_deref().filter(|s| s.has_run())?;
+        let (parent, depth) = store
+            .get(fp)
+            .expect("the spilled visited set is readable")?;
+        Some(Seen { parent, depth })
+    }
+
+    /// Whether the state with fingerprint `fp` was reached at `depth` or before.
+    fn seen_by(&self, fp: u64, depth: usize) -> bool {
+        if self
+            .visited
+            .get(&fp)
+            .is_some_and(|s| s.depth as usize <= depth)
+        {
+            return true;
+        }
+        // Memory may hold a state this level entered that the disk holds from before.
+        match self.spill.as_deref().filter(|s| s.has_run()) {
+            None => false,
+            Some(store) => match store.get(fp) {
+                Ok(seen) => seen.is_some_and(|(_, d)| d as usize <= depth),
+                Err(e) => {
+                    store.fail(Failure::Io(e));
+                    self.done.store(true, Ordering::Relaxed);
+                    true
+                }
+            },
         }
     }
 
@@ -823,9 +1079,12 @@ where
             });
             self.unique.fetch_add(1, Ordering::Relaxed);
             out.push(rec);
-            if out.count >= BLOCK {
+            if out.count >= self.block {
                 let full = std::mem::take(out);
-                self.next.lock().expect("next lock").push(full);
+                self.next
+                    .lock()
+                    .expect("next lock")
+                    .push(Stored::Memory(full));
             }
         }
     }
@@ -888,11 +1147,7 @@ where
                         self.make(parent, action, Some(invisible), arena, (&mut rec, &mut tmp));
                 }
                 if let Slot::Packed { fp, visible, .. } = slots[i] {
-                    let seen_before = self
-                        .visited
-                        .get(&fp)
-                        .is_some_and(|s| s.depth as usize <= depth);
-                    if visible || seen_before {
+                    if visible || self.seen_by(fp, depth) {
                         continue 'sets;
                     }
                     any = true;
@@ -923,7 +1178,7 @@ where
     fn path(&self, fp: u64) -> Option<ModelPath<A, C, H>> {
         let mut fps = VecDeque::from([fp]);
         loop {
-            let seen = *self.visited.get(fps.front()?)?;
+            let seen = self.seen(*fps.front()?)?;
             if seen.depth <= 1 {
                 break;
             }
