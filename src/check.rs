@@ -5,19 +5,21 @@
 //! counterexample (`--keep-going` explores on for the others). Prints the checker's figures and
 //! each property's verdict, explains every counterexample step by step and ends it with the
 //! reason in the property's terms, and optionally writes it (or a witness) as a JSONL trace
-//! with `seq` as the step number. A search stopped by its state or memory budget, or by
+//! with `seq` as the step number. A breadth-first search that nears its memory budget spills
+//! to disk and goes on. A search stopped by its state, memory, disk or time budget, or by
 //! Ctrl-C, says what it explored and writes what it found. Models, properties and budgets:
 //! docs/model-checking.md.
 
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use nekosim_models::config::UNLIMITED_TIMERS;
 use nekosim_models::explain::{describe, explain};
 use nekosim_models::reason::reason;
+use nekosim_models::spill::{Spill, Spilled};
 use nekosim_models::temporal::StackFairness;
 use nekosim_models::{
     available_memory, build_in, run_watched, Budget, Discovery, Exploration, ModelError,
@@ -101,6 +103,18 @@ pub struct CheckArgs {
     pub max_states: Option<usize>,
     /// `None`: [`default_memory_budget`].
     pub max_memory: Option<u64>,
+    /// Where a breadth-first search spills when it nears the memory budget (`None`:
+    /// [`default_spill_parent`]).
+    pub spill_dir: Option<PathBuf>,
+    /// Stop at the memory budget instead of spilling.
+    pub no_spill: bool,
+    /// The bytes the spill files may take at once (`None`: unlimited).
+    pub max_disk: Option<u64>,
+    /// Also spill whenever this many visited states are in memory (tests spill small
+    /// searches with it).
+    pub spill_after: Option<usize>,
+    /// Stop the search after this long.
+    pub max_time: Option<Duration>,
     /// Symmetry reduction (also on when the scenario's `check` section asks for it).
     pub symmetry: bool,
     /// No reduction ([`Reduction`]; on by default).
@@ -180,6 +194,9 @@ pub enum CheckError {
     /// Bad arguments for a Look-Compute-Move check (exit 2).
     #[error("{0}")]
     Lcm(String),
+    /// The spill directory's parent is not a directory (exit 2).
+    #[error("cannot spill to {}: {source}", path.display())]
+    SpillDir { path: PathBuf, source: io::Error },
 }
 
 /// Properties a protocol states itself, checked alongside its service's whenever it is in
@@ -397,6 +414,13 @@ fn compare_reduction(
     };
     let start = Instant::now();
     let model = build_in(protocols, target, &plain, |_, _| {})?;
+    let how = Exploration {
+        spill: how.spill.map(|s| Spill {
+            dir: fresh_spill_dir(s.dir.parent().unwrap_or(Path::new("."))),
+            ..s
+        }),
+        ..how
+    };
     let without = run_watched(model, how, &mut Interrupt(live));
     let settled = |o: &nekosim_models::Outcome| {
         if o.stopped.is_some() {
@@ -491,6 +515,92 @@ pub fn parse_size(text: &str) -> Result<u64, String> {
     Ok(bytes as u64)
 }
 
+/// Parses a duration: a number of seconds, or numbers with units `ms`, `s`, `m`, `h`, e.g.
+/// `90s`, `10m`, `1h30m` or `2.5h`.
+pub fn parse_duration(text: &str) -> Result<Duration, String> {
+    let bad = || format!("{text:?} is not a duration; expected e.g. 90s, 10m or 2h");
+    let t = text.trim();
+    if let Ok(seconds) = t.parse::<f64>() {
+        return Duration::try_from_secs_f64(seconds)
+            .ok()
+            .filter(|d| !d.is_zero())
+            .ok_or_else(bad);
+    }
+    let mut total = 0.0;
+    let mut rest = t;
+    while !rest.is_empty() {
+        let split = rest
+            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .ok_or_else(bad)?;
+        let (num, tail) = rest.split_at(split);
+        let unit_end = tail
+            .find(|c: char| c.is_ascii_digit() || c == '.')
+            .unwrap_or(tail.len());
+        let (unit, tail) = tail.split_at(unit_end);
+        let factor = match unit {
+            "ms" => 1e-3,
+            "s" => 1.0,
+            "m" | "min" => 60.0,
+            "h" => 3600.0,
+            _ => return Err(bad()),
+        };
+        total += num.parse::<f64>().map_err(|_| bad())? * factor;
+        rest = tail;
+    }
+    Duration::try_from_secs_f64(total)
+        .ok()
+        .filter(|d| !d.is_zero())
+        .ok_or_else(bad)
+}
+
+/// A duration as the report gives it: whole hours, minutes or seconds where it is one.
+pub fn duration_text(d: Duration) -> String {
+    let s = d.as_secs_f64();
+    match d.as_secs() {
+        n if d.subsec_nanos() == 0 && n >= 3600 && n % 3600 == 0 => format!("{}h", n / 3600),
+        n if d.subsec_nanos() == 0 && n >= 60 && n % 60 == 0 => format!("{}m", n / 60),
+        _ => format!("{s}s"),
+    }
+}
+
+/// Where a breadth-first search spills by default: `$TMPDIR` when set, else `/var/tmp`
+/// where it exists (a disk on systems whose `/tmp` is in memory), else the system's
+/// temporary directory.
+pub fn default_spill_parent() -> PathBuf {
+    match std::env::var_os("TMPDIR") {
+        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
+        _ if Path::new("/var/tmp").is_dir() => PathBuf::from("/var/tmp"),
+        _ => std::env::temp_dir(),
+    }
+}
+
+/// The prefix of this process's spill directories ([`fresh_spill_dir`]).
+fn spill_prefix() -> String {
+    format!("nekosim-spill-{}-", std::process::id())
+}
+
+/// A spill directory in `parent` that no other search of this process (nor of another
+/// process) names.
+pub fn fresh_spill_dir(parent: &Path) -> PathBuf {
+    static SEARCHES: AtomicUsize = AtomicUsize::new(0);
+    let n = SEARCHES.fetch_add(1, Ordering::Relaxed);
+    parent.join(format!("{}{n}", spill_prefix()))
+}
+
+/// Removes this process's spill directories in `parent`: a search removes its own when it
+/// ends, and this is for a process that ends at once (a second Ctrl-C).
+pub fn remove_spills(parent: &Path) {
+    let prefix = spill_prefix();
+    let Ok(entries) = std::fs::read_dir(parent) else {
+        return;
+    };
+    for e in entries.flatten() {
+        if e.file_name().to_string_lossy().starts_with(&prefix) {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
 /// Runs a check and prints its report on `out`.
 pub fn check(
     args: &CheckArgs,
@@ -507,6 +617,10 @@ struct Reporter<'a> {
     live: &'a Live,
     start: Instant,
     max_memory: Option<u64>,
+    max_time: Option<Duration>,
+    /// Where the search spills, and what it has spilled.
+    spill_dir: Option<PathBuf>,
+    spilled: Option<Spilled>,
     /// A progress line is on stderr.
     drawn: bool,
 }
@@ -525,7 +639,10 @@ impl Reporter<'_> {
 impl Watch for Reporter<'_> {
     fn progress(&mut self, at: &Progress) {
         if self.live.progress {
-            let text = progress_text(at, self.start.elapsed().as_secs_f64(), self.max_memory);
+            let mut text = progress_text(at, self.start.elapsed().as_secs_f64(), self.max_memory);
+            if let Some(s) = &self.spilled {
+                text += &format!(", disk {}", size_text(s.bytes));
+            }
             let mut e = io::stderr().lock();
             let _ = write!(e, "\r\x1b[K{text}");
             let _ = e.flush();
@@ -550,6 +667,24 @@ impl Watch for Reporter<'_> {
             .interrupt
             .as_ref()
             .is_some_and(|i| i.load(Ordering::Relaxed))
+    }
+
+    fn out_of_time(&self) -> Option<Duration> {
+        self.max_time.filter(|&t| self.start.elapsed() >= t)
+    }
+
+    fn spilled(&mut self, so_far: &Spilled) {
+        if self.spilled.is_none() {
+            self.clear();
+            let dir = self.spill_dir.as_deref().unwrap_or(Path::new("?"));
+            eprintln!(
+                "spilling to disk in {}: {} visited states and {} frontier states moved out of memory",
+                dir.display(),
+                so_far.states,
+                so_far.frontier
+            );
+        }
+        self.spilled = Some(*so_far);
     }
 }
 
@@ -639,6 +774,20 @@ pub fn check_live(
         max_states: args.max_states,
         max_memory: args.max_memory.or_else(default_memory_budget),
     };
+    // Only the breadth-first search spills; its directory is refused before the search.
+    let spill_parent = (!args.no_spill && args.strategy == Strategy::Bfs)
+        .then(|| args.spill_dir.clone().unwrap_or_else(default_spill_parent));
+    if let Some(parent) = spill_parent.as_ref().filter(|p| !p.is_dir()) {
+        return Err(CheckError::SpillDir {
+            path: parent.clone(),
+            source: io::Error::new(io::ErrorKind::NotFound, "not a directory"),
+        });
+    }
+    let spill = spill_parent.as_deref().map(|parent| Spill {
+        dir: fresh_spill_dir(parent),
+        after_states: args.spill_after,
+        max_disk: args.max_disk,
+    });
     let network = NetworkKind::NAMES[match opts.network {
         NetworkKind::Unordered => 0,
         NetworkKind::Ordered => 1,
@@ -692,7 +841,16 @@ pub fn check_live(
                 .max_states
                 .map_or("unlimited".into(), |n| n.to_string()),
             budget.max_memory.map_or("unlimited".into(), size_text),
-        ),
+        ) + &spill_parent.as_ref().map_or(String::new(), |p| {
+            format!(
+                ", spilling to {}{}",
+                p.display(),
+                args.max_disk
+                    .map_or(String::new(), |d| format!(" (at most {})", size_text(d)))
+            )
+        }) + &args
+            .max_time
+            .map_or(String::new(), |t| format!(", {} time", duration_text(t))),
     );
     let _ = out.flush();
     // The command times the checker; the models crate never reads the wall clock.
@@ -702,6 +860,9 @@ pub fn check_live(
         live,
         start,
         max_memory: budget.max_memory,
+        max_time: args.max_time,
+        spill_dir: spill.as_ref().map(|s| s.dir.clone()),
+        spilled: None,
         drawn: false,
     };
     let how = Exploration {
@@ -710,9 +871,11 @@ pub fn check_live(
         first_counterexample: !args.keep_going,
         strategy: args.strategy,
         budget,
+        spill,
     };
-    let outcome = run_watched(model.clone(), how, &mut reporter);
+    let outcome = run_watched(model.clone(), how.clone(), &mut reporter);
     reporter.clear();
+    let spilled = reporter.spilled;
     let seconds = start.elapsed().as_secs_f64();
     w(
         out,
@@ -725,6 +888,19 @@ pub fn check_live(
             outcome.states as f64 / seconds.max(1e-9)
         ),
     );
+    if let Some(s) = spilled {
+        w(
+            out,
+            format!(
+                "spilled to disk: {} time{}, at most {} of files ({} written), {} visited states on disk at the end",
+                s.spills,
+                if s.spills == 1 { "" } else { "s" },
+                size_text(s.peak_bytes),
+                size_text(s.written),
+                s.states
+            ),
+        );
+    }
     if args.compare_reduction {
         let again = (&target, &opts, args);
         compare_reduction(out, &registry.protocols, again, (how, live), &outcome)?;
@@ -738,6 +914,11 @@ pub fn check_live(
                 size_text(limit),
                 size_text(seen)
             ),
+            Stopped::Time { limit } => format!("the time budget ({})", duration_text(limit)),
+            Stopped::Disk { limit } => {
+                format!("the disk budget ({} of spill files)", size_text(limit))
+            }
+            Stopped::DiskError { kind } => format!("a spill file error ({kind})"),
         };
         w(
             out,
