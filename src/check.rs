@@ -12,7 +12,7 @@
 
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -31,11 +31,15 @@ use stateright::Expectation;
 use crate::recording::RecordingError;
 use crate::scenario::{CheckNetwork, FaultSpec, Overrides, Registry, ScenarioError, Source};
 
+mod budgets;
 pub mod lcm;
 pub mod lcm_search;
 mod temporal;
 mod trace;
 
+pub use budgets::{
+    default_spill_parent, duration_text, fresh_spill_dir, parse_duration, remove_spills,
+};
 pub use trace::{trace_lines, CheckEvent, CheckRecord};
 use trace::{write_recording, write_trace};
 
@@ -515,92 +519,6 @@ pub fn parse_size(text: &str) -> Result<u64, String> {
     Ok(bytes as u64)
 }
 
-/// Parses a duration: a number of seconds, or numbers with units `ms`, `s`, `m`, `h`, e.g.
-/// `90s`, `10m`, `1h30m` or `2.5h`.
-pub fn parse_duration(text: &str) -> Result<Duration, String> {
-    let bad = || format!("{text:?} is not a duration; expected e.g. 90s, 10m or 2h");
-    let t = text.trim();
-    if let Ok(seconds) = t.parse::<f64>() {
-        return Duration::try_from_secs_f64(seconds)
-            .ok()
-            .filter(|d| !d.is_zero())
-            .ok_or_else(bad);
-    }
-    let mut total = 0.0;
-    let mut rest = t;
-    while !rest.is_empty() {
-        let split = rest
-            .find(|c: char| !(c.is_ascii_digit() || c == '.'))
-            .ok_or_else(bad)?;
-        let (num, tail) = rest.split_at(split);
-        let unit_end = tail
-            .find(|c: char| c.is_ascii_digit() || c == '.')
-            .unwrap_or(tail.len());
-        let (unit, tail) = tail.split_at(unit_end);
-        let factor = match unit {
-            "ms" => 1e-3,
-            "s" => 1.0,
-            "m" | "min" => 60.0,
-            "h" => 3600.0,
-            _ => return Err(bad()),
-        };
-        total += num.parse::<f64>().map_err(|_| bad())? * factor;
-        rest = tail;
-    }
-    Duration::try_from_secs_f64(total)
-        .ok()
-        .filter(|d| !d.is_zero())
-        .ok_or_else(bad)
-}
-
-/// A duration as the report gives it: whole hours, minutes or seconds where it is one.
-pub fn duration_text(d: Duration) -> String {
-    let s = d.as_secs_f64();
-    match d.as_secs() {
-        n if d.subsec_nanos() == 0 && n >= 3600 && n % 3600 == 0 => format!("{}h", n / 3600),
-        n if d.subsec_nanos() == 0 && n >= 60 && n % 60 == 0 => format!("{}m", n / 60),
-        _ => format!("{s}s"),
-    }
-}
-
-/// Where a breadth-first search spills by default: `$TMPDIR` when set, else `/var/tmp`
-/// where it exists (a disk on systems whose `/tmp` is in memory), else the system's
-/// temporary directory.
-pub fn default_spill_parent() -> PathBuf {
-    match std::env::var_os("TMPDIR") {
-        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
-        _ if Path::new("/var/tmp").is_dir() => PathBuf::from("/var/tmp"),
-        _ => std::env::temp_dir(),
-    }
-}
-
-/// The prefix of this process's spill directories ([`fresh_spill_dir`]).
-fn spill_prefix() -> String {
-    format!("nekosim-spill-{}-", std::process::id())
-}
-
-/// A spill directory in `parent` that no other search of this process (nor of another
-/// process) names.
-pub fn fresh_spill_dir(parent: &Path) -> PathBuf {
-    static SEARCHES: AtomicUsize = AtomicUsize::new(0);
-    let n = SEARCHES.fetch_add(1, Ordering::Relaxed);
-    parent.join(format!("{}{n}", spill_prefix()))
-}
-
-/// Removes this process's spill directories in `parent`: a search removes its own when it
-/// ends, and this is for a process that ends at once (a second Ctrl-C).
-pub fn remove_spills(parent: &Path) {
-    let prefix = spill_prefix();
-    let Ok(entries) = std::fs::read_dir(parent) else {
-        return;
-    };
-    for e in entries.flatten() {
-        if e.file_name().to_string_lossy().starts_with(&prefix) {
-            let _ = std::fs::remove_dir_all(e.path());
-        }
-    }
-}
-
 /// Runs a check and prints its report on `out`.
 pub fn check(
     args: &CheckArgs,
@@ -676,12 +594,9 @@ impl Watch for Reporter<'_> {
     fn spilled(&mut self, so_far: &Spilled) {
         if self.spilled.is_none() {
             self.clear();
-            let dir = self.spill_dir.as_deref().unwrap_or(Path::new("?"));
             eprintln!(
-                "spilling to disk in {}: {} visited states and {} frontier states moved out of memory",
-                dir.display(),
-                so_far.states,
-                so_far.frontier
+                "{}",
+                budgets::spilling_text(self.spill_dir.as_deref(), so_far)
             );
         }
         self.spilled = Some(*so_far);
@@ -774,20 +689,7 @@ pub fn check_live(
         max_states: args.max_states,
         max_memory: args.max_memory.or_else(default_memory_budget),
     };
-    // Only the breadth-first search spills; its directory is refused before the search.
-    let spill_parent = (!args.no_spill && args.strategy == Strategy::Bfs)
-        .then(|| args.spill_dir.clone().unwrap_or_else(default_spill_parent));
-    if let Some(parent) = spill_parent.as_ref().filter(|p| !p.is_dir()) {
-        return Err(CheckError::SpillDir {
-            path: parent.clone(),
-            source: io::Error::new(io::ErrorKind::NotFound, "not a directory"),
-        });
-    }
-    let spill = spill_parent.as_deref().map(|parent| Spill {
-        dir: fresh_spill_dir(parent),
-        after_states: args.spill_after,
-        max_disk: args.max_disk,
-    });
+    let spill = budgets::spill(args)?;
     let network = NetworkKind::NAMES[match opts.network {
         NetworkKind::Unordered => 0,
         NetworkKind::Ordered => 1,
@@ -841,16 +743,7 @@ pub fn check_live(
                 .max_states
                 .map_or("unlimited".into(), |n| n.to_string()),
             budget.max_memory.map_or("unlimited".into(), size_text),
-        ) + &spill_parent.as_ref().map_or(String::new(), |p| {
-            format!(
-                ", spilling to {}{}",
-                p.display(),
-                args.max_disk
-                    .map_or(String::new(), |d| format!(" (at most {})", size_text(d)))
-            )
-        }) + &args
-            .max_time
-            .map_or(String::new(), |t| format!(", {} time", duration_text(t))),
+        ) + &budgets::search_text(args, spill.as_ref()),
     );
     let _ = out.flush();
     // The command times the checker; the models crate never reads the wall clock.
@@ -889,17 +782,7 @@ pub fn check_live(
         ),
     );
     if let Some(s) = spilled {
-        w(
-            out,
-            format!(
-                "spilled to disk: {} time{}, at most {} of files ({} written), {} visited states on disk at the end",
-                s.spills,
-                if s.spills == 1 { "" } else { "s" },
-                size_text(s.peak_bytes),
-                size_text(s.written),
-                s.states
-            ),
-        );
+        w(out, budgets::spilled_text(&s));
     }
     if args.compare_reduction {
         let again = (&target, &opts, args);
