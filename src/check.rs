@@ -5,7 +5,8 @@
 //! counterexample (`--keep-going` explores on for the others). Prints the checker's figures and
 //! each property's verdict, explains every counterexample step by step and ends it with the
 //! reason in the property's terms, and optionally writes it (or a witness) as a JSONL trace
-//! with `seq` as the step number. A search stopped by its state or memory budget, or by
+//! with `seq` as the step number. A breadth-first search that nears its memory budget spills
+//! to disk and goes on. A search stopped by its state, memory, disk or time budget, or by
 //! Ctrl-C, says what it explored and writes what it found. Models, properties and budgets:
 //! docs/model-checking.md.
 
@@ -13,11 +14,12 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use nekosim_models::config::UNLIMITED_TIMERS;
 use nekosim_models::explain::{describe, explain};
 use nekosim_models::reason::reason;
+use nekosim_models::spill::{Spill, Spilled};
 use nekosim_models::temporal::StackFairness;
 use nekosim_models::{
     available_memory, build_in, run_watched, Budget, Discovery, Exploration, ModelError,
@@ -29,11 +31,15 @@ use stateright::Expectation;
 use crate::recording::RecordingError;
 use crate::scenario::{CheckNetwork, FaultSpec, Overrides, Registry, ScenarioError, Source};
 
+mod budgets;
 pub mod lcm;
 pub mod lcm_search;
 mod temporal;
 mod trace;
 
+pub use budgets::{
+    default_spill_parent, duration_text, fresh_spill_dir, parse_duration, remove_spills,
+};
 pub use trace::{trace_lines, CheckEvent, CheckRecord};
 use trace::{write_recording, write_trace};
 
@@ -101,6 +107,18 @@ pub struct CheckArgs {
     pub max_states: Option<usize>,
     /// `None`: [`default_memory_budget`].
     pub max_memory: Option<u64>,
+    /// Where a breadth-first search spills when it nears the memory budget (`None`:
+    /// [`default_spill_parent`]).
+    pub spill_dir: Option<PathBuf>,
+    /// Stop at the memory budget instead of spilling.
+    pub no_spill: bool,
+    /// The bytes the spill files may take at once (`None`: unlimited).
+    pub max_disk: Option<u64>,
+    /// Also spill whenever this many visited states are in memory (tests spill small
+    /// searches with it).
+    pub spill_after: Option<usize>,
+    /// Stop the search after this long.
+    pub max_time: Option<Duration>,
     /// Symmetry reduction (also on when the scenario's `check` section asks for it).
     pub symmetry: bool,
     /// No reduction ([`Reduction`]; on by default).
@@ -180,6 +198,9 @@ pub enum CheckError {
     /// Bad arguments for a Look-Compute-Move check (exit 2).
     #[error("{0}")]
     Lcm(String),
+    /// The spill directory's parent is not a directory (exit 2).
+    #[error("cannot spill to {}: {source}", path.display())]
+    SpillDir { path: PathBuf, source: io::Error },
 }
 
 /// Properties a protocol states itself, checked alongside its service's whenever it is in
@@ -397,6 +418,13 @@ fn compare_reduction(
     };
     let start = Instant::now();
     let model = build_in(protocols, target, &plain, |_, _| {})?;
+    let how = Exploration {
+        spill: how.spill.map(|s| Spill {
+            dir: fresh_spill_dir(s.dir.parent().unwrap_or(Path::new("."))),
+            ..s
+        }),
+        ..how
+    };
     let without = run_watched(model, how, &mut Interrupt(live));
     let settled = |o: &nekosim_models::Outcome| {
         if o.stopped.is_some() {
@@ -507,6 +535,10 @@ struct Reporter<'a> {
     live: &'a Live,
     start: Instant,
     max_memory: Option<u64>,
+    max_time: Option<Duration>,
+    /// Where the search spills, and what it has spilled.
+    spill_dir: Option<PathBuf>,
+    spilled: Option<Spilled>,
     /// A progress line is on stderr.
     drawn: bool,
 }
@@ -525,7 +557,10 @@ impl Reporter<'_> {
 impl Watch for Reporter<'_> {
     fn progress(&mut self, at: &Progress) {
         if self.live.progress {
-            let text = progress_text(at, self.start.elapsed().as_secs_f64(), self.max_memory);
+            let mut text = progress_text(at, self.start.elapsed().as_secs_f64(), self.max_memory);
+            if let Some(s) = &self.spilled {
+                text += &format!(", disk {}", size_text(s.bytes));
+            }
             let mut e = io::stderr().lock();
             let _ = write!(e, "\r\x1b[K{text}");
             let _ = e.flush();
@@ -550,6 +585,21 @@ impl Watch for Reporter<'_> {
             .interrupt
             .as_ref()
             .is_some_and(|i| i.load(Ordering::Relaxed))
+    }
+
+    fn out_of_time(&self) -> Option<Duration> {
+        self.max_time.filter(|&t| self.start.elapsed() >= t)
+    }
+
+    fn spilled(&mut self, so_far: &Spilled) {
+        if self.spilled.is_none() {
+            self.clear();
+            eprintln!(
+                "{}",
+                budgets::spilling_text(self.spill_dir.as_deref(), so_far)
+            );
+        }
+        self.spilled = Some(*so_far);
     }
 }
 
@@ -639,6 +689,7 @@ pub fn check_live(
         max_states: args.max_states,
         max_memory: args.max_memory.or_else(default_memory_budget),
     };
+    let spill = budgets::spill(args)?;
     let network = NetworkKind::NAMES[match opts.network {
         NetworkKind::Unordered => 0,
         NetworkKind::Ordered => 1,
@@ -692,7 +743,7 @@ pub fn check_live(
                 .max_states
                 .map_or("unlimited".into(), |n| n.to_string()),
             budget.max_memory.map_or("unlimited".into(), size_text),
-        ),
+        ) + &budgets::search_text(args, spill.as_ref()),
     );
     let _ = out.flush();
     // The command times the checker; the models crate never reads the wall clock.
@@ -702,6 +753,9 @@ pub fn check_live(
         live,
         start,
         max_memory: budget.max_memory,
+        max_time: args.max_time,
+        spill_dir: spill.as_ref().map(|s| s.dir.clone()),
+        spilled: None,
         drawn: false,
     };
     let how = Exploration {
@@ -710,9 +764,11 @@ pub fn check_live(
         first_counterexample: !args.keep_going,
         strategy: args.strategy,
         budget,
+        spill,
     };
-    let outcome = run_watched(model.clone(), how, &mut reporter);
+    let outcome = run_watched(model.clone(), how.clone(), &mut reporter);
     reporter.clear();
+    let spilled = reporter.spilled;
     let seconds = start.elapsed().as_secs_f64();
     w(
         out,
@@ -725,6 +781,9 @@ pub fn check_live(
             outcome.states as f64 / seconds.max(1e-9)
         ),
     );
+    if let Some(s) = spilled {
+        w(out, budgets::spilled_text(&s));
+    }
     if args.compare_reduction {
         let again = (&target, &opts, args);
         compare_reduction(out, &registry.protocols, again, (how, live), &outcome)?;
@@ -738,6 +797,11 @@ pub fn check_live(
                 size_text(limit),
                 size_text(seen)
             ),
+            Stopped::Time { limit } => format!("the time budget ({})", duration_text(limit)),
+            Stopped::Disk { limit } => {
+                format!("the disk budget ({} of spill files)", size_text(limit))
+            }
+            Stopped::DiskError { kind } => format!("a spill file error ({kind})"),
         };
         w(
             out,

@@ -168,6 +168,23 @@ enum Command {
         /// [default: half the machine's memory, at most 4GiB].
         #[arg(long, value_name = "SIZE", value_parser = check::parse_size)]
         max_memory: Option<u64>,
+        /// Where a breadth-first search spills its visited states and frontier, compressed,
+        /// when memory nears its budget (in a directory of its own, removed at the end)
+        /// [default: $TMPDIR, else /var/tmp, else the system's temporary directory].
+        #[arg(long, value_name = "DIR")]
+        spill_dir: Option<PathBuf>,
+        /// Stop at the memory budget instead of spilling to disk.
+        #[arg(long, conflicts_with_all = ["spill_dir", "max_disk"])]
+        no_spill: bool,
+        /// Stop when the spill files would take more than SIZE [default: unlimited].
+        #[arg(long, value_name = "SIZE", value_parser = check::parse_size)]
+        max_disk: Option<u64>,
+        /// Spill whenever this many visited states are in memory (for tests).
+        #[arg(long, value_name = "N", hide = true)]
+        spill_after: Option<usize>,
+        /// Stop the search after DURATION (e.g. 90s, 10m, 2h) [default: unlimited].
+        #[arg(long, value_name = "DURATION", value_parser = check::parse_duration)]
+        max_time: Option<std::time::Duration>,
         /// Explore paths of at most this many steps.
         #[arg(long)]
         depth: Option<usize>,
@@ -385,6 +402,11 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             seed,
             max_states,
             max_memory,
+            spill_dir,
+            no_spill,
+            max_disk,
+            spill_after,
+            max_time,
             depth,
             threads,
             trace,
@@ -426,6 +448,11 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
                 },
                 max_states,
                 max_memory,
+                spill_dir,
+                no_spill,
+                max_disk,
+                spill_after,
+                max_time,
                 depth,
                 threads,
                 trace,
@@ -456,9 +483,16 @@ fn execute(command: Command, registry: &Registry) -> Result<u8, Failure> {
             let interrupt = Arc::new(AtomicBool::new(false));
             {
                 let interrupt = interrupt.clone();
+                // A process ended at once leaves no spill files behind.
+                let spills = (!args.no_spill)
+                    .then(|| args.spill_dir.clone())
+                    .map(|d| d.unwrap_or_else(check::default_spill_parent));
                 // Without a handler (e.g. one already set), an interrupt kills the process.
                 let _ = ctrlc::set_handler(move || {
                     if interrupt.swap(true, Ordering::Relaxed) {
+                        if let Some(parent) = &spills {
+                            check::remove_spills(parent);
+                        }
                         std::process::exit(INTERRUPTED);
                     }
                 });

@@ -15,7 +15,8 @@
 //! property, reconstructed into a [`Path`] by replaying the model along the parents'
 //! fingerprints. It implements stateright's [`Checker`], so budgets and verdicts treat it like
 //! stateright's checkers. With a partial-order reduction ([`crate::reduction`]) it explores
-//! fewer states, reaching the same verdicts.
+//! fewer states, reaching the same verdicts. When memory runs short it spills its visited set
+//! and frontier to disk ([`crate::spill`]), exploring the same states in the same order.
 
 use std::collections::{HashMap, VecDeque};
 use std::fmt::Debug;
@@ -32,6 +33,11 @@ use stateright::actor::{
 use stateright::{Checker, Expectation, Model, Path};
 
 use crate::reduction::{self, Invisible};
+use crate::spill::{Spill, Store};
+
+mod level;
+
+use level::{Block, Stored};
 
 /// One process's part of a state: its state, timers, random choices, crash flag and storage.
 type ProcPart<A> = (
@@ -93,7 +99,7 @@ type ModelAction<A, C, H> = <ActorModel<A, C, H> as Model>::Action;
 /// A path of an actor model.
 type ModelPath<A, C, H> = Path<ActorModelState<A, H>, ModelAction<A, C, H>>;
 
-/// Records per frontier block: the unit of work a thread takes.
+/// Records per frontier block: the unit of work a thread takes (at most).
 const BLOCK: usize = 1024;
 
 /// Distinct values, each numbered once: the number of an equal value is always the same.
@@ -437,32 +443,6 @@ impl<A: Actor, H> Unpacked<A, H> {
     }
 }
 
-/// A block of frontier records: `[len, words..]` each, all of one depth.
-#[derive(Default)]
-struct Block {
-    words: Vec<u32>,
-    count: usize,
-}
-
-impl Block {
-    fn push(&mut self, rec: &[u32]) {
-        self.words
-            .push(u32::try_from(rec.len()).expect("a record fits in u32 words"));
-        self.words.extend_from_slice(rec);
-        self.count += 1;
-    }
-
-    fn records(&self) -> impl Iterator<Item = &[u32]> {
-        let mut at = 0;
-        std::iter::from_fn(move || {
-            let len = *self.words.get(at)? as usize;
-            let rec = &self.words[at + 1..at + 1 + len];
-            at += 1 + len;
-            Some(rec)
-        })
-    }
-}
-
 /// What every search thread shares.
 struct Search<A, C, H>
 where
@@ -488,10 +468,15 @@ where
     found: Vec<AtomicBool>,
     done: AtomicBool,
     /// The current depth's blocks, and the next block to take.
-    level: RwLock<Vec<Block>>,
+    level: RwLock<Vec<Stored>>,
     cursor: AtomicUsize,
     /// The next depth's blocks, as threads finish them.
-    next: Mutex<Vec<Block>>,
+    next: Mutex<Vec<Stored>>,
+    /// Whether the threads go on to the next depth after a pause (the leader says).
+    advance: AtomicBool,
+    /// Records per block made ([`BLOCK`], or fewer to spill small searches).
+    block: usize,
+    spill: Option<Arc<Store>>,
 }
 
 /// Stateright's breadth-first search over compact states (see the module doc).
@@ -570,6 +555,24 @@ where
         reductions: Reductions<A, H>,
         closed: Option<Arc<AtomicBool>>,
     ) -> Self {
+        let how = (threads, target_max_depth, finish_on_failure);
+        Self::spawn_spilling(model, how, reductions, closed, None)
+    }
+
+    /// [`Self::spawn`] with `(threads, target_max_depth, finish_on_failure)` and, with
+    /// `spill`, the visited set and the frontier going to disk when [`Store::look`] asks for
+    /// it or [`Spill::after_states`] says ([`crate::spill`]); a spill that fails closes the
+    /// boundary as a budget does.
+    ///
+    /// # Panics
+    /// If `!supports(&model)`.
+    pub fn spawn_spilling(
+        model: ActorModel<A, C, H>,
+        (threads, target_max_depth, finish_on_failure): (usize, Option<usize>, bool),
+        reductions: Reductions<A, H>,
+        closed: Option<Arc<AtomicBool>>,
+        spill: Option<Spill>,
+    ) -> Self {
         let Reductions {
             images,
             invisible: reduction,
@@ -603,6 +606,14 @@ where
             level: RwLock::new(Vec::new()),
             cursor: AtomicUsize::new(0),
             next: Mutex::new(Vec::new()),
+            advance: AtomicBool::new(false),
+            // A spill waits for the blocks being expanded: they are a small part of what
+            // memory holds between two spills.
+            block: spill
+                .as_ref()
+                .and_then(|s| s.after_states)
+                .map_or(BLOCK, |n| (n / 4).clamp(1, BLOCK)),
+            spill: spill.map(|s| Arc::new(Store::new(s))),
         });
         let mut first = Block::default();
         let (mut rec, mut tmp) = (Vec::new(), Vec::new());
@@ -620,7 +631,7 @@ where
                 first.push(&rec);
             }
         }
-        *search.level.write().expect("level lock") = vec![first];
+        *search.level.write().expect("level lock") = vec![Stored::Memory(first)];
         let threads = threads.max(1);
         let barrier = Arc::new(std::sync::Barrier::new(threads));
         let handles = (0..threads)
@@ -643,7 +654,12 @@ where
         search
             .packer
             .pack_least(s.clone(), None, search.images.as_ref(), &mut rec, &mut tmp);
-        search.visited.contains_key(&fingerprint(&rec))
+        search.seen(fingerprint(&rec)).is_some()
+    }
+
+    /// The disk side of the search, when it may spill.
+    pub fn spill(&self) -> Option<Arc<Store>> {
+        self.search.spill.clone()
     }
 
     /// The tables' sizes: distinct histories, process parts and envelopes.
@@ -663,43 +679,6 @@ where
     A::Random: Clone + Eq + Hash,
     H: Clone + Debug + Hash + PartialEq,
 {
-    /// One thread's loop: take blocks of the current depth until none is left, wait for the
-    /// others, and (the leader) swap in the next depth.
-    fn work(&self, leader: bool, barrier: &std::sync::Barrier) {
-        let mut depth = 1;
-        loop {
-            {
-                let level = self.level.read().expect("level lock");
-                let mut out = Block::default();
-                loop {
-                    if self.done.load(Ordering::Relaxed) {
-                        break;
-                    }
-                    let i = self.cursor.fetch_add(1, Ordering::Relaxed);
-                    let Some(block) = level.get(i) else { break };
-                    self.expand_block(block, depth, &mut out);
-                }
-                if out.count > 0 {
-                    self.next.lock().expect("next lock").push(out);
-                }
-            }
-            barrier.wait();
-            if leader {
-                let next = std::mem::take(&mut *self.next.lock().expect("next lock"));
-                if next.is_empty() {
-                    self.done.store(true, Ordering::Relaxed);
-                }
-                *self.level.write().expect("level lock") = next;
-                self.cursor.store(0, Ordering::Relaxed);
-            }
-            barrier.wait();
-            if self.done.load(Ordering::Relaxed) {
-                return;
-            }
-            depth += 1;
-        }
-    }
-
     /// Checks and expands every record of `block` (all at `depth`), adding new successors to
     /// `out` (handed over whenever it fills a block).
     fn expand_block(&self, block: &Block, depth: usize, out: &mut Block) {
@@ -823,9 +802,12 @@ where
             });
             self.unique.fetch_add(1, Ordering::Relaxed);
             out.push(rec);
-            if out.count >= BLOCK {
+            if out.count >= self.block {
                 let full = std::mem::take(out);
-                self.next.lock().expect("next lock").push(full);
+                self.next
+                    .lock()
+                    .expect("next lock")
+                    .push(Stored::Memory(full));
             }
         }
     }
@@ -888,11 +870,7 @@ where
                         self.make(parent, action, Some(invisible), arena, (&mut rec, &mut tmp));
                 }
                 if let Slot::Packed { fp, visible, .. } = slots[i] {
-                    let seen_before = self
-                        .visited
-                        .get(&fp)
-                        .is_some_and(|s| s.depth as usize <= depth);
-                    if visible || seen_before {
+                    if visible || self.seen_by(fp, depth) {
                         continue 'sets;
                     }
                     any = true;
@@ -923,7 +901,7 @@ where
     fn path(&self, fp: u64) -> Option<ModelPath<A, C, H>> {
         let mut fps = VecDeque::from([fp]);
         loop {
-            let seen = *self.visited.get(fps.front()?)?;
+            let seen = self.seen(*fps.front()?)?;
             if seen.depth <= 1 {
                 break;
             }

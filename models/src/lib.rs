@@ -8,7 +8,8 @@
 //! - [`model`]: building a model from a stack (crashes, bounds) and running the checker.
 //! - [`liveness`]: liveness under fairness on any explicit-state transition system, with
 //!   lasso counterexamples (the Look-Compute-Move checks use it).
-//! - [`compact`]: the breadth-first search over compact states (collapse compression).
+//! - [`compact`]: the breadth-first search over compact states (collapse compression);
+//!   [`spill`]: its visited set and frontier moved to disk when memory runs short.
 //! - [`property`]: the properties of each protocol family.
 //! - [`reason`]: why a counterexample violates its property, in the property's terms.
 //! - [`registry`]: the shipped models as Rust targets, for this crate's tests and benches
@@ -35,6 +36,7 @@ pub mod property;
 pub mod reason;
 pub mod reduction;
 pub mod registry;
+pub mod spill;
 pub mod symmetry;
 pub mod temporal;
 

@@ -22,6 +22,7 @@ use crate::config::{
 use crate::family::Family;
 use crate::property::properties;
 use crate::reduction::Invisible;
+use crate::spill::{Spill, Spilled, Store};
 use crate::symmetry::Symmetry;
 
 /// A check that cannot be built from its parameters.
@@ -556,6 +557,12 @@ pub enum Stopped {
     Memory { limit: u64, seen: u64 },
     /// The watcher asked it to stop ([`Watch::interrupted`]: Ctrl-C).
     Interrupted,
+    /// The time budget the watcher keeps ([`Watch::out_of_time`]).
+    Time { limit: Duration },
+    /// The disk budget of spilling ([`Spill::max_disk`]) [bytes].
+    Disk { limit: u64 },
+    /// A spill file could not be written or read ([`crate::spill`]).
+    DiskError { kind: std::io::ErrorKind },
 }
 
 /// Where a search stands, as a watcher sees it while it runs.
@@ -598,6 +605,14 @@ pub trait Watch {
     fn interrupted(&self) -> bool {
         false
     }
+    /// The time budget, once it has run out: the search then stops as a budget stops it
+    /// ([`Stopped::Time`]). The watcher keeps the time, as it times the search.
+    fn out_of_time(&self) -> Option<Duration> {
+        None
+    }
+    /// The search spilled to disk ([`crate::spill`]): told after each spill, and once more
+    /// at the end with the files' peak.
+    fn spilled(&mut self, _so_far: &Spilled) {}
 }
 
 /// The watcher of [`run`]: nobody.
@@ -607,7 +622,7 @@ impl Watch for () {}
 pub const PROGRESS_TICKS: u32 = 50;
 
 /// How to explore.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Exploration {
     pub threads: usize,
     /// Explore paths of at most this many steps.
@@ -616,6 +631,9 @@ pub struct Exploration {
     pub first_counterexample: bool,
     pub strategy: Strategy,
     pub budget: Budget,
+    /// Spill the visited set and the frontier to disk instead of stopping at the memory
+    /// budget (breadth-first search by [`CompactBfs`] only); `None`: stop there.
+    pub spill: Option<Spill>,
 }
 
 impl Default for Exploration {
@@ -626,6 +644,7 @@ impl Default for Exploration {
             first_counterexample: false,
             strategy: Strategy::Bfs,
             budget: Budget::default(),
+            spill: None,
         }
     }
 }
@@ -688,15 +707,16 @@ pub fn run_watched(model: CheckModel, how: Exploration, watch: &mut dyn Watch) -
             invisible: model.cfg.reduction.then(|| invisible(&model)),
             spent: model.cfg.reduction.then(|| spent(&model)),
         };
-        let checker = CompactBfs::spawn(
+        let checker = CompactBfs::spawn_spilling(
             model,
-            how.threads,
-            how.depth,
-            how.first_counterexample,
+            (how.threads, how.depth, how.first_counterexample),
             reductions,
             Some(Arc::clone(&stop)),
+            how.spill,
         );
-        return outcome(supervise(checker, &stop, how.budget, watch), &props);
+        let store = checker.spill();
+        let watched = supervise(checker, &stop, how.budget, watch, store.as_deref());
+        return outcome(watched, &props);
     }
     let mut builder = model.checker().threads(how.threads.max(1));
     if let Some(d) = how.depth {
@@ -707,11 +727,11 @@ pub fn run_watched(model: CheckModel, how: Exploration, watch: &mut dyn Watch) -
     }
     match how.strategy {
         Strategy::Bfs => outcome(
-            supervise(builder.spawn_bfs(), &stop, how.budget, watch),
+            supervise(builder.spawn_bfs(), &stop, how.budget, watch, None),
             &props,
         ),
         Strategy::Dfs => outcome(
-            supervise(builder.spawn_dfs(), &stop, how.budget, watch),
+            supervise(builder.spawn_dfs(), &stop, how.budget, watch, None),
             &props,
         ),
         Strategy::Simulation { seed } => {
@@ -725,7 +745,7 @@ pub fn run_watched(model: CheckModel, how: Exploration, watch: &mut dyn Watch) -
             let checker = builder
                 .target_state_count(limit)
                 .spawn_simulation(seed, UniformChooser);
-            let (checker, spent) = supervise(checker, &stop, budget, watch);
+            let (checker, spent) = supervise(checker, &stop, budget, watch, None);
             let spent =
                 spent.or((checker.state_count() >= limit).then_some(Stopped::States { limit }));
             outcome((checker, spent), &props)
@@ -794,14 +814,16 @@ fn outcome<C: Checker<CheckModel>>(
 }
 
 /// Waits for `checker`, watching its budget and telling `watch`: when the unique states or
-/// this process's resident memory reach theirs, or the watcher interrupts, `stop` closes the
-/// model's boundary, so the checker settles the states it holds without making new ones and
-/// ends.
+/// this process's resident memory reach theirs, the watcher's time runs out or it
+/// interrupts, `stop` closes the model's boundary, so the checker settles the states it holds
+/// without making new ones and ends. With `spill`, memory nearing its budget asks the
+/// checker to spill first, and a spill that fails has closed the boundary itself.
 fn supervise<C: Checker<CheckModel>>(
     checker: C,
     stop: &AtomicBool,
     budget: Budget,
     watch: &mut dyn Watch,
+    spill: Option<&Store>,
 ) -> (C, Option<Stopped>) {
     let found = Arc::clone(&checker.model().cfg.found);
     let expectations: Vec<Expectation> = checker
@@ -831,7 +853,12 @@ fn supervise<C: Checker<CheckModel>>(
     };
     let mut spent = None;
     let mut ticks = 0u32;
+    let mut spills = 0;
     while !checker.is_done() {
+        if let Some(so_far) = spill.map(Store::report).filter(|r| r.spills != spills) {
+            spills = so_far.spills;
+            watch.spilled(&so_far);
+        }
         let unique = checker.unique_state_count();
         tell(watch, unique);
         let memory = (budget.max_memory.is_some() || ticks % PROGRESS_TICKS == 0)
@@ -846,17 +873,25 @@ fn supervise<C: Checker<CheckModel>>(
             });
         }
         if spent.is_none() {
+            // A spill that failed has closed the boundary already.
+            spent = spill.and_then(Store::failure);
             if let Some(limit) = budget.max_states {
                 if unique >= limit {
                     spent = Some(Stopped::States { limit });
                 }
             }
             if let (Some(limit), Some(seen)) = (budget.max_memory, memory) {
+                if let Some(store) = spill {
+                    store.look(seen, limit);
+                }
                 // Stop a little early: memory still grows between two looks and while the
                 // states in hand are settled, and the peak must stay under the limit.
                 if seen >= limit - limit / MEMORY_HEADROOM {
                     spent = Some(Stopped::Memory { limit, seen });
                 }
+            }
+            if let Some(limit) = watch.out_of_time().filter(|_| spent.is_none()) {
+                spent = Some(Stopped::Time { limit });
             }
             if spent.is_none() && watch.interrupted() {
                 spent = Some(Stopped::Interrupted);
@@ -869,5 +904,13 @@ fn supervise<C: Checker<CheckModel>>(
         std::thread::sleep(Duration::from_millis(2));
     }
     tell(watch, checker.unique_state_count());
-    (checker.join(), spent)
+    let checker = checker.join();
+    if let Some(store) = spill {
+        spent = spent.or(store.failure());
+        let so_far = store.report();
+        if so_far.spills > 0 {
+            watch.spilled(&so_far);
+        }
+    }
+    (checker, spent)
 }

@@ -1193,3 +1193,230 @@ fn a_leader_election_over_heartbeat_keeps_a_stable_leader_after_a_crash() {
         "{out}"
     );
 }
+
+/// What a spill directory holds (nothing, once a check has ended).
+fn left_in(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect()
+}
+
+/// Every line but the figures' timing, the search line (which names where it spills), what
+/// was spilled, and when a failure was seen (the unique states when the search's supervisor
+/// looked, which its timing decides).
+fn unspilled(out: &str) -> Vec<&str> {
+    untimed(out)
+        .into_iter()
+        .filter(|l| !l.starts_with("search: ") && !l.starts_with("spilled to disk: "))
+        .map(|l| l.split(", after ").next().unwrap_or(l))
+        .collect()
+}
+
+#[test]
+fn a_spilled_check_reports_and_traces_what_the_check_in_memory_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let spill = dir.path().join("spill");
+    std::fs::create_dir(&spill).unwrap();
+    let (a, b) = (dir.path().join("a.jsonl"), dir.path().join("b.jsonl"));
+    // A counterexample on a lossy network, with every property settled; and a correct model
+    // whose partial-order reduction looks in the spilled states for its cycle proviso.
+    for (args, traces) in [
+        (
+            &[
+                "reliable-broadcast",
+                "--network",
+                "lossy",
+                "--requests",
+                "3",
+            ][..],
+            true,
+        ),
+        (&["lamport-abcast", "--network", "ordered"][..], false),
+    ] {
+        let mut memory = vec!["check", "--keep-going", "--no-spill"];
+        memory.extend(args);
+        let mut disk = vec![
+            "check",
+            "--keep-going",
+            "--spill-after",
+            "50",
+            "--spill-dir",
+        ];
+        disk.push(spill.to_str().unwrap());
+        disk.extend(args);
+        if traces {
+            memory.extend(["--trace", a.to_str().unwrap()]);
+            disk.extend(["--trace", b.to_str().unwrap()]);
+        }
+        let (m, d) = (nekosim(&memory), nekosim(&disk));
+        let (mo, dout) = (stdout(&m), stdout(&d));
+        assert_eq!(m.status.code(), d.status.code(), "{dout}");
+        assert_eq!(unspilled(&mo), unspilled(&dout), "{args:?}");
+        let search = dout.lines().find(|l| l.starts_with("search: ")).unwrap();
+        assert!(
+            search.ends_with(&format!(", spilling to {}", spill.display())),
+            "{search}"
+        );
+        let said = dout
+            .lines()
+            .find(|l| l.starts_with("spilled to disk: "))
+            .unwrap_or_else(|| panic!("{dout}"));
+        let times: usize = said["spilled to disk: ".len()..]
+            .split(' ')
+            .next()
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{said}"));
+        assert!(times > 1, "{said}");
+        let err = String::from_utf8_lossy(&d.stderr);
+        assert!(
+            err.starts_with(&format!(
+                "spilling to disk in {}/nekosim-spill-",
+                spill.display()
+            )),
+            "{err}"
+        );
+        assert!(left_in(&spill).is_empty(), "{:?}", left_in(&spill));
+        if traces {
+            assert_eq!(m.status.code(), Some(1), "{mo}");
+            assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+        }
+    }
+}
+
+#[test]
+fn a_disk_budget_too_small_stops_the_check_with_exit_3_and_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let o = nekosim(&[
+        "check",
+        "lamport-abcast",
+        "--requests",
+        "3",
+        "--spill-after",
+        "1000",
+        "--spill-dir",
+        d,
+        "--max-disk",
+        "4KiB",
+    ]);
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(3), "{out}");
+    let search = out.lines().find(|l| l.starts_with("search: ")).unwrap();
+    assert!(
+        search.ends_with(&format!(", spilling to {d} (at most 4.0 KiB)")),
+        "{search}"
+    );
+    assert!(
+        out.contains("stopped by the disk budget (4.0 KiB of spill files) before the search was exhaustive: "),
+        "{out}"
+    );
+    assert!(
+        out.contains("  open   total order (always): no counterexample in what was explored"),
+        "{out}"
+    );
+    assert!(left_in(dir.path()).is_empty(), "{:?}", left_in(dir.path()));
+    // Without spilling the budget is meaningless, and refused.
+    let o = nekosim(&[
+        "check",
+        "lamport-abcast",
+        "--no-spill",
+        "--max-disk",
+        "4KiB",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    // A spill directory that is not one is refused before the search, in one line.
+    let file = dir.path().join("file");
+    std::fs::write(&file, "").unwrap();
+    let o = nekosim(&[
+        "check",
+        "lamport-abcast",
+        "--spill-dir",
+        file.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(o.stdout.is_empty());
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("cannot spill to ") && err.contains("not a directory"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_time_budget_stops_the_check_with_exit_3() {
+    let o = nekosim(&[
+        "check",
+        "lamport-abcast",
+        "--requests",
+        "3",
+        "--max-time",
+        "1s",
+    ]);
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(3), "{out}");
+    assert!(
+        out.lines()
+            .next()
+            .is_some_and(|_| out.contains(", 1s time\n")),
+        "{out}"
+    );
+    let seconds: f64 = figures_seconds(&out);
+    assert!((1.0..30.0).contains(&seconds), "{out}");
+    assert!(
+        out.contains("stopped by the time budget (1s) before the search was exhaustive: "),
+        "{out}"
+    );
+    for bad in ["soon", "0s", "-3m", "5 parsecs"] {
+        let o = nekosim(&["check", "lamport-abcast", &format!("--max-time={bad}")]);
+        assert_eq!(o.status.code(), Some(2), "{bad}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("expected e.g. 90s, 10m or 2h"), "{bad}: {err}");
+    }
+}
+
+/// The seconds of a report's figures.
+fn figures_seconds(out: &str) -> f64 {
+    out.lines()
+        .find(|l| l.starts_with("states: "))
+        .and_then(|l| l.split("seconds: ").nth(1))
+        .and_then(|s| s.split(',').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no seconds in {out}"))
+}
+
+#[test]
+fn ctrl_c_while_spilled_leaves_no_spill_file() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    let dir = tempfile::tempdir().unwrap();
+    for interrupts in [1, 2] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_nekosim"))
+            .args(["check", "lamport-abcast", "--requests", "3"])
+            .args(["--spill-after", "2000", "--spill-dir"])
+            .arg(dir.path())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut err = BufReader::new(child.stderr.take().unwrap()).lines();
+        let said = err.next().unwrap().unwrap();
+        assert!(said.starts_with("spilling to disk in "), "{said}");
+        assert_eq!(left_in(dir.path()).len(), 1, "the search's own directory");
+        for _ in 0..interrupts {
+            let status = Command::new("kill")
+                .args(["-INT", &child.id().to_string()])
+                .status()
+                .unwrap();
+            assert!(status.success());
+        }
+        let o = child.wait_with_output().unwrap();
+        assert_eq!(o.status.code(), Some(130), "{}", stdout(&o));
+        assert!(
+            left_in(dir.path()).is_empty(),
+            "{interrupts}: {:?}",
+            left_in(dir.path())
+        );
+    }
+}

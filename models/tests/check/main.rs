@@ -9,6 +9,7 @@ mod reduction;
 mod rounds;
 mod services;
 mod spent;
+mod spilling;
 mod state_counts;
 mod symmetry;
 
