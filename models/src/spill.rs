@@ -58,17 +58,17 @@ pub struct Spilled {
     pub states: usize,
     /// Frontier states on disk, not expanded yet.
     pub frontier: usize,
-    /// Bytes the spill files take now [B].
+    /// What the spill files take now \[bytes\].
     pub bytes: u64,
-    /// The most bytes they took at once [B].
+    /// The most they took at once \[bytes\].
     pub peak_bytes: u64,
-    /// Bytes written in all [B].
+    /// What was written in all \[bytes\].
     pub written: u64,
 }
 
 /// A memory budget asks for a spill at `1 - 1/SPILL_HEADROOM` of its size, well below the
 /// line where it stops the search ([`crate::model::MEMORY_HEADROOM`]): what memory gains
-/// until the spill is made ([`REGROWTH`]) and the spill's own buffers fit between the two.
+/// until the spill is made and the spill's own buffers fit between the two.
 pub const SPILL_HEADROOM: u64 = 4;
 
 /// Memory must hold at least `1/REGROWTH` of the most visited states a spill moved out
