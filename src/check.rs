@@ -636,6 +636,11 @@ pub fn check_live(
             max_memory: args.max_memory.or_else(default_memory_budget),
             interrupt: live.interrupt.clone(),
         };
+        let robots = lcm::rule_table_of(&source).is_some()
+            || (source.scenario.lcm.is_some() && source.scenario.stack.is_empty());
+        if robots {
+            budgets::stack_only(args)?;
+        }
         if let Some(table) = lcm::rule_table_of(&source) {
             return lcm::check(&source, table?, args, watch(), out);
         }

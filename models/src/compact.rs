@@ -468,7 +468,7 @@ where
     found: Vec<AtomicBool>,
     done: AtomicBool,
     /// The current depth's blocks, and the next block to take.
-    level: RwLock<Vec<Stored>>,
+    level: RwLock<Vec<Mutex<Stored>>>,
     cursor: AtomicUsize,
     /// The next depth's blocks, as threads finish them.
     next: Mutex<Vec<Stored>>,
@@ -631,7 +631,7 @@ where
                 first.push(&rec);
             }
         }
-        *search.level.write().expect("level lock") = vec![Stored::Memory(first)];
+        *search.level.write().expect("level lock") = vec![Mutex::new(Stored::Memory(first))];
         let threads = threads.max(1);
         let barrier = Arc::new(std::sync::Barrier::new(threads));
         let handles = (0..threads)

@@ -559,7 +559,7 @@ pub enum Stopped {
     Interrupted,
     /// The time budget the watcher keeps ([`Watch::out_of_time`]).
     Time { limit: Duration },
-    /// The disk budget of spilling ([`Spill::max_disk`]) [bytes].
+    /// The disk budget of spilling ([`Spill::max_disk`]) \[bytes\].
     Disk { limit: u64 },
     /// A spill file could not be written or read ([`crate::spill`]).
     DiskError { kind: std::io::ErrorKind },

@@ -2,8 +2,9 @@
 //! outgrow the memory budget goes on instead of stopping.
 //!
 //! The method is Stern and Dill's disk-based breadth-first search (Murphi), on the compact
-//! search of [`crate::compact`]. When the process's resident memory nears its budget (or the
-//! visited set holds [`Spill::after_states`] states), the search pauses between two blocks
+//! search of [`crate::compact`]. When the process's resident memory nears its budget
+//! ([`SPILL_HEADROOM`]), when the visited set's table would double past the budget, or when
+//! the visited set holds [`Spill::after_states`] states, the search pauses between two blocks
 //! and empties its memory into a directory of its own:
 //!
 //! - the visited set joins the **run**: every fingerprint moved out of memory so far, with
@@ -57,22 +58,24 @@ pub struct Spilled {
     pub states: usize,
     /// Frontier states on disk, not expanded yet.
     pub frontier: usize,
-    /// Bytes the spill files take now [B].
+    /// What the spill files take now \[bytes\].
     pub bytes: u64,
-    /// The most bytes they took at once [B].
+    /// The most they took at once \[bytes\].
     pub peak_bytes: u64,
-    /// Bytes written in all [B].
+    /// What was written in all \[bytes\].
     pub written: u64,
 }
 
-/// A memory budget asks for a spill at `1 - 1/SPILL_HEADROOM` of its size (below the line
-/// where it stops the search, [`crate::model::MEMORY_HEADROOM`]), so that the spill's own
-/// buffers fit under the budget.
-pub const SPILL_HEADROOM: u64 = 8;
+/// A memory budget asks for a spill at `1 - 1/SPILL_HEADROOM` of its size, well below the
+/// line where it stops the search ([`crate::model::MEMORY_HEADROOM`]): what memory gains
+/// until the spill is made and the spill's own buffers fit between the two.
+pub const SPILL_HEADROOM: u64 = 4;
 
-/// After a spill, memory must grow by `1/REGROWTH` of the budget again before the next one:
-/// what stays resident (the interning tables) is never asked to spill over and over.
-const REGROWTH: u64 = 16;
+/// Memory must hold at least `1/REGROWTH` of the most visited states a spill moved out
+/// before it is asked for another: a spill frees a worthwhile part of memory, and what stays
+/// resident (the interning tables, and memory the allocator keeps) never makes the search
+/// spill over and over. The allocator's resident size is no measure of what a spill freed.
+const REGROWTH: usize = 2;
 
 /// A visited state as the run keeps it: fingerprint, parent's fingerprint, depth.
 pub(crate) type Entry = (u64, u64, u32);
@@ -225,8 +228,11 @@ pub struct Store {
     files: AtomicUsize,
     used: AtomicU64,
     report: Mutex<Spilled>,
-    /// The least resident memory seen since the last spill, and the spills seen then.
-    low: Mutex<(u64, usize)>,
+    /// The most visited states memory held at a spill.
+    most: AtomicUsize,
+    /// The memory budget and the resident memory last seen [bytes] ([`Store::look`]).
+    budget: AtomicU64,
+    resident: AtomicU64,
 }
 
 impl Store {
@@ -244,7 +250,9 @@ impl Store {
             files: AtomicUsize::new(0),
             used: AtomicU64::new(0),
             report: Mutex::new(Spilled::default()),
-            low: Mutex::new((u64::MAX, 0)),
+            most: AtomicUsize::new(0),
+            budget: AtomicU64::new(0),
+            resident: AtomicU64::new(0),
         }
     }
 
@@ -258,28 +266,35 @@ impl Store {
         self.failure.get().copied()
     }
 
-    /// Looks at the process's `resident` memory against its budget `limit` (bytes) and asks
-    /// for a spill when it nears the budget ([`SPILL_HEADROOM`]) and has grown again since
-    /// the last spill ([`REGROWTH`]).
+    /// Looks at the process's `resident` memory against its budget `limit` (bytes), and asks
+    /// for a spill when it nears the budget ([`SPILL_HEADROOM`]).
     pub fn look(&self, resident: u64, limit: u64) {
-        let spills = self.report().spills;
-        let mut low = self.low.lock().expect("low lock");
-        if low.1 != spills {
-            *low = (resident, spills);
-        }
-        low.0 = low.0.min(resident);
-        let grown = spills == 0 || resident >= low.0.saturating_add(limit / REGROWTH);
-        if resident >= limit - limit / SPILL_HEADROOM && grown {
+        self.budget.store(limit, Ordering::Relaxed);
+        self.resident.store(resident, Ordering::Relaxed);
+        if resident >= limit - limit / SPILL_HEADROOM {
             self.requested.store(true, Ordering::Relaxed);
         }
     }
 
     /// Whether the search should spill now, `in_memory` giving the visited states memory
-    /// holds.
-    pub(crate) fn wanted(&self, in_memory: impl FnOnce() -> usize) -> bool {
+    /// holds: [`Spill::after_states`] of them, or asked for ([`Self::look`]) once memory
+    /// holds enough of them again ([`REGROWTH`]).
+    pub(crate) fn wanted(&self, in_memory: impl Fn() -> usize) -> bool {
         self.failure.get().is_none()
-            && (self.requested.load(Ordering::Relaxed)
-                || self.after_states.is_some_and(|n| in_memory() >= n))
+            && (self.after_states.is_some_and(|n| in_memory() >= n)
+                || (self.requested.load(Ordering::Relaxed)
+                    && in_memory() >= self.most.load(Ordering::Relaxed) / REGROWTH))
+    }
+
+    /// Whether `bytes` more fit under the line where the memory budget asks for a spill
+    /// ([`SPILL_HEADROOM`]), by the resident memory last seen (they do without a budget, or
+    /// before the first look); never once spilling failed.
+    pub(crate) fn fits(&self, bytes: u64) -> bool {
+        let limit = self.budget.load(Ordering::Relaxed);
+        let line = limit - limit / SPILL_HEADROOM;
+        self.failure.get().is_some()
+            || limit == 0
+            || self.resident.load(Ordering::Relaxed).saturating_add(bytes) < line
     }
 
     /// Records why the search cannot spill (the first reason only).
@@ -380,13 +395,13 @@ impl Store {
         self.report.lock().expect("report lock").bytes = used;
     }
 
-    /// Merges the visited states memory holds (`in_memory` of them; `slice(s)` gives those of
-    /// slice `s`, [`slice_of`]) into a new run, none of which the run holds. On failure the
-    /// run is as it was, and no file is left of the new one.
+    /// Merges the visited states memory holds (`in_memory` of them; `slice(s, out)` puts
+    /// those of slice `s`, [`slice_of`], in `out`) into a new run, none of which the run holds.
+    /// On failure the run is as it was, and no file is left of the new one.
     pub(crate) fn merge(
         &self,
         in_memory: usize,
-        mut slice: impl FnMut(usize) -> Vec<Entry>,
+        mut slice: impl FnMut(usize, &mut Vec<Entry>),
     ) -> Result<(), Failure> {
         let mut run = self.run.write().expect("run lock");
         let old = run.as_ref();
@@ -394,12 +409,16 @@ impl Store {
             Some(r) => Some(Reader::open(r)?),
             None => None,
         };
+        self.most.fetch_max(in_memory, Ordering::Relaxed);
         let mut writer = Writer::new(self, old.map_or(0, |r| r.states) + in_memory)?;
+        // One buffer for every slice: the allocator need not find room for each.
+        let mut buffer = Vec::with_capacity((in_memory >> SLICE_BITS) * 9 / 8);
         let result = (|| -> Result<(), Failure> {
             for s in 0..1 << SLICE_BITS {
-                let mut mine = slice(s);
-                mine.sort_unstable_by_key(|e| e.0);
-                let mut mine = mine.into_iter().peekable();
+                buffer.clear();
+                slice(s, &mut buffer);
+                buffer.sort_unstable_by_key(|e| e.0);
+                let mut mine = buffer.iter().copied().peekable();
                 loop {
                     let theirs = match &mut reader {
                         Some(r) => r.peek()?.filter(|e| slice_of(e.0) == s),
@@ -445,7 +464,10 @@ impl Store {
         words: &[u32],
         count: usize,
     ) -> Result<(u64, u32), Failure> {
-        let raw: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let mut raw = Vec::with_capacity(words.len() * 4);
+        for w in words {
+            raw.extend_from_slice(&w.to_le_bytes());
+        }
         let bytes = lz4_flex::compress_prepend_size(&raw);
         let mut levels = self.levels.lock().expect("levels lock");
         let i = match levels.iter().position(|l| l.depth == depth) {
@@ -754,33 +776,37 @@ mod tests {
     }
 
     fn merge(s: &Store, entries: &[Entry]) -> Result<(), Failure> {
-        s.merge(entries.len(), |k| {
-            entries
-                .iter()
-                .filter(|e| slice_of(e.0) == k)
-                .copied()
-                .collect()
+        s.merge(entries.len(), |k, out| {
+            out.extend(entries.iter().filter(|e| slice_of(e.0) == k))
         })
     }
 
     #[test]
-    fn memory_near_its_budget_asks_for_a_spill_once_it_has_grown_again() {
-        let s = store(&std::env::temp_dir(), None);
+    fn memory_near_its_budget_asks_for_a_spill_once_it_holds_enough_again() {
+        let tmp = std::env::temp_dir().join(format!("nekosim-spill-ask-{}", std::process::id()));
+        fs::create_dir_all(&tmp).unwrap();
+        let s = store(&tmp, None);
         let limit = 1600;
         s.look(1000, limit);
         assert!(!s.wanted(|| 0));
-        // 7/8 of the budget.
-        s.look(1400, limit);
-        assert!(s.wanted(|| 0));
-        s.spilled();
+        // 3/4 of the budget.
+        s.look(1199, limit);
         assert!(!s.wanted(|| 0));
-        // Memory must grow by 1/16 of the budget over the least seen since the spill.
-        for resident in [1450, 1420, 1519] {
-            s.look(resident, limit);
-            assert!(!s.wanted(|| 0), "{resident}");
-        }
-        s.look(1520, limit);
+        s.look(1200, limit);
         assert!(s.wanted(|| 0));
+        let entries: Vec<Entry> = fps(5, 1000).into_iter().map(|fp| (fp, 0, 2)).collect();
+        merge(&s, &entries).unwrap();
+        s.spilled();
+        assert!(!s.wanted(|| 1000));
+        // Asked again, it waits until memory holds half the most states a spill moved.
+        s.look(1500, limit);
+        assert!(!s.wanted(|| 499));
+        assert!(s.wanted(|| 500));
+        // 1100 resident: 100 bytes more reach the line where the budget asks for a spill.
+        s.look(1100, limit);
+        assert!(s.fits(99) && !s.fits(100));
+        drop(s);
+        fs::remove_dir_all(&tmp).unwrap();
     }
 
     #[test]

@@ -33,6 +33,18 @@ pub(super) fn spill(args: &CheckArgs) -> Result<Option<Spill>, CheckError> {
     }))
 }
 
+/// Refuses the budgets a check of robots does not keep: only a stack's search spills and
+/// keeps a time budget.
+pub(super) fn stack_only(args: &CheckArgs) -> Result<(), CheckError> {
+    if args.max_time.is_some() || args.max_disk.is_some() || args.spill_dir.is_some() {
+        return Err(CheckError::Lcm(
+            "--max-time, --max-disk and --spill-dir apply to a stack's check, not to robots'"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
 /// What the report's search line adds: where the search spills and at most how much, and
 /// its time budget.
 pub(super) fn search_text(args: &CheckArgs, spill: Option<&Spill>) -> String {

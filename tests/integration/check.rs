@@ -1420,3 +1420,16 @@ fn ctrl_c_while_spilled_leaves_no_spill_file() {
         );
     }
 }
+
+#[test]
+fn a_check_of_robots_refuses_the_budgets_only_a_stack_s_search_keeps() {
+    let file = format!("{}/examples/lcm/optimal_2.ron", env!("CARGO_MANIFEST_DIR"));
+    for flag in ["--max-time=1s", "--max-disk=1MiB", "--spill-dir=."] {
+        let o = nekosim(&["check", &file, flag]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{flag}: {err}");
+        assert!(o.stdout.is_empty(), "{flag}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains("apply to a stack's check"), "{err}");
+    }
+}

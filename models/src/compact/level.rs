@@ -7,6 +7,7 @@
 use std::fmt::Debug;
 use std::hash::Hash;
 use std::sync::atomic::Ordering;
+use std::sync::Mutex;
 
 use stateright::actor::Actor;
 
@@ -97,16 +98,19 @@ where
                         break;
                     }
                     let i = self.cursor.fetch_add(1, Ordering::Relaxed);
-                    match level.get(i) {
-                        None => break,
-                        Some(Stored::Memory(block)) => self.expand_block(block, depth, &mut out),
-                        Some(&Stored::Disk { at, len, count }) => {
+                    let Some(slot) = level.get(i) else { break };
+                    // The block is this thread's alone, and let go once expanded.
+                    let taken =
+                        std::mem::replace(&mut *slot.lock().expect("slot lock"), Stored::Spent);
+                    match taken {
+                        Stored::Memory(block) => self.expand_block(&block, depth, &mut out),
+                        Stored::Disk { at, len, count } => {
                             let Some(block) = self.read_block(depth, at, len, count) else {
                                 break;
                             };
                             self.expand_block(&block, depth, &mut out);
                         }
-                        Some(Stored::Spent) => unreachable!("a block is let go once expanded"),
+                        Stored::Spent => unreachable!("a block is taken once"),
                     }
                 }
                 if out.count > 0 {
@@ -130,11 +134,21 @@ where
         }
     }
 
-    /// Whether the threads should pause for a spill.
+    /// Whether the threads should pause for a spill: the store wants one, or the visited set
+    /// is about to double its table and both tables would pass the line where the memory
+    /// budget asks for a spill.
     fn spill_wanted(&self) -> bool {
-        self.spill
-            .as_ref()
-            .is_some_and(|s| s.wanted(|| self.visited.len()))
+        let Some(store) = self.spill.as_deref() else {
+            return false;
+        };
+        if store.wanted(|| self.visited.len()) {
+            return true;
+        }
+        let (len, room) = (self.visited.len(), self.visited.capacity());
+        // A table of `room` states has about `room * 8 / 7` slots of a state and a byte.
+        let slot = std::mem::size_of::<(u64, Seen)>() as u64 + 1;
+        let table = room as u64 * 8 / 7 * slot;
+        len > 0 && len >= room - room / 16 && !store.fits(2 * table)
     }
 
     /// The leader's work while the other threads wait, at `depth`: checks the states the
@@ -149,10 +163,10 @@ where
             // Also when the search ends: its unique states are then counted exactly.
             self.confirm(store, depth, &mut next);
             if !self.done.load(Ordering::Relaxed) && self.spill_wanted() {
-                for b in &mut level[..taken] {
-                    *b = Stored::Spent;
-                }
-                if let Err(why) = self.spill_out(store, depth, &mut level[taken..], &mut next) {
+                let rest = level[taken..]
+                    .iter_mut()
+                    .map(|slot| slot.get_mut().expect("slot lock"));
+                if let Err(why) = self.spill_out(store, depth, rest, &mut next) {
                     store.fail(why);
                     self.close();
                 }
@@ -163,7 +177,7 @@ where
             if next.is_empty() {
                 self.done.store(true, Ordering::Relaxed);
             }
-            *level = next;
+            *level = next.into_iter().map(Mutex::new).collect();
             self.cursor.store(0, Ordering::Relaxed);
             if let Some(store) = &self.spill {
                 store.end_level(depth);
@@ -215,32 +229,34 @@ where
 
     /// Moves the visited set and the blocks in memory (`rest` of the level at `depth`, not
     /// expanded yet, and `next`) to disk. What is not moved stays in memory.
-    fn spill_out(
+    fn spill_out<'a>(
         &self,
         store: &Store,
         depth: usize,
-        rest: &mut [Stored],
-        next: &mut [Stored],
+        rest: impl Iterator<Item = &'a mut Stored>,
+        next: &'a mut [Stored],
     ) -> Result<(), Failure> {
-        store.merge(self.visited.len(), |s| {
-            self.visited
+        store.merge(self.visited.len(), |s, out| {
+            let of_slice = self
+                .visited
                 .iter()
-                .filter(|e| spill::slice_of(*e.key()) == s)
-                .map(|e| (*e.key(), e.parent, e.depth))
-                .collect()
+                .filter(|e| spill::slice_of(*e.key()) == s);
+            out.extend(of_slice.map(|e| (*e.key(), e.parent, e.depth)));
         })?;
+        // The visited set keeps its room, which it fills again: growing again would take
+        // its old and new tables at once.
         self.visited.clear();
-        self.visited.shrink_to_fit();
-        for (d, blocks) in [(depth, rest), (depth + 1, next)] {
-            for stored in blocks.iter_mut() {
-                if let Stored::Memory(b) = stored {
-                    let (at, len) = store.write_block(d, &b.words, b.count)?;
-                    *stored = Stored::Disk {
-                        at,
-                        len,
-                        count: b.count,
-                    };
-                }
+        let blocks = rest
+            .map(|b| (depth, b))
+            .chain(next.iter_mut().map(|b| (depth + 1, b)));
+        for (d, stored) in blocks {
+            if let Stored::Memory(b) = stored {
+                let (at, len) = store.write_block(d, &b.words, b.count)?;
+                *stored = Stored::Disk {
+                    at,
+                    len,
+                    count: b.count,
+                };
             }
         }
         store.spilled();
