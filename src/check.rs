@@ -22,8 +22,8 @@ use nekosim_models::reason::reason;
 use nekosim_models::spill::{Spill, Spilled};
 use nekosim_models::temporal::StackFairness;
 use nekosim_models::{
-    available_memory, build_in, run_watched, Budget, Discovery, Exploration, ModelError,
-    NetworkKind, Options, Progress, Stopped, Strategy, Target, Watch,
+    available_memory, build_in, run_watched, Budget, CheckModel, Discovery, Exploration,
+    ModelError, NetworkKind, Options, Progress, Stopped, Strategy, Target, Watch,
 };
 use nekosim_protocols::Microprotocol;
 use stateright::Expectation;
@@ -339,6 +339,7 @@ pub fn resolve(args: &CheckArgs, registry: &Registry) -> Result<Resolved, CheckE
         partial_multicasts: defaults.partial_multicasts,
         symmetry: args.symmetry || settings.symmetry.unwrap_or(false),
         reduction: !args.no_reduction,
+        defer_early: defaults.defer_early,
     };
     if options.symmetry && args.strategy != Strategy::Bfs {
         return Err(CheckError::SymmetryStrategy);
@@ -350,13 +351,18 @@ pub fn resolve(args: &CheckArgs, registry: &Registry) -> Result<Resolved, CheckE
     })
 }
 
-/// The reduction a breadth-first check applies (docs/model-checking.md), by network: on an
-/// ordered one, partial-order reduction; on one that reorders or loses messages, where no
-/// smaller set of steps is enough (any process's step may send a message that another
-/// takes first), forgetting spent messages.
+/// The reduction a check applies (docs/model-checking.md), by network: on an ordered one,
+/// or one that reorders into layers that hold early arrivals back (each link is then
+/// explored in send order), partial-order reduction; on one that reorders or loses messages
+/// otherwise, where no smaller set of steps is enough (any process's step may send a message
+/// that another takes first), forgetting spent messages.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Reduction {
     PartialOrder,
+    /// Links in send order, then partial-order reduction.
+    PartialOrderInSendOrder,
+    /// Links in send order alone (a strategy or depth bound without the persistent sets).
+    InSendOrder,
     SpentMessages,
 }
 
@@ -365,22 +371,36 @@ impl Reduction {
     pub fn label(self) -> &'static str {
         match self {
             Reduction::PartialOrder => "partial-order reduction",
+            Reduction::PartialOrderInSendOrder => {
+                "partial-order reduction with links in send order"
+            }
+            Reduction::InSendOrder => "links in send order",
             Reduction::SpentMessages => "forgetting spent messages",
         }
     }
 }
 
 /// The reduction that takes effect in a check, or why none does: both need the
-/// breadth-first search, and partial-order reduction no depth bound.
-pub fn reduction_in_effect(opts: &Options, args: &CheckArgs) -> Result<Reduction, &'static str> {
+/// breadth-first search, and partial-order reduction no depth bound. Links in send order
+/// (`in_send_order`, decided when the model is built) hold for every search.
+pub fn reduction_in_effect(
+    opts: &Options,
+    args: &CheckArgs,
+    in_send_order: bool,
+) -> Result<Reduction, &'static str> {
     if !opts.reduction {
         Err("turned off")
-    } else if args.strategy != Strategy::Bfs {
-        Err("bfs only")
+    } else if args.strategy != Strategy::Bfs || args.depth.is_some() {
+        match (in_send_order, args.strategy == Strategy::Bfs) {
+            (true, _) => Ok(Reduction::InSendOrder),
+            (false, false) => Err("bfs only"),
+            (false, true) if opts.network != NetworkKind::Ordered => Ok(Reduction::SpentMessages),
+            (false, true) => Err("not with a depth bound"),
+        }
+    } else if in_send_order {
+        Ok(Reduction::PartialOrderInSendOrder)
     } else if opts.network != NetworkKind::Ordered {
         Ok(Reduction::SpentMessages)
-    } else if args.depth.is_some() {
-        Err("not with a depth bound")
     } else {
         Ok(Reduction::PartialOrder)
     }
@@ -393,7 +413,7 @@ fn compare_reduction(
     protocols: &nekosim_protocols::Protocols,
     (target, opts, args): (&Target, &Options, &CheckArgs),
     (how, live): (Exploration, &Live),
-    with: &nekosim_models::Outcome,
+    (with, with_model_in_send_order): (&nekosim_models::Outcome, bool),
 ) -> Result<(), CheckError> {
     /// Ctrl-C stops the second search as it stops the first.
     struct Interrupt<'a>(&'a Live);
@@ -405,7 +425,7 @@ fn compare_reduction(
                 .is_some_and(|i| i.load(Ordering::Relaxed))
         }
     }
-    let reduction = match reduction_in_effect(opts, args) {
+    let reduction = match reduction_in_effect(opts, args, with_model_in_send_order) {
         Ok(r) => r.label(),
         Err(why) => {
             let _ = writeln!(out, "reduction: not in effect ({why})");
@@ -737,8 +757,12 @@ pub fn check_live(
             } else {
                 ""
             },
-            match reduction_in_effect(&opts, args) {
+            match reduction_in_effect(&opts, args, model.cfg.in_send_order) {
                 Ok(Reduction::PartialOrder) => " with partial-order reduction",
+                Ok(Reduction::PartialOrderInSendOrder) => {
+                    " with partial-order reduction, links in send order"
+                }
+                Ok(Reduction::InSendOrder) => " with links in send order",
                 Ok(Reduction::SpentMessages) => " forgetting spent messages",
                 Err(_) => "",
             },
@@ -791,7 +815,8 @@ pub fn check_live(
     }
     if args.compare_reduction {
         let again = (&target, &opts, args);
-        compare_reduction(out, &registry.protocols, again, (how, live), &outcome)?;
+        let with = (&outcome, model.cfg.in_send_order);
+        compare_reduction(out, &registry.protocols, again, (how, live), with)?;
     }
     if let Some(spent) = outcome.stopped {
         let what = match spent {
@@ -883,8 +908,26 @@ pub fn check_live(
             interrupt: live.interrupt.clone(),
         };
         let fairness = fairness.unwrap_or(StackFairness::of(opts.network));
-        temporal::check(out, &model, opts.network, fairness, args.max_states, &watch)
+        let check = |out: &mut dyn Write, model: &CheckModel| {
+            temporal::check(out, model, opts.network, fairness, args.max_states, &watch)
+        };
+        if model.cfg.in_send_order {
+            // The graph explores every order of arrival (crate::reduction's "Early arrivals").
+            let every_order = Options {
+                defer_early: false,
+                ..opts.clone()
+            };
+            let live_model = build_in(&registry.protocols, &target, &every_order, |_, _| {})?;
+            let live = check(out, &live_model);
+            Ok::<_, CheckError>((live, live_model))
+        } else {
+            Ok((check(out, &model), model.clone()))
+        }
     });
+    let (live_part, live_model) = match live_part.transpose()? {
+        Some((l, m)) => (Some(l), m),
+        None => (None, model.clone()),
+    };
     let lasso = live_part.as_ref().and_then(|l| l.lasso.as_ref());
     // A lasso is written when the search found no counterexample (rather than a witness).
     let lasso = lasso.filter(|_| {
@@ -895,7 +938,7 @@ pub fn check_live(
     });
     if let Some(path) = &args.trace {
         let written = match lasso {
-            Some((o, stem, why)) => write_trace(&model, o, Some((*stem, why)), path),
+            Some((o, stem, why)) => write_trace(&live_model, o, Some((*stem, why)), path),
             None => write_trace(&model, &outcome, None, path),
         };
         written.map_err(|source| CheckError::Trace {
@@ -905,7 +948,9 @@ pub fn check_live(
     }
     if let Some(path) = &args.rrd {
         match lasso {
-            Some((o, stem, why)) => write_recording(&name, &model, o, Some((*stem, why)), path)?,
+            Some((o, stem, why)) => {
+                write_recording(&name, &live_model, o, Some((*stem, why)), path)?
+            }
             None => write_recording(&name, &model, &outcome, None, path)?,
         }
     }

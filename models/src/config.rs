@@ -83,6 +83,11 @@ pub struct Options {
     /// network that reorders messages, forget those that can no longer change their
     /// receiver.
     pub reduction: bool,
+    /// With `reduction`, on a network that reorders but never loses: when every layer on the
+    /// network holds early arrivals back ([`nekosim_protocols::Microprotocol::HOLDS_EARLY`]),
+    /// deliver each link's messages in send order only ([`crate::reduction`], "Early
+    /// arrivals"), so that partial-order reduction applies. The liveness graph turns it off.
+    pub defer_early: bool,
 }
 
 impl Default for Options {
@@ -97,6 +102,7 @@ impl Default for Options {
             partial_multicasts: true,
             symmetry: false,
             reduction: true,
+            defer_early: true,
         }
     }
 }
@@ -128,6 +134,9 @@ pub struct ModelCfg {
     pub undo: Vec<Undo>,
     /// The reductions are on ([`Options::reduction`]).
     pub reduction: bool,
+    /// Each link's messages are delivered in send order, the network reordering none
+    /// ([`Options::defer_early`] took effect).
+    pub in_send_order: bool,
     /// Whether property `i` has had its discovery (reset by [`crate::model::run`]).
     pub found: Arc<Vec<AtomicBool>>,
     /// The renamings that map the model onto itself, when symmetry reduction is on

@@ -21,7 +21,7 @@ use crate::config::{
 };
 use crate::family::Family;
 use crate::property::properties;
-use crate::reduction::Invisible;
+use crate::reduction::{self, Invisible};
 use crate::spill::{Spill, Spilled, Store};
 use crate::symmetry::Symmetry;
 
@@ -245,6 +245,12 @@ pub fn build_in(
             }
         })
         .collect();
+    let in_send_order = opts.reduction
+        && opts.defer_early
+        && opts.network == NetworkKind::Unordered
+        && actors
+            .iter()
+            .all(|a| reduction::early_arrivals_held(&shared.wiring, &a.init));
     let symmetry = if opts.symmetry {
         Some(Arc::new(symmetry_of(&shared, &actors, &requests)?))
     } else {
@@ -262,6 +268,7 @@ pub fn build_in(
         conditions: Vec::new(),
         undo: Vec::new(),
         reduction: opts.reduction,
+        in_send_order,
         found: Arc::new(Vec::new()),
         symmetry,
     };
@@ -285,6 +292,7 @@ pub fn build_in(
     cfg.found = Arc::new(props.iter().map(|_| AtomicBool::new(false)).collect());
     let network = match opts.network {
         NetworkKind::Ordered => Network::new_ordered([]),
+        NetworkKind::Unordered if in_send_order => Network::new_ordered([]),
         NetworkKind::Unordered | NetworkKind::Lossy => Network::new_unordered_nonduplicating([]),
     };
     let lossy = if opts.network == NetworkKind::Lossy {

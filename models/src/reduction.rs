@@ -52,6 +52,24 @@
 //! The search takes the reduction only on an ordered network, and there, only at a state
 //! where some process set is persistent; elsewhere it expands as without it.
 //!
+//! **Early arrivals** (a reduction in Lipton's sense: *Reduction: a method of proving
+//! properties of parallel programs*, CACM 1975). On a network that reorders but never loses,
+//! a stack whose every layer on the network holds early arrivals back (Fifo:
+//! [`nekosim_protocols::Microprotocol::HOLDS_EARLY`], [`early_arrivals_held`]) is explored
+//! as if the network kept each link in send order, and the persistent sets above then apply.
+//! The argument: the arrival `a` of a message before an earlier one `e` from its sender only
+//! writes a buffer that nothing else reads, so `a` commutes with every step but the arrival
+//! of `e`, and moving `a` to right after that arrival yields the same states up to that
+//! buffer and the message still in flight. There the arrival of `e` passes up both, which is
+//! the arrival of `e` followed at once by that of the next message in order. So every path
+//! of the reordering network has a path in send order through states that differ from its
+//! own only in messages held or still in flight, which no property reads, and ends in the
+//! same state when nothing is held (at rest, every message has arrived). Conversely a path
+//! in send order is a path of the reordering network, so every counterexample is real. The
+//! liveness graph does not take it: a lasso in send order is a real fair run, but the state
+//! the split arrival adds between two upcalls could hide the lasso of a property that is not
+//! monotone in what was delivered.
+//!
 //! With symmetry reduction the set is taken at the representative of a class; the process
 //! sets, the properties and the proviso are invariant under renamings, which is what
 //! Emerson, Jha and Peled (*Combining partial order and symmetry reductions*, TACAS 1997)
@@ -60,7 +78,18 @@
 
 use std::sync::Arc;
 
+use nekosim_protocols::{Stack, Wiring, NET};
 use stateright::actor::{Actor, ActorModelAction, ActorModelState, Id, Network};
+
+/// Whether every message between processes of this stack reaches a layer that holds early
+/// arrivals back ([`nekosim_protocols::Microprotocol::HOLDS_EARLY`]): every layer that sits
+/// on or uses the network does, and one does.
+pub fn early_arrivals_held(wiring: &Wiring, stack: &Stack) -> bool {
+    let on_net: Vec<usize> = (0..stack.layers.len())
+        .filter(|&i| wiring.below[i] == NET || wiring.uses[i].contains(&NET))
+        .collect();
+    !on_net.is_empty() && on_net.iter().all(|&i| stack.layers[i].holds_early())
+}
 
 /// Whether a step of process `p`, from the first state to the second, leaves every
 /// property's discovery in place ([`crate::property`]: which steps may undo which).

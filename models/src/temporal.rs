@@ -414,7 +414,10 @@ pub fn stored(model: &CheckModel, s: &State) -> State {
 
 /// Explores the whole graph of `model`, within `max_states` unique states, asking `halt`
 /// now and then whether to stop (the memory budget, Ctrl-C). `Ok(None)`: `halt` stopped it,
-/// after the returned number of states.
+/// after the returned number of states. Build `model` with [`crate::Options::defer_early`]
+/// off, as `nekosim check` does: a graph with each link in send order has only real fair
+/// runs, but the states it adds between two upcalls could hide the lasso of a property that
+/// is not monotone in what was delivered.
 #[allow(clippy::type_complexity)]
 pub fn explore_stack<'a>(
     model: &'a CheckModel,

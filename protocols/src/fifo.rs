@@ -39,6 +39,8 @@ impl Microprotocol for Fifo {
     type Config = NoConfig;
     const NAME: &'static str = "Fifo";
     const ROUNDS: Rounds = Rounds::Carried;
+    // An early arrival only waits in `held`, which nothing but `on_message` reads.
+    const HOLDS_EARLY: bool = true;
 
     fn round(m: &FifoMsg) -> Round {
         Round::Carries(m.payload.clone())

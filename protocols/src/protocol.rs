@@ -248,6 +248,18 @@ pub trait Microprotocol: Clone + Debug + Eq + Hash + Send + Sync + 'static {
     fn spent(&self, _ctx: &Ctx, _from: Pid, _msg: &Self::Msg) -> bool {
         false
     }
+
+    /// Early arrivals: whether this layer, sitting on the network, passes up what each
+    /// process sends it in the order that process sent it, and does nothing with a message
+    /// that arrives before an earlier one from its sender but hold it: no message, upcall,
+    /// timer or property reads it, until the earlier ones have arrived and it goes up as if
+    /// it had arrived right after them. Every message the layer receives must be one it
+    /// numbered. A model checker may then deliver each link's messages in send order only
+    /// (an early arrival commutes with every step but the arrival it waits for), which a
+    /// network that reorders but never loses can always do. The default, `false`, makes no
+    /// such claim; a protocol that claims it falsely (one that acts on an early arrival, or
+    /// asks for a retransmission) gets wrong verdicts.
+    const HOLDS_EARLY: bool = false;
 }
 
 /// Collects a handler's effects, encoding the protocol's own messages and timers.
@@ -379,6 +391,7 @@ trait DynProtocol: Debug + Send + Sync {
     fn rounds(&self) -> Rounds;
     fn round_dyn(&self, msg: &Payload) -> Option<Round>;
     fn spent_dyn(&self, ctx: &Ctx, from: Pid, msg: &Payload) -> bool;
+    fn holds_early(&self) -> bool;
 }
 
 impl<P: Microprotocol> DynProtocol for P {
@@ -420,6 +433,10 @@ impl<P: Microprotocol> DynProtocol for P {
 
     fn spent_dyn(&self, ctx: &Ctx, from: Pid, msg: &Payload) -> bool {
         msg.decode().is_ok_and(|m| self.spent(ctx, from, &m))
+    }
+
+    fn holds_early(&self) -> bool {
+        P::HOLDS_EARLY
     }
 }
 
@@ -475,6 +492,11 @@ impl Layer {
     /// ([`Microprotocol::spent`]); `false` if it does not decode as one.
     pub fn spent(&self, ctx: &Ctx, from: Pid, msg: &Payload) -> bool {
         self.0.spent_dyn(ctx, from, msg)
+    }
+
+    /// Whether its protocol holds early arrivals back ([`Microprotocol::HOLDS_EARLY`]).
+    pub fn holds_early(&self) -> bool {
+        self.0.holds_early()
     }
 }
 

@@ -39,7 +39,15 @@ fn sequencer_abcast_holds_with_3_broadcasts() {
 
 #[test]
 fn lamport_abcast_holds_with_3_broadcasts() {
+    // Each link in send order, with partial-order reduction, and every order of arrival.
     let out = check("lamport-abcast", &opts(3, 3));
+    assert_all_hold("lamport-abcast", &out);
+    assert_eq!(out.unique_states, 84_924);
+    let every_order = Options {
+        defer_early: false,
+        ..opts(3, 3)
+    };
+    let out = check("lamport-abcast", &every_order);
     assert_all_hold("lamport-abcast", &out);
     assert_eq!(out.unique_states, 584_565);
 }

@@ -4,6 +4,7 @@ mod broken_variants_are_caught;
 mod compact_search;
 mod correct_models_hold;
 mod detector_liveness;
+mod early_arrivals;
 mod liveness;
 mod reduction;
 mod rounds;
