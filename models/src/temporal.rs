@@ -30,8 +30,9 @@
 //!     again and again) is delivered infinitely often.
 //! - **Eventual accuracy** of the failure detectors a stack uses is an assumption `<>[] A`:
 //!   from some point on no live process's detector suspects a live process. A run that keeps
-//!   a false suspicion is not judged. The detectors read are the built-in `Heartbeat` layers
-//!   (a user's detector is not read, so nothing is assumed of it). A time-free model cannot
+//!   a false suspicion is not judged. The detectors read are the layers that say whom they
+//!   suspect ([`nekosim_protocols::Microprotocol::suspicions`]: `Heartbeat`, and a user's
+//!   detector that implements it; of one that does not nothing is assumed). A time-free model cannot
 //!   check it of a detector (a check may always come before the heartbeat it waits for); a
 //!   failure detector states its time-free core instead, that no false suspicion lasts for
 //!   ever (`eventual trust`, a property of each pair of processes, [`Holds::Pairs`]).
@@ -44,7 +45,6 @@ use std::cell::{Cell, RefCell};
 use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 
-use nekosim_protocols::heartbeat::Heartbeat;
 use nekosim_protocols::{Pid, Request};
 use stateright::actor::{ActorModelAction, Id, Network};
 use stateright::{Model, Path};
@@ -302,28 +302,26 @@ fn common_leader(_: &CheckModel, s: &State) -> bool {
     leaders.all(|l| l == Some(first)) && !s.crashed[first as usize]
 }
 
-/// Eventual accuracy, the assumption `<>[] accurate`: no live process's `Heartbeat` layer
+/// Eventual accuracy, the assumption `<>[] accurate`: no live process's failure detector
 /// suspects a live process. True where the stack has none.
 pub fn accurate(_: &CheckModel, s: &State) -> bool {
     live(s).all(|i| {
         s.actor_states[i].stack.layers.iter().all(|l| {
-            l.downcast_ref::<Heartbeat>()
-                .is_none_or(|h| h.suspected().iter().all(|&p| s.crashed[p as usize]))
+            l.suspicions()
+                .is_none_or(|suspected| suspected.iter().all(|&p| s.crashed[p as usize]))
         })
     })
 }
 
 /// Whether the stack's liveness rests on eventual accuracy: a layer other than the one
-/// checked uses a `Heartbeat` detector (a failure detector checked itself assumes nothing
-/// of itself).
+/// checked is a failure detector ([`nekosim_protocols::Microprotocol::suspicions`]; a
+/// failure detector checked itself assumes nothing of itself).
 pub fn assumes_accuracy(model: &CheckModel) -> bool {
     model.cfg.family != Family::FailureDetector
-        && model.actors.first().is_some_and(|a| {
-            a.init
-                .layers
-                .iter()
-                .any(|l| l.downcast_ref::<Heartbeat>().is_some())
-        })
+        && model
+            .actors
+            .first()
+            .is_some_and(|a| a.init.layers.iter().any(|l| l.suspicions().is_some()))
 }
 
 /// What fairness owes a task to: a message in flight or a process's timer.

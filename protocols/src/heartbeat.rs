@@ -77,6 +77,10 @@ impl Microprotocol for Heartbeat {
         Shape::on_links(Service::FAILURE_DETECTOR)
     }
 
+    fn suspicions(&self) -> Option<Vec<Pid>> {
+        Some(self.suspected.iter().copied().collect())
+    }
+
     fn new(c: HeartbeatConfig) -> Result<Self, FieldError> {
         FieldError::positive_seconds("period", c.period)?;
         FieldError::positive_seconds("timeout", c.timeout)?;

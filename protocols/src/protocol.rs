@@ -260,6 +260,15 @@ pub trait Microprotocol: Clone + Debug + Eq + Hash + Send + Sync + 'static {
     /// such claim; a protocol that claims it falsely (one that acts on an early arrival, or
     /// asks for a retransmission) gets wrong verdicts.
     const HOLDS_EARLY: bool = false;
+
+    /// Failure detectors: the processes this layer suspects now, or `None` (the default) if
+    /// it is no failure detector. A model checker's liveness graph assumes eventual accuracy
+    /// of the detectors a checked stack uses (from some point on, no live process suspects a
+    /// live one) and reads it here, so a user's detector is assumed accurate as the built-in
+    /// ones are.
+    fn suspicions(&self) -> Option<Vec<Pid>> {
+        None
+    }
 }
 
 /// Collects a handler's effects, encoding the protocol's own messages and timers.
@@ -392,6 +401,7 @@ trait DynProtocol: Debug + Send + Sync {
     fn round_dyn(&self, msg: &Payload) -> Option<Round>;
     fn spent_dyn(&self, ctx: &Ctx, from: Pid, msg: &Payload) -> bool;
     fn holds_early(&self) -> bool;
+    fn suspicions(&self) -> Option<Vec<Pid>>;
 }
 
 impl<P: Microprotocol> DynProtocol for P {
@@ -437,6 +447,10 @@ impl<P: Microprotocol> DynProtocol for P {
 
     fn holds_early(&self) -> bool {
         P::HOLDS_EARLY
+    }
+
+    fn suspicions(&self) -> Option<Vec<Pid>> {
+        Microprotocol::suspicions(self)
     }
 }
 
@@ -497,6 +511,12 @@ impl Layer {
     /// Whether its protocol holds early arrivals back ([`Microprotocol::HOLDS_EARLY`]).
     pub fn holds_early(&self) -> bool {
         self.0.holds_early()
+    }
+
+    /// Whom its failure detector suspects now ([`Microprotocol::suspicions`]); `None` if it
+    /// is no failure detector.
+    pub fn suspicions(&self) -> Option<Vec<Pid>> {
+        self.0.suspicions()
     }
 }
 

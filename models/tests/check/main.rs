@@ -13,6 +13,7 @@ mod spent;
 mod spilling;
 mod state_counts;
 mod symmetry;
+mod user_detector;
 
 use nekosim_models::{build, find, run, Exploration, Options, Outcome};
 use nekosim_protocols::{Pid, Stack};

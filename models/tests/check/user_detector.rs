@@ -1,0 +1,133 @@
+//! A user's failure detector is assumed eventually accurate exactly when it says whom it
+//! suspects (`Microprotocol::suspicions`), as `Heartbeat` does. The detector here is written
+//! as a user would, beating and checking as `Heartbeat` does; `Omega` over it then keeps a
+//! stable leader as it does over `Heartbeat` (a known answer), and without the declaration
+//! the verdict is the one `Omega` over `Heartbeat` gets when judged without the assumption.
+
+use std::collections::BTreeSet;
+
+use nekosim_models::config::UNLIMITED_TIMERS;
+use nekosim_models::liveness::Verdict;
+use nekosim_models::temporal::{accurate, assumes_accuracy, StackFairness};
+use nekosim_models::{build, CheckModel, Family, Options, Target};
+use nekosim_protocols::heartbeat::{Beat, HeartbeatTimer};
+use nekosim_protocols::{
+    Ctx, FieldError, Indication, Layer, LayerSpec, Microprotocol, NoConfig, Out, Pid, Service,
+    Shape,
+};
+
+use super::liveness::{liveness, verdict};
+
+/// A user's heartbeat detector; it declares whom it suspects when `SAYS`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+struct Beats<const SAYS: bool> {
+    heard: BTreeSet<Pid>,
+    suspected: BTreeSet<Pid>,
+}
+
+impl<const SAYS: bool> Microprotocol for Beats<SAYS> {
+    type Msg = Beat;
+    type Timer = HeartbeatTimer;
+    type Config = NoConfig;
+    const NAME: &'static str = "UserBeats";
+
+    fn shape(_: &NoConfig) -> Shape {
+        Shape::on_links(Service::FAILURE_DETECTOR)
+    }
+
+    fn new(_: NoConfig) -> Result<Self, FieldError> {
+        Ok(Self::default())
+    }
+
+    fn on_start(&mut self, ctx: &Ctx, out: &mut Out<Self>) {
+        out.send(ctx.others(), Beat);
+        out.set_timer(HeartbeatTimer::Beat, 1.0);
+        out.set_timer(HeartbeatTimer::Check, 2.0);
+    }
+
+    fn on_message(&mut self, _: &Ctx, from: Pid, _: Beat, _: &mut Out<Self>) {
+        self.heard.insert(from);
+    }
+
+    fn on_timer(&mut self, ctx: &Ctx, timer: HeartbeatTimer, out: &mut Out<Self>) {
+        if timer == HeartbeatTimer::Beat {
+            out.send(ctx.others(), Beat);
+            out.set_timer(HeartbeatTimer::Beat, 1.0);
+            return;
+        }
+        for p in ctx.others() {
+            let heard = self.heard.contains(&p);
+            if !heard && self.suspected.insert(p) {
+                out.up(Indication::Suspect(p));
+            } else if heard && self.suspected.remove(&p) {
+                out.up(Indication::Trust(p));
+            }
+        }
+        self.heard.clear();
+        out.set_timer(HeartbeatTimer::Check, 2.0);
+    }
+
+    fn suspicions(&self) -> Option<Vec<Pid>> {
+        SAYS.then(|| self.suspected.iter().copied().collect())
+    }
+}
+
+/// `Omega` over `Heartbeat`, or over the user's detector in its place, on 2 processes with
+/// unlimited timers.
+fn omega(crashes: u32, user: Option<bool>) -> CheckModel {
+    let target = Target {
+        stack: vec![
+            LayerSpec::new("fd", "Heartbeat(period: 1.0, timeout: 2.0)", "net", &[]),
+            LayerSpec::new("omega", "Omega", "net", &["fd"]),
+        ],
+        entry: "omega".into(),
+        family: Family::Leader,
+        timer_fed: vec!["fd".into()],
+    };
+    let opts = Options {
+        processes: 2,
+        crashes,
+        timer_budget: UNLIMITED_TIMERS,
+        ..Options::default()
+    };
+    build(&target, &opts, |_, s| match user {
+        Some(true) => s.layers[0] = Layer::new(Beats::<true>::default()),
+        Some(false) => s.layers[0] = Layer::new(Beats::<false>::default()),
+        None => {}
+    })
+    .expect("valid model")
+}
+
+fn stable(m: &CheckModel) -> (usize, bool) {
+    let (states, _, d) = liveness(m, StackFairness::Weak);
+    (
+        states,
+        matches!(verdict(&d, "stable leader"), Verdict::Holds),
+    )
+}
+
+#[test]
+fn a_users_detector_that_says_whom_it_suspects_is_assumed_accurate() {
+    for crashes in [0, 1] {
+        let (heartbeat, declared, silent) = (
+            omega(crashes, None),
+            omega(crashes, Some(true)),
+            omega(crashes, Some(false)),
+        );
+        assert!(assumes_accuracy(&heartbeat) && assumes_accuracy(&declared));
+        assert!(!assumes_accuracy(&silent));
+        // The same graph and the same verdict as over `Heartbeat`.
+        let (states, holds) = stable(&heartbeat);
+        assert!(holds, "{crashes} crashes");
+        assert_eq!(stable(&declared), (states, true), "{crashes} crashes");
+        // Nothing assumed: the survivors' detectors may suspect and trust each other for
+        // ever, and the leader follows them.
+        if crashes == 0 {
+            assert_eq!(stable(&silent), (states, false));
+        }
+    }
+    // The assumption reads the user's layer: it suspects nobody at the start.
+    let m = omega(0, Some(true));
+    let init = stateright::Model::init_states(&m).remove(0);
+    assert!(accurate(&m, &init));
+}
