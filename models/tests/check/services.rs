@@ -10,12 +10,12 @@ use nekosim_models::reason::reason;
 use nekosim_models::{
     build_in, run, CheckModel, Exploration, Family, NetworkKind, Options, Outcome, State, Target,
 };
-use stateright::Path;
 use nekosim_protocols::{
     AppMsg, Content, Ctx, FieldError, Indication, LayerIx, LayerSpec, Microprotocol, NoConfig, Out,
     Payload, Pid, Protocols, Request, Service, Shape,
 };
 use serde::{Deserialize, Serialize};
+use stateright::Path;
 
 /// Claims FIFO links but only passes messages through: FIFO on an ordered network, not on
 /// one that reorders.
@@ -258,7 +258,12 @@ fn a_heartbeat_detector_is_complete_and_revokes_false_suspicions() {
     assert!(holds(&crash), "{:?}", crash.verdicts);
     // The witness's last state: a crashed process every live one suspects, by the last
     // indication about it the path's steps told each live one.
-    let path = crash.verdict("completeness").unwrap().path.as_ref().unwrap();
+    let path = crash
+        .verdict("completeness")
+        .unwrap()
+        .path
+        .as_ref()
+        .unwrap();
     let last = path.last_state();
     let m = model(&stack, &crashes);
     let dead = (0..3).find(|&p| last.crashed[p]).expect("a crash");
