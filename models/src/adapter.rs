@@ -15,7 +15,7 @@
 //!   messages are lost.
 
 use std::borrow::Cow;
-use std::collections::VecDeque;
+use std::collections::{BTreeSet, VecDeque};
 use std::sync::Arc;
 
 use nekosim_protocols::{
@@ -61,9 +61,8 @@ pub struct ProcessState {
     pub decided: Vec<(u64, Payload)>,
     /// Point-to-point deliveries to the application (sender, message), in order.
     pub received: Vec<(Pid, Payload)>,
-    /// A failure detector's indications, in order: (process, suspected) for `Suspect`
-    /// (true) and `Trust` (false).
-    pub detections: Vec<(Pid, bool)>,
+    /// What the failure detector's indications told the application so far.
+    pub detections: Detections,
     /// The last leader a leader election indicated.
     pub leader: Option<Pid>,
     /// Messages waiting to leave (destination, message); only with crashes.
@@ -72,6 +71,99 @@ pub struct ProcessState {
     /// the model's boundary excludes every state that has one (stateright always offers a
     /// recovery after a crash).
     pub zombie: bool,
+}
+
+/// What a process's application has heard from its failure detector, as much of the sequence
+/// of its `Suspect` and `Trust` indications as any property reads:
+///
+/// - the suspicions in force: the processes whose last indication suspects them (what
+///   "suspects" means for completeness and for every proposition of the liveness graph);
+/// - whether some indication was ill-formed: the detector indicated its own process, suspected
+///   a process it suspected already, or trusted one it did not suspect (well-formedness reads
+///   the sequence only for such a fault, and once it has one it never loses it);
+/// - the processes some indication trusted (a revoked suspicion is a trust of a process that
+///   is live, which depends on the crashes, read only when the property is).
+///
+/// The sequence itself grows without end where a detector may suspect and trust again for
+/// ever (unlimited timers), and so would the state space; this summary takes finitely many
+/// values, and two sequences with the same summary satisfy the same properties. No step of a
+/// process reads it: it only records what the application heard.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Detections {
+    suspected: BTreeSet<Pid>,
+    trusted: BTreeSet<Pid>,
+    ill_formed: bool,
+}
+
+impl Detections {
+    /// The summary of the indications `history` (process, suspected) heard by process `me`, in
+    /// order.
+    pub fn of(me: Pid, history: &[(Pid, bool)]) -> Self {
+        let mut d = Self::default();
+        for &(p, suspected) in history {
+            d.record(me, p, suspected);
+        }
+        d
+    }
+
+    /// Records that process `me` heard `Suspect(p)` (`suspected`) or `Trust(p)`.
+    pub fn record(&mut self, me: Pid, p: Pid, suspected: bool) {
+        let alternates = if suspected {
+            self.suspected.insert(p)
+        } else {
+            self.trusted.insert(p);
+            self.suspected.remove(&p)
+        };
+        self.ill_formed |= p == me || !alternates;
+    }
+
+    /// Whether the last indication about `p` suspects it.
+    pub fn suspects(&self, p: Pid) -> bool {
+        self.suspected.contains(&p)
+    }
+
+    /// The processes whose last indication suspects them, in order.
+    pub fn suspected(&self) -> impl Iterator<Item = Pid> + '_ {
+        self.suspected.iter().copied()
+    }
+
+    /// The processes some indication trusted, in order.
+    pub fn trusted(&self) -> impl Iterator<Item = Pid> + '_ {
+        self.trusted.iter().copied()
+    }
+
+    /// No indication so far indicated the process itself, suspected a process already
+    /// suspected, or trusted a process not suspected.
+    pub fn well_formed(&self) -> bool {
+        !self.ill_formed
+    }
+
+    /// Every suspicion in force in `before` still is.
+    pub fn keeps_suspicions_of(&self, before: &Self) -> bool {
+        before.suspected.is_subset(&self.suspected)
+    }
+
+    /// Every process `before` trusted is still one this summary trusted.
+    pub fn keeps_trusts_of(&self, before: &Self) -> bool {
+        before.trusted.is_subset(&self.trusted)
+    }
+
+    /// Only the suspicions in force, what the liveness graph reads.
+    pub fn in_force(&self) -> Self {
+        Self {
+            suspected: self.suspected.clone(),
+            ..Self::default()
+        }
+    }
+
+    /// The same summary with every process `p` named `rename(p)`.
+    pub fn renamed(&self, rename: impl Fn(Pid) -> Pid) -> Self {
+        Self {
+            suspected: self.suspected.iter().map(|&p| rename(p)).collect(),
+            trusted: self.trusted.iter().map(|&p| rename(p)).collect(),
+            ill_formed: self.ill_formed,
+        }
+    }
 }
 
 /// What never changes during a check and is the same for every process.
@@ -151,6 +243,7 @@ impl ProcessActor {
     /// Turns what left the stack into stateright commands and application observations.
     fn emit(
         &self,
+        me: Pid,
         state: &mut ProcessState,
         routed: Vec<Routed>,
         o: &mut Out<Self>,
@@ -185,8 +278,8 @@ impl ProcessActor {
                             Indication::Deliver { from, msg } => {
                                 state.received.push((*from, msg.clone()))
                             }
-                            Indication::Suspect(p) => state.detections.push((*p, true)),
-                            Indication::Trust(p) => state.detections.push((*p, false)),
+                            Indication::Suspect(p) => state.detections.record(me, *p, true),
+                            Indication::Trust(p) => state.detections.record(me, *p, false),
                             Indication::Leader(p) => state.leader = Some(*p),
                             Indication::Custom(_) => {}
                         }
@@ -235,7 +328,7 @@ impl ProcessActor {
             layer,
             Input::Request { from: APP, req },
         );
-        self.emit(state, routed, o, log);
+        self.emit(self.ctx(id).me, state, routed, o, log);
     }
 
     /// A fresh process: its layers started, its first client request armed.
@@ -247,13 +340,13 @@ impl ProcessActor {
             delivered: Vec::new(),
             decided: Vec::new(),
             received: Vec::new(),
-            detections: Vec::new(),
+            detections: Detections::default(),
             leader: None,
             outbox: VecDeque::new(),
             zombie: false,
         };
         let routed = state.stack.start_all(&self.shared.wiring, &self.ctx(id));
-        self.emit(&mut state, routed, o, log);
+        self.emit(self.ctx(id).me, &mut state, routed, o, log);
         if !self.requests.is_empty() {
             o.set_timer(ModelTimer::Client, model_timeout());
         }
@@ -292,7 +385,7 @@ impl ProcessActor {
                 ind: Indication::Deliver { from, msg: msg.msg },
             },
         );
-        self.emit(&mut next, routed, &mut out, log);
+        self.emit(self.ctx(id).me, &mut next, routed, &mut out, log);
         if out.is_empty() && next == **state {
             return;
         }
@@ -344,7 +437,7 @@ impl ProcessActor {
                 let routed =
                     s.stack
                         .step_local(&self.shared.wiring, &self.ctx(id), layer, Input::Timer(t));
-                self.emit(s, routed, o, log);
+                self.emit(self.ctx(id).me, s, routed, o, log);
             }
         }
     }
@@ -366,7 +459,7 @@ impl Actor for ProcessActor {
                 delivered: Vec::new(),
                 decided: Vec::new(),
                 received: Vec::new(),
-                detections: Vec::new(),
+                detections: Detections::default(),
                 leader: None,
                 outbox: VecDeque::new(),
                 zombie: true,

@@ -10,10 +10,12 @@
 //!
 //! Each property also says which steps of one process may undo its discovery ([`Undo`]), so
 //! that the partial-order reduction ([`crate::reduction`]) never leaves such a step to later.
-//! The sequences a process records (deliveries, decisions, receipts, detections) only grow,
-//! so a violation read in them stays; a client request can make a past delivery proper (its
-//! message is then issued), and a witness of a last value (a leader, a suspicion, a length)
-//! can be undone by a change of that value. Properties judged at rest undo nothing: no step
+//! The sequences a process records (deliveries, decisions, receipts) only grow, so a
+//! violation read in them stays; a client request can make a past delivery proper (its
+//! message is then issued), and a witness of a last value (a leader, a length) can be undone
+//! by a change of that value. What a detector told its process is kept as a summary
+//! ([`crate::adapter::Detections`]) whose fault flag and trusted processes only grow; only a suspicion
+//! withdrawn can undo a witness read in it. Properties judged at rest undo nothing: no step
 //! is left in the states where they fail.
 
 use std::borrow::Cow;
@@ -63,17 +65,17 @@ pub fn properties(family: Family, n: u32, opts: &Options, proposers: u32) -> Vec
                 Always,
                 "well-formed suspicions",
                 well_formed,
-                detections_rewritten,
+                fault_forgotten,
             )];
             if crashes > 0 {
-                v.push((Sometimes, "completeness", completeness, detections_changed));
+                v.push((Sometimes, "completeness", completeness, suspicion_withdrawn));
             }
             if opts.timer_budget >= 2 {
                 v.push((
                     Sometimes,
                     "false suspicion revoked",
                     suspicion_revoked,
-                    detections_rewritten,
+                    trust_forgotten,
                 ));
             }
             v
@@ -220,14 +222,23 @@ fn received_rewritten_or_unissued(_: &ModelCfg, b: &ProcessState, a: &ProcessSta
     rewritten(&b.received, &a.received) || a.issued < b.issued
 }
 
-/// Detections are read as they grow (well-formed suspicions, a revoked suspicion).
-fn detections_rewritten(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
-    rewritten(&b.detections, &a.detections)
+/// An ill-formed indication is read (well-formed suspicions): the fault is never forgotten
+/// ([`crate::adapter::Detections::record`] only sets it), so no step undoes a violation.
+fn fault_forgotten(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    !b.detections.well_formed() && a.detections.well_formed()
 }
 
-/// The last detection about each process is read (completeness).
-fn detections_changed(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
-    a.detections != b.detections
+/// The suspicions in force are read, a witness needing some (completeness): a step undoes it
+/// only by withdrawing a suspicion; one that adds a suspicion keeps every crashed process
+/// suspected.
+fn suspicion_withdrawn(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    !a.detections.keeps_suspicions_of(&b.detections)
+}
+
+/// The processes ever trusted are read (a revoked suspicion): they only grow, and a crash,
+/// which could make the trusted one dead, never enters a reduced set.
+fn trust_forgotten(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
+    !a.detections.keeps_trusts_of(&b.detections)
 }
 
 /// The last leader is read.
@@ -567,28 +578,13 @@ fn everything_received(m: &CheckModel, s: &State) -> bool {
 
 /// What process `a`'s failure detector says of `t` now: suspected or not.
 pub(crate) fn suspects(s: &State, a: usize, t: Pid) -> bool {
-    s.actor_states[a]
-        .detections
-        .iter()
-        .rev()
-        .find(|(p, _)| *p == t)
-        .is_some_and(|(_, suspected)| *suspected)
+    s.actor_states[a].detections.suspects(t)
 }
 
 /// A detector never suspects its own process, and about each process it alternates:
 /// suspect, trust, suspect... (no trust without a suspicion, no suspicion repeated).
 fn well_formed(_: &CheckModel, s: &State) -> bool {
-    s.actor_states.iter().enumerate().all(|(me, a)| {
-        let mut now: BTreeSet<Pid> = BTreeSet::new();
-        a.detections.iter().all(|&(p, suspected)| {
-            p as usize != me
-                && if suspected {
-                    now.insert(p)
-                } else {
-                    now.remove(&p)
-                }
-        })
-    })
+    s.actor_states.iter().all(|a| a.detections.well_formed())
 }
 
 /// A witness of strong completeness: a process crashed, and every crashed process is
@@ -607,8 +603,8 @@ fn suspicion_revoked(_: &CheckModel, s: &State) -> bool {
     live(s).any(|a| {
         s.actor_states[a]
             .detections
-            .iter()
-            .any(|&(p, suspected)| !suspected && !s.crashed[p as usize])
+            .trusted()
+            .any(|p| !s.crashed[p as usize])
     })
 }
 

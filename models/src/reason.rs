@@ -6,11 +6,12 @@
 use std::collections::BTreeSet;
 
 use nekosim_protocols::codec::with_codecs;
-use nekosim_protocols::{MsgId, Payload, Pid, Request};
+use nekosim_protocols::{Indication, MsgId, Payload, Pid, Request};
 use stateright::Path;
 
-use crate::adapter::State;
+use crate::adapter::{Happening, State};
 use crate::config::{Action, CheckModel};
+use crate::explain::{explain, Event};
 use crate::family::Family;
 use crate::property::{at_rest, has_issued, live, request_of, sent};
 
@@ -22,6 +23,7 @@ pub fn reason(model: &CheckModel, name: &str, path: &Path<State, Action>) -> Opt
     with_codecs(codecs, || {
         Reader {
             m: model,
+            path,
             states: &states,
         }
         .why(name)
@@ -30,6 +32,7 @@ pub fn reason(model: &CheckModel, name: &str, path: &Path<State, Action>) -> Opt
 
 struct Reader<'a> {
     m: &'a CheckModel,
+    path: &'a Path<State, Action>,
     states: &'a [State],
 }
 
@@ -316,25 +319,56 @@ impl Reader<'_> {
         None
     }
 
+    /// The first ill-formed indication of the first process whose detector gave one. A state
+    /// keeps only whether there was one ([`crate::adapter::Detections`]), so the indications
+    /// are read from the path's steps, replayed.
     fn ill_formed(&self) -> Option<String> {
         let s = self.last();
-        for (me, a) in s.actor_states.iter().enumerate() {
-            let mut now: BTreeSet<Pid> = BTreeSet::new();
-            for &(p, suspected) in &a.detections {
-                if p as usize == me {
-                    return Some(format!("p{me}'s detector indicates p{me} itself"));
-                }
-                if suspected && !now.insert(p) {
-                    return Some(format!(
-                        "p{me} suspects p{p} again without trusting it between"
-                    ));
-                }
-                if !suspected && !now.remove(&p) {
-                    return Some(format!("p{me} trusts p{p} without having suspected it"));
+        let faulty: Vec<usize> = (0..s.actor_states.len())
+            .filter(|&me| !s.actor_states[me].detections.well_formed())
+            .collect();
+        let first = *faulty.first()?;
+        let entry = self.m.actors[0].shared.entry;
+        let mut heard: Vec<Vec<(Pid, bool, usize)>> = vec![Vec::new(); s.actor_states.len()];
+        for step in explain(self.m, self.path) {
+            for e in step.events {
+                if let Event::At {
+                    process,
+                    what: Happening::App { layer, ind },
+                } = e
+                {
+                    let told = match ind {
+                        Indication::Suspect(p) => (p, true, step.index),
+                        Indication::Trust(p) => (p, false, step.index),
+                        _ => continue,
+                    };
+                    if layer == entry {
+                        heard[process as usize].push(told);
+                    }
                 }
             }
         }
-        None
+        for &me in &faulty {
+            let mut now: BTreeSet<Pid> = BTreeSet::new();
+            for &(p, suspected, at) in &heard[me] {
+                if p as usize == me {
+                    return Some(format!(
+                        "p{me}'s detector indicates p{me} itself (step {at})"
+                    ));
+                }
+                if suspected && !now.insert(p) {
+                    return Some(format!(
+                        "p{me} suspects p{p} again without trusting it between (step {at})"
+                    ));
+                }
+                if !suspected && !now.remove(&p) {
+                    return Some(format!(
+                        "p{me} trusts p{p} without having suspected it (step {at})"
+                    ));
+                }
+            }
+        }
+        Some(format!("p{first}'s detector indications are ill-formed"))
     }
 
     fn no_such_leader(&self) -> Option<String> {

@@ -137,7 +137,7 @@ impl Symmetry {
                     .iter()
                     .map(|(from, m)| Some((r.pid(*from), r.payload(m)?)))
                     .collect::<Option<_>>()?,
-                detections: a.detections.iter().map(|(p, b)| (r.pid(*p), *b)).collect(),
+                detections: a.detections.renamed(|p| r.pid(p)),
                 leader: a.leader.map(|l| r.pid(l)),
                 outbox: a
                     .outbox

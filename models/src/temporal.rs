@@ -42,7 +42,7 @@
 //!   in a state at rest ([`crate::property::at_rest`]), where the at-rest properties are read.
 
 use std::cell::{Cell, RefCell};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::sync::Arc;
 
 use nekosim_protocols::{Pid, Request};
@@ -667,30 +667,16 @@ impl TransitionSystem for StackSystem<'_> {
     }
 }
 
-/// Keeps, of each process's detector indications, only the suspicions in force: a
-/// `(q, true)` for each process `q` whose last indication suspects it, in the order of the
-/// processes ([`ProcessState::detections`]). No step reads the indications (a process only
-/// appends to them) and every proposition of the graph reads only whether the last one about
-/// a process suspects it, so a state and its summary have the same steps to the same
-/// futures, up to the same summary, and the same propositions; merging them keeps every fair
-/// cycle. Without it a detector that keeps suspecting and trusting again (as `Heartbeat` may
-/// in a time-free model) makes the graph infinite.
+/// Keeps, of what each process's detector told it ([`ProcessState::detections`]), only the
+/// suspicions in force. No step reads it (a process only records it) and every proposition
+/// of the graph reads only whether a process suspects another now, so a state and its
+/// summary have the same steps to the same futures, up to the same summary, and the same
+/// propositions; merging them keeps every fair cycle and makes the graph smaller.
 fn keep_suspicions_in_force(s: &mut State) {
     for p in &mut s.actor_states {
-        if p.detections.is_empty() {
-            continue;
-        }
-        let mut last = BTreeMap::new();
-        for &(q, suspected) in &p.detections {
-            last.insert(q, suspected);
-        }
-        last.retain(|_, suspected| *suspected);
-        if !last
-            .iter()
-            .map(|(q, b)| (*q, *b))
-            .eq(p.detections.iter().copied())
-        {
-            Arc::make_mut(p).detections = last.into_iter().collect();
+        let in_force = p.detections.in_force();
+        if in_force != p.detections {
+            Arc::make_mut(p).detections = in_force;
         }
     }
 }

@@ -1477,3 +1477,68 @@ fn a_check_of_robots_refuses_the_budgets_only_a_stack_s_search_keeps() {
         assert!(err.contains("apply to a stack's check"), "{err}");
     }
 }
+
+#[test]
+fn a_heartbeat_detector_with_unlimited_timers_is_checked_exhaustively() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("fd.ron");
+    std::fs::write(
+        &file,
+        r#"Scenario(
+    world: (size: Infinite),
+    network: RandomDelay(lambda: 10.0),
+    stack: [ Layer(id: "fd", protocol: Heartbeat(period: 1.0, timeout: 2.0), below: "net") ],
+    robots: [ Group(count: 2, radius: 1.0, born: Points([(0.0, 0.0), (20.0, 0.0)])) ],
+)"#,
+    )
+    .unwrap();
+    let file = file.to_str().unwrap();
+    let verdicts = |out: &str| -> Vec<String> {
+        out.lines()
+            .filter(|l| {
+                ["  holds ", "  FAILS ", "  open "]
+                    .iter()
+                    .any(|v| l.starts_with(v))
+            })
+            .map(String::from)
+            .collect()
+    };
+    // A detector may suspect and trust again for ever; what its process heard is kept as a
+    // summary (what it suspects now, whom it ever trusted, whether an indication was
+    // ill-formed), so the space is finite and the search ends.
+    for (crashes, unique) in [("0", 256), ("1", 2048)] {
+        let bounded = nekosim(&["check", file, "--timers", "1", "--crashes", crashes]);
+        assert_eq!(bounded.status.code(), Some(0), "{}", stdout(&bounded));
+        let start = std::time::Instant::now();
+        let o = nekosim(&["check", file, "--timers", "unlimited", "--crashes", crashes]);
+        let took = start.elapsed();
+        let out = stdout(&o);
+        assert_eq!(o.status.code(), Some(0), "{crashes}: {out}");
+        assert!(
+            took < std::time::Duration::from_secs(20),
+            "{crashes}: {took:?}"
+        );
+        assert!(
+            out.contains(&format!("unique states: {unique},")),
+            "{crashes}: {out}"
+        );
+        assert!(!out.contains("stopped"), "{crashes}: {out}");
+        let now = verdicts(&out);
+        // What the search settled with one timer firing it settles the same way.
+        for line in verdicts(&stdout(&bounded)) {
+            assert!(
+                now.contains(&line),
+                "{crashes}: {line:?} missing from {out}"
+            );
+        }
+        assert!(
+            out.contains("holds  false suspicion revoked (sometimes)"),
+            "{crashes}: {out}"
+        );
+        assert!(
+            out.contains("holds  eventual trust []<>"),
+            "{crashes}: {out}"
+        );
+        assert!(!out.contains("FAILS"), "{crashes}: {out}");
+    }
+}

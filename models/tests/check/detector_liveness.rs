@@ -257,12 +257,7 @@ fn cycle_states(lasso: &Lasso<State, Action>) -> Vec<&State> {
 /// Whether `a`'s last indication about `b` suspects it, read from what reached `a`'s
 /// application.
 fn suspects(s: &State, a: usize, b: usize) -> bool {
-    s.actor_states[a]
-        .detections
-        .iter()
-        .rev()
-        .find(|(p, _)| *p as usize == b)
-        .is_some_and(|(_, suspected)| *suspected)
+    s.actor_states[a].detections.suspects(b as Pid)
 }
 
 /// Whether the step fires process `p`'s detector timer `timer` (the detector is layer 0).

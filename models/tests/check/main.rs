@@ -3,6 +3,7 @@
 mod broken_variants_are_caught;
 mod compact_search;
 mod correct_models_hold;
+mod detector_history;
 mod detector_liveness;
 mod early_arrivals;
 mod liveness;

@@ -3,13 +3,19 @@
 //! a layer written here with a seeded bug. The oracle is the counterexample's own last state,
 //! read independently of the property that found it.
 
-use nekosim_models::State;
-use nekosim_models::{build_in, run, Exploration, Family, NetworkKind, Options, Outcome, Target};
+use nekosim_models::adapter::Happening;
+use nekosim_models::config::Action;
+use nekosim_models::explain::{explain, Event};
+use nekosim_models::reason::reason;
+use nekosim_models::{
+    build_in, run, CheckModel, Exploration, Family, NetworkKind, Options, Outcome, State, Target,
+};
 use nekosim_protocols::{
     AppMsg, Content, Ctx, FieldError, Indication, LayerIx, LayerSpec, Microprotocol, NoConfig, Out,
     Payload, Pid, Protocols, Request, Service, Shape,
 };
 use serde::{Deserialize, Serialize};
+use stateright::Path;
 
 /// Claims FIFO links but only passes messages through: FIFO on an ordered network, not on
 /// one that reorders.
@@ -76,15 +82,38 @@ fn protocols() -> Protocols {
     p
 }
 
-fn check(stack: &[(&str, &str, &str, &[&str])], opts: &Options) -> Outcome {
+fn model(stack: &[(&str, &str, &str, &[&str])], opts: &Options) -> CheckModel {
     let protocols = protocols();
     let stack = stack
         .iter()
         .map(|(id, p, below, uses)| LayerSpec::new(id, p, below, uses))
         .collect();
     let target = Target::of_stack(stack, None, &protocols).expect("a checkable stack");
-    let model = build_in(&protocols, &target, opts, |_, _| {}).expect("valid model");
-    run(model, Exploration::default())
+    build_in(&protocols, &target, opts, |_, _| {}).expect("valid model")
+}
+
+fn check(stack: &[(&str, &str, &str, &[&str])], opts: &Options) -> Outcome {
+    run(model(stack, opts), Exploration::default())
+}
+
+/// What reached process `q`'s application from its detector along `path`, in order: each
+/// step replayed ([`explain`]), independently of what the states keep of it.
+fn indications(m: &CheckModel, path: &Path<State, Action>, q: usize) -> Vec<(Pid, bool)> {
+    explain(m, path)
+        .into_iter()
+        .flat_map(|step| step.events)
+        .filter_map(|e| match e {
+            Event::At {
+                process,
+                what: Happening::App { ind, .. },
+            } if process as usize == q => match ind {
+                Indication::Suspect(p) => Some((p, true)),
+                Indication::Trust(p) => Some((p, false)),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect()
 }
 
 fn opts(requests: u32, network: NetworkKind) -> Options {
@@ -220,21 +249,26 @@ fn retransmission_over_a_lossy_network_neither_creates_nor_duplicates() {
 #[test]
 fn a_heartbeat_detector_is_complete_and_revokes_false_suspicions() {
     let stack = [("fd", "Heartbeat(period: 1.0, timeout: 2.0)", "net", &[][..])];
-    let crash = check(
-        &stack,
-        &Options {
-            crashes: 1,
-            ..opts(0, NetworkKind::Unordered)
-        },
-    );
+    let crashes = Options {
+        crashes: 1,
+        ..opts(0, NetworkKind::Unordered)
+    };
+    let crash = check(&stack, &crashes);
     assert_eq!(names(&crash), ["well-formed suspicions", "completeness"]);
     assert!(holds(&crash), "{:?}", crash.verdicts);
-    // The witness's last state: a crashed process every live one suspects.
-    let last = last_state(&crash, "completeness");
+    // The witness's last state: a crashed process every live one suspects, by the last
+    // indication about it the path's steps told each live one.
+    let path = crash
+        .verdict("completeness")
+        .unwrap()
+        .path
+        .as_ref()
+        .unwrap();
+    let last = path.last_state();
+    let m = model(&stack, &crashes);
     let dead = (0..3).find(|&p| last.crashed[p]).expect("a crash");
     for q in (0..3).filter(|&q| !last.crashed[q]) {
-        let about: Vec<bool> = last.actor_states[q]
-            .detections
+        let about: Vec<bool> = indications(&m, path, q)
             .iter()
             .filter(|(p, _)| *p as usize == dead)
             .map(|(_, s)| *s)
@@ -258,13 +292,20 @@ fn a_heartbeat_detector_is_complete_and_revokes_false_suspicions() {
 
 #[test]
 fn a_detector_trusting_before_suspecting_is_caught_at_start() {
-    let o = check(
-        &[("fd", "EagerTrust", "net", &[])],
-        &opts(0, NetworkKind::Unordered),
-    );
+    let stack = [("fd", "EagerTrust", "net", &[][..])];
+    let o = check(&stack, &opts(0, NetworkKind::Unordered));
     let v = o.verdict("well-formed suspicions").unwrap();
     assert!(!v.holds);
-    assert_eq!(v.path.as_ref().unwrap().clone().into_actions().len(), 0);
+    let path = v.path.as_ref().unwrap();
+    assert_eq!(path.clone().into_actions().len(), 0);
+    // The state keeps only that something was ill-formed; the reason finds what in the
+    // path's steps.
+    let m = model(&stack, &opts(0, NetworkKind::Unordered));
+    assert_eq!(indications(&m, path, 0)[0], (1, false));
+    assert_eq!(
+        reason(&m, "well-formed suspicions", path).as_deref(),
+        Some("p0 trusts p1 without having suspected it (step 0)")
+    );
 }
 
 #[test]
