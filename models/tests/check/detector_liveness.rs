@@ -28,7 +28,9 @@ use super::liveness::{liveness, replays, verdict};
 
 /// How a detector written here differs from `Heartbeat` when it checks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-enum Flaw {
+pub(super) enum Flaw {
+    /// None: it suspects and trusts as `Heartbeat` does (a user's detector written alike).
+    Flawless,
     /// Suspects nobody.
     NeverSuspects,
     /// Trusts again, at its next check, every process it suspects, heard from or not.
@@ -40,18 +42,26 @@ enum Flaw {
 /// A heartbeat detector with a seeded flaw (a test-only layer): it beats and checks as
 /// `Heartbeat` does, and decides whom to suspect as its flaw says.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
-struct Flawed {
+pub(super) struct Flawed {
     flaw: Flaw,
     heard: BTreeSet<Pid>,
     suspected: BTreeSet<Pid>,
+    /// Whether it says whom it suspects (`Microprotocol::suspicions`), as `Heartbeat` does.
+    says: bool,
 }
 
 impl Flawed {
     fn layer(flaw: Flaw) -> Layer {
+        Self::layer_saying(flaw, false)
+    }
+
+    /// The layer, saying whom it suspects when `says`.
+    pub(super) fn layer_saying(flaw: Flaw, says: bool) -> Layer {
         Layer::new(Self {
             flaw,
             heard: BTreeSet::new(),
             suspected: BTreeSet::new(),
+            says,
         })
     }
 }
@@ -92,6 +102,7 @@ impl Microprotocol for Flawed {
         for p in ctx.others() {
             let (heard, suspected) = (self.heard.contains(&p), self.suspected.contains(&p));
             let (suspect, trust) = match self.flaw {
+                Flaw::Flawless => (!heard && !suspected, heard && suspected),
                 Flaw::NeverSuspects => (false, false),
                 Flaw::Flips => (!heard && !suspected, suspected),
                 Flaw::Sticky => (!heard && !suspected, false),
@@ -106,6 +117,10 @@ impl Microprotocol for Flawed {
         }
         self.heard.clear();
         out.set_timer(HeartbeatTimer::Check, 2.0);
+    }
+
+    fn suspicions(&self) -> Option<Vec<Pid>> {
+        self.says.then(|| self.suspected.iter().copied().collect())
     }
 }
 

@@ -1,76 +1,18 @@
 //! A user's failure detector is assumed eventually accurate exactly when it says whom it
-//! suspects (`Microprotocol::suspicions`), as `Heartbeat` does. The detector here is written
-//! as a user would, beating and checking as `Heartbeat` does; `Omega` over it then keeps a
+//! suspects (`Microprotocol::suspicions`), as `Heartbeat` does. The detector here is a test
+//! layer written as a user would (`Flaw::Flawless`: it beats and checks as `Heartbeat` does);
+//! `Omega` over it then keeps a
 //! stable leader as it does over `Heartbeat` (a known answer), and without the declaration
 //! the verdict is the one `Omega` over `Heartbeat` gets when judged without the assumption.
-
-use std::collections::BTreeSet;
 
 use nekosim_models::config::UNLIMITED_TIMERS;
 use nekosim_models::liveness::Verdict;
 use nekosim_models::temporal::{accurate, assumes_accuracy, StackFairness};
 use nekosim_models::{build, CheckModel, Family, Options, Target};
-use nekosim_protocols::heartbeat::{Beat, HeartbeatTimer};
-use nekosim_protocols::{
-    Ctx, FieldError, Indication, Layer, LayerSpec, Microprotocol, NoConfig, Out, Pid, Service,
-    Shape,
-};
+use nekosim_protocols::LayerSpec;
 
+use super::detector_liveness::{Flaw, Flawed};
 use super::liveness::{liveness, verdict};
-
-/// A user's heartbeat detector; it declares whom it suspects when `SAYS`.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
-struct Beats<const SAYS: bool> {
-    heard: BTreeSet<Pid>,
-    suspected: BTreeSet<Pid>,
-}
-
-impl<const SAYS: bool> Microprotocol for Beats<SAYS> {
-    type Msg = Beat;
-    type Timer = HeartbeatTimer;
-    type Config = NoConfig;
-    const NAME: &'static str = "UserBeats";
-
-    fn shape(_: &NoConfig) -> Shape {
-        Shape::on_links(Service::FAILURE_DETECTOR)
-    }
-
-    fn new(_: NoConfig) -> Result<Self, FieldError> {
-        Ok(Self::default())
-    }
-
-    fn on_start(&mut self, ctx: &Ctx, out: &mut Out<Self>) {
-        out.send(ctx.others(), Beat);
-        out.set_timer(HeartbeatTimer::Beat, 1.0);
-        out.set_timer(HeartbeatTimer::Check, 2.0);
-    }
-
-    fn on_message(&mut self, _: &Ctx, from: Pid, _: Beat, _: &mut Out<Self>) {
-        self.heard.insert(from);
-    }
-
-    fn on_timer(&mut self, ctx: &Ctx, timer: HeartbeatTimer, out: &mut Out<Self>) {
-        if timer == HeartbeatTimer::Beat {
-            out.send(ctx.others(), Beat);
-            out.set_timer(HeartbeatTimer::Beat, 1.0);
-            return;
-        }
-        for p in ctx.others() {
-            let heard = self.heard.contains(&p);
-            if !heard && self.suspected.insert(p) {
-                out.up(Indication::Suspect(p));
-            } else if heard && self.suspected.remove(&p) {
-                out.up(Indication::Trust(p));
-            }
-        }
-        self.heard.clear();
-        out.set_timer(HeartbeatTimer::Check, 2.0);
-    }
-
-    fn suspicions(&self) -> Option<Vec<Pid>> {
-        SAYS.then(|| self.suspected.iter().copied().collect())
-    }
-}
 
 /// `Omega` over `Heartbeat`, or over the user's detector in its place, on 2 processes with
 /// unlimited timers.
@@ -91,8 +33,7 @@ fn omega(crashes: u32, user: Option<bool>) -> CheckModel {
         ..Options::default()
     };
     build(&target, &opts, |_, s| match user {
-        Some(true) => s.layers[0] = Layer::new(Beats::<true>::default()),
-        Some(false) => s.layers[0] = Layer::new(Beats::<false>::default()),
+        Some(says) => s.layers[0] = Flawed::layer_saying(Flaw::Flawless, says),
         None => {}
     })
     .expect("valid model")
