@@ -1,9 +1,9 @@
 //! A user's failure detector is assumed eventually accurate exactly when it says whom it
 //! suspects (`Microprotocol::suspicions`), as `Heartbeat` does. The detector here is a test
-//! layer written as a user would (`Flaw::Flawless`: it beats and checks as `Heartbeat` does);
-//! `Omega` over it then keeps a
-//! stable leader as it does over `Heartbeat` (a known answer), and without the declaration
-//! the verdict is the one `Omega` over `Heartbeat` gets when judged without the assumption.
+//! layer written as a user would (`Flaw::Flawless`: it beats and checks as `Heartbeat` does).
+//! `Omega` over it keeps a stable leader as it does over `Heartbeat` (a known answer), and
+//! without the declaration the verdict is the one `Omega` over `Heartbeat` gets when judged
+//! without the assumption.
 
 use nekosim_models::config::UNLIMITED_TIMERS;
 use nekosim_models::liveness::Verdict;
@@ -32,9 +32,10 @@ fn omega(crashes: u32, user: Option<bool>) -> CheckModel {
         timer_budget: UNLIMITED_TIMERS,
         ..Options::default()
     };
-    build(&target, &opts, |_, s| match user {
-        Some(says) => s.layers[0] = Flawed::layer_saying(Flaw::Flawless, says),
-        None => {}
+    build(&target, &opts, |_, s| {
+        if let Some(says) = user {
+            s.layers[0] = Flawed::layer_saying(Flaw::Flawless, says);
+        }
     })
     .expect("valid model")
 }
