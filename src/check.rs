@@ -388,19 +388,19 @@ pub fn reduction_in_effect(
     args: &CheckArgs,
     in_send_order: bool,
 ) -> Result<Reduction, &'static str> {
+    let bfs = args.strategy == Strategy::Bfs;
     if !opts.reduction {
         Err("turned off")
-    } else if args.strategy != Strategy::Bfs || args.depth.is_some() {
-        match (in_send_order, args.strategy == Strategy::Bfs) {
-            (true, _) => Ok(Reduction::InSendOrder),
-            (false, false) => Err("bfs only"),
-            (false, true) if opts.network != NetworkKind::Ordered => Ok(Reduction::SpentMessages),
-            (false, true) => Err("not with a depth bound"),
-        }
-    } else if in_send_order {
+    } else if in_send_order && bfs && args.depth.is_none() {
         Ok(Reduction::PartialOrderInSendOrder)
+    } else if in_send_order {
+        Ok(Reduction::InSendOrder)
+    } else if !bfs {
+        Err("bfs only")
     } else if opts.network != NetworkKind::Ordered {
         Ok(Reduction::SpentMessages)
+    } else if args.depth.is_some() {
+        Err("not with a depth bound")
     } else {
         Ok(Reduction::PartialOrder)
     }
