@@ -36,6 +36,7 @@ pub mod property;
 pub mod reason;
 pub mod reduction;
 pub mod registry;
+pub mod rest;
 pub mod spill;
 pub mod symmetry;
 pub mod temporal;

@@ -18,18 +18,15 @@
 //! withdrawn can undo a witness read in it. Properties judged at rest undo nothing: no step
 //! is left in the states where they fail.
 
-use std::borrow::Cow;
-use std::cell::RefCell;
 use std::collections::BTreeSet;
-use std::sync::Arc;
 
 use nekosim_protocols::{MsgId, Payload, Pid, Request};
-use stateright::actor::{Network, Out, Timers};
 use stateright::Expectation;
 
-use crate::adapter::{ModelTimer, NetMsg, ProcessState, Shared, State};
+use crate::adapter::{ProcessState, State};
 use crate::config::{CheckModel, Condition, ModelCfg, NetworkKind, Options, Undo};
 use crate::family::Family;
+use crate::rest::at_rest;
 
 /// A property: how it is checked, its name, its condition and which steps may undo its
 /// discovery.
@@ -248,104 +245,6 @@ fn leader_changed(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
 
 pub(crate) fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
     (0..s.actor_states.len()).filter(|&i| !s.crashed[i])
-}
-
-/// Nothing is left to happen: no client request or staged send pending, no protocol timer
-/// that a live process may still fire, no delivery to a live process that would change
-/// anything (on an ordered network: no delivery at all). After a crash, a pending protocol timer always counts as something left (a
-/// failure detector must keep running for the survivors to make progress), so a run cut by
-/// the timer budget is never at rest.
-pub fn at_rest(m: &CheckModel, s: &State) -> bool {
-    LAST_AT_REST.with(|last| {
-        let mut last = last.borrow_mut();
-        if let Some(answer) = last.as_ref().and_then(|l| l.answer(m, s)) {
-            return answer;
-        }
-        let answer = judge_at_rest(m, s);
-        *last = Some(LastAtRest::new(m, s, answer));
-        answer
-    })
-}
-
-thread_local! {
-    /// The state [`at_rest`] last judged on this thread. Every property judged at rest asks
-    /// about the state in turn, and each answer may run a delivery.
-    static LAST_AT_REST: RefCell<Option<LastAtRest>> = const { RefCell::new(None) };
-}
-
-/// A state [`at_rest`] judged, as what the answer reads: the model (its shared part), the
-/// process states by identity, and the network, timers and crashes by value. The `Arc`s held
-/// here keep their addresses from being reused while the entry lives, so an equal pointer is
-/// the same value.
-struct LastAtRest {
-    model: Arc<Shared>,
-    processes: Vec<Arc<ProcessState>>,
-    network: Network<NetMsg>,
-    timers: Vec<Timers<ModelTimer>>,
-    crashed: Vec<bool>,
-    answer: bool,
-}
-
-impl LastAtRest {
-    fn new(m: &CheckModel, s: &State, answer: bool) -> Self {
-        Self {
-            model: Arc::clone(&m.actors[0].shared),
-            processes: s.actor_states.clone(),
-            network: s.network.clone(),
-            timers: s.timers_set.clone(),
-            crashed: s.crashed.clone(),
-            answer,
-        }
-    }
-
-    /// The answer, if `s` of `m` is the state judged.
-    fn answer(&self, m: &CheckModel, s: &State) -> Option<bool> {
-        let same = Arc::ptr_eq(&self.model, &m.actors[0].shared)
-            && self.processes.len() == s.actor_states.len()
-            && self
-                .processes
-                .iter()
-                .zip(&s.actor_states)
-                .all(|(a, b)| Arc::ptr_eq(a, b))
-            && self.crashed == s.crashed
-            && self.timers == s.timers_set
-            && self.network == s.network;
-        same.then_some(self.answer)
-    }
-}
-
-fn judge_at_rest(m: &CheckModel, s: &State) -> bool {
-    let crashed_any = s.crashed.iter().any(|c| *c);
-    let timers_done = live(s).all(|i| {
-        s.timers_set[i].iter().all(|t| match t {
-            ModelTimer::Client | ModelTimer::Flush => false,
-            ModelTimer::Layer { .. } => {
-                !crashed_any && s.actor_states[i].fired >= m.cfg.timer_budget
-            }
-        })
-    });
-    timers_done
-        && s.network.iter_deliverable().all(|e| {
-            let i = usize::from(e.dst);
-            if s.crashed[i] {
-                return true;
-            }
-            // On an ordered network, even a useless message is a step: it unblocks the
-            // messages queued behind it.
-            if matches!(s.network, Network::Ordered(_)) {
-                return false;
-            }
-            let mut state = Cow::Borrowed(&*s.actor_states[i]);
-            m.actors[i].receive(
-                e.dst,
-                &mut state,
-                e.src,
-                e.msg.clone(),
-                &mut Out::new(),
-                &mut Vec::new(),
-            );
-            matches!(state, Cow::Borrowed(_))
-        })
 }
 
 /// The global index of the broadcast `id` (process `p`'s `i`-th request is request
@@ -640,65 +539,3 @@ const TERMINATION_WITHOUT: [(&str, Condition); 8] = [
     ("termination with p6 crashed", termination_without::<6>),
     ("termination with p7 crashed", termination_without::<7>),
 ];
-
-#[cfg(test)]
-mod tests {
-    use stateright::actor::Network;
-    use stateright::{Checker, Model, StateRecorder};
-
-    use super::{at_rest, judge_at_rest};
-    use crate::config::{CheckModel, Options};
-    use crate::{build, find, State};
-
-    fn states(name: &str, o: &Options) -> (CheckModel, Vec<State>) {
-        let m = build(&find(name).unwrap().target(), o, |_, _| {}).unwrap();
-        let (recorder, states) = StateRecorder::new_with_accessor();
-        m.clone().checker().visitor(recorder).spawn_bfs().join();
-        (m, states())
-    }
-
-    /// The remembered answer is the answer, whatever order the states are asked in, the same
-    /// state twice or states of two models in turn.
-    #[test]
-    fn at_rest_remembers_only_the_state_it_judged() {
-        let o = Options {
-            processes: 3,
-            requests: 2,
-            crashes: 1,
-            reduction: false,
-            ..Options::default()
-        };
-        let (a, sa) = states("lamport-abcast", &o);
-        let (b, sb) = states("reliable-broadcast", &o);
-        let resting = sa.iter().filter(|s| judge_at_rest(&a, s)).count();
-        assert!(resting > 0 && resting < sa.len());
-        for (i, s) in sa.iter().enumerate().rev() {
-            let t = &sb[i % sb.len()];
-            for _ in 0..2 {
-                assert_eq!(at_rest(&a, s), judge_at_rest(&a, s));
-                assert_eq!(at_rest(&b, t), judge_at_rest(&b, t));
-            }
-            // A successor shares most of its parts with the state judged before it.
-            for next in a.next_states(s) {
-                assert_eq!(at_rest(&a, &next), judge_at_rest(&a, &next));
-            }
-        }
-        // The same processes (the very `Arc`s) with nothing in flight, or with a crash.
-        let mut told_apart = 0;
-        for s in &sa {
-            let mut quiet = s.clone();
-            quiet.network = Network::new_unordered_nonduplicating([]);
-            let mut crashed = s.clone();
-            crashed.crashed = vec![true; s.crashed.len()];
-            for v in [&quiet, &crashed] {
-                let (before, after) = (at_rest(&a, s), at_rest(&a, v));
-                assert_eq!(
-                    (before, after),
-                    (judge_at_rest(&a, s), judge_at_rest(&a, v))
-                );
-                told_apart += usize::from(before != after);
-            }
-        }
-        assert!(told_apart > 0);
-    }
-}

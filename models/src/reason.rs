@@ -13,7 +13,8 @@ use crate::adapter::{Happening, State};
 use crate::config::{Action, CheckModel};
 use crate::explain::{explain, Event};
 use crate::family::Family;
-use crate::property::{at_rest, has_issued, live, request_of, sent};
+use crate::property::{has_issued, live, request_of, sent};
+use crate::rest::at_rest;
 
 /// What is wrong in the last state of `path`, a counterexample of the property `name`;
 /// `None` when that state does not show it (not a counterexample of that property).

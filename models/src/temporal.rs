@@ -39,7 +39,7 @@
 //! - **Bounds** (the timer budget after a crash, the round bound, the copy bound of unlimited
 //!   timers) never make a counterexample: a state a bound cut short is never where a run ends,
 //!   and the steps it leaves out count as enabled there ([`crate::liveness`]). A run ends only
-//!   in a state at rest ([`crate::property::at_rest`]), where the at-rest properties are read.
+//!   in a state at rest ([`crate::rest::at_rest`]), where the at-rest properties are read.
 
 use std::cell::{Cell, RefCell};
 use std::collections::HashMap;
@@ -643,7 +643,7 @@ impl TransitionSystem for StackSystem<'_> {
         }
         let none = out.len() == before && left.is_empty();
         self.stuck
-            .set(none && !crate::property::at_rest(self.model, state));
+            .set(none && !crate::rest::at_rest(self.model, state));
     }
 
     fn moved(&self, _: &Step) -> Actors {

@@ -8,7 +8,7 @@
 
 use nekosim_models::compact::{CompactBfs, Reductions};
 use nekosim_models::model::invisible;
-use nekosim_models::property::at_rest;
+use nekosim_models::rest::at_rest;
 use nekosim_models::{
     build, find, run, CheckModel, Exploration, NetworkKind, Options, Outcome, State,
 };

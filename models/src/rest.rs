@@ -1,0 +1,310 @@
+//! Whether a protocol stack's state is **at rest**: nothing is left to happen that would
+//! change anything. The properties judged at rest ([`crate::property`]: validity, agreement,
+//! termination) read only such states, where no step is left to make them true.
+//!
+//! The judgement runs the deliveries in flight (a delivery that changes nothing leaves the
+//! system where it is), the costliest part of checking a state. Both the last judgement and
+//! the deliveries it ran are remembered per thread, each keyed by what its answer reads.
+
+use std::borrow::Cow;
+use std::cell::RefCell;
+use std::collections::hash_map::DefaultHasher;
+use std::hash::{Hash, Hasher};
+use std::sync::Arc;
+
+use stateright::actor::{Id, Network, Out, Timers};
+
+use crate::adapter::{ModelTimer, NetMsg, ProcessState, Shared, State};
+use crate::config::CheckModel;
+use crate::property::live;
+
+/// Nothing is left to happen: no client request or staged send pending, no protocol timer
+/// that a live process may still fire, no delivery to a live process that would change
+/// anything (on an ordered network: no delivery at all). After a crash, a pending protocol timer always counts as something left (a
+/// failure detector must keep running for the survivors to make progress), so a run cut by
+/// the timer budget is never at rest.
+pub fn at_rest(m: &CheckModel, s: &State) -> bool {
+    LAST_AT_REST.with(|last| {
+        let mut last = last.borrow_mut();
+        if let Some(answer) = last.as_ref().and_then(|l| l.answer(m, s)) {
+            return answer;
+        }
+        let answer = judge_at_rest(m, s);
+        *last = Some(LastAtRest::new(m, s, answer));
+        answer
+    })
+}
+
+thread_local! {
+    /// The state [`at_rest`] last judged on this thread. Every property judged at rest asks
+    /// about the state in turn, and each answer may run a delivery.
+    static LAST_AT_REST: RefCell<Option<LastAtRest>> = const { RefCell::new(None) };
+}
+
+/// A state [`at_rest`] judged, as what the answer reads: the model (its shared part), the
+/// process states by identity, and the network, timers and crashes by value. The `Arc`s held
+/// here keep their addresses from being reused while the entry lives, so an equal pointer is
+/// the same value.
+struct LastAtRest {
+    model: Arc<Shared>,
+    processes: Vec<Arc<ProcessState>>,
+    network: Network<NetMsg>,
+    timers: Vec<Timers<ModelTimer>>,
+    crashed: Vec<bool>,
+    answer: bool,
+}
+
+impl LastAtRest {
+    fn new(m: &CheckModel, s: &State, answer: bool) -> Self {
+        Self {
+            model: Arc::clone(&m.actors[0].shared),
+            processes: s.actor_states.clone(),
+            network: s.network.clone(),
+            timers: s.timers_set.clone(),
+            crashed: s.crashed.clone(),
+            answer,
+        }
+    }
+
+    /// The answer, if `s` of `m` is the state judged.
+    fn answer(&self, m: &CheckModel, s: &State) -> Option<bool> {
+        let same = Arc::ptr_eq(&self.model, &m.actors[0].shared)
+            && self.processes.len() == s.actor_states.len()
+            && self
+                .processes
+                .iter()
+                .zip(&s.actor_states)
+                .all(|(a, b)| Arc::ptr_eq(a, b))
+            && self.crashed == s.crashed
+            && self.timers == s.timers_set
+            && self.network == s.network;
+        same.then_some(self.answer)
+    }
+}
+
+/// [`at_rest`] judged anew, with the deliveries remembered.
+fn judge_at_rest(m: &CheckModel, s: &State) -> bool {
+    judge(m, s, |p, src, dst, msg| {
+        DELIVERIES.with(|d| d.borrow_mut().changes(m, p, src, dst, msg))
+    })
+}
+
+/// [`at_rest`], asking `changes` whether a delivery changes anything.
+fn judge(
+    m: &CheckModel,
+    s: &State,
+    mut changes: impl FnMut(&Arc<ProcessState>, Id, Id, &NetMsg) -> bool,
+) -> bool {
+    let crashed_any = s.crashed.iter().any(|c| *c);
+    let timers_done = live(s).all(|i| {
+        s.timers_set[i].iter().all(|t| match t {
+            ModelTimer::Client | ModelTimer::Flush => false,
+            ModelTimer::Layer { .. } => {
+                !crashed_any && s.actor_states[i].fired >= m.cfg.timer_budget
+            }
+        })
+    });
+    timers_done
+        && s.network.iter_deliverable().all(|e| {
+            let i = usize::from(e.dst);
+            if s.crashed[i] {
+                return true;
+            }
+            // On an ordered network, even a useless message is a step: it unblocks the
+            // messages queued behind it.
+            if matches!(s.network, Network::Ordered(_)) {
+                return false;
+            }
+            !changes(&s.actor_states[i], e.src, e.dst, e.msg)
+        })
+}
+
+/// Whether process `dst` in state `p` changes anything on receiving `msg` from `src`: its
+/// state, or something it sends.
+fn delivery_changes(m: &CheckModel, p: &ProcessState, src: Id, dst: Id, msg: &NetMsg) -> bool {
+    let mut state = Cow::Borrowed(p);
+    m.actors[usize::from(dst)].receive(
+        dst,
+        &mut state,
+        src,
+        msg.clone(),
+        &mut Out::new(),
+        &mut Vec::new(),
+    );
+    matches!(state, Cow::Owned(_))
+}
+
+/// Slots of the deliveries remembered per thread: a power of two.
+const DELIVERY_SLOTS: usize = 1 << 12;
+
+thread_local! {
+    /// Deliveries [`judge_at_rest`] ran on this thread, and whether each changed anything.
+    /// The states of a search share their process states (the same `Arc`s) far more than they
+    /// are equal as a whole, so one delivery answers for many states, as long as the process
+    /// state it ran on is kept alive.
+    static DELIVERIES: RefCell<Deliveries> = RefCell::new(Deliveries::new(DELIVERY_SLOTS));
+}
+
+/// A delivery judged: the model, the receiving process's state by identity, the envelope.
+struct Delivery {
+    model: Arc<Shared>,
+    process: Arc<ProcessState>,
+    src: Id,
+    dst: Id,
+    msg: NetMsg,
+    changes: bool,
+}
+
+/// The deliveries judged last, one per slot, a slot chosen by hashing what the answer reads.
+struct Deliveries {
+    slots: Vec<Option<Delivery>>,
+}
+
+impl Deliveries {
+    /// Room for `slots` deliveries (a power of two), allocated at the first.
+    fn new(slots: usize) -> Self {
+        debug_assert!(slots.is_power_of_two());
+        Self {
+            slots: Vec::with_capacity(slots),
+        }
+    }
+
+    /// [`delivery_changes`], remembered: the answer depends only on the model, the process
+    /// state and the envelope, and an `Arc` kept here keeps its address from being reused.
+    fn changes(
+        &mut self,
+        m: &CheckModel,
+        process: &Arc<ProcessState>,
+        src: Id,
+        dst: Id,
+        msg: &NetMsg,
+    ) -> bool {
+        let model = &m.actors[0].shared;
+        if self.slots.is_empty() {
+            let n = self.slots.capacity();
+            self.slots.resize_with(n, || None);
+        }
+        let mut h = DefaultHasher::new();
+        (Arc::as_ptr(model), Arc::as_ptr(process), src, dst, msg).hash(&mut h);
+        let mask = self.slots.len() - 1;
+        let slot = &mut self.slots[h.finish() as usize & mask];
+        if let Some(d) = slot.as_ref().filter(|d| {
+            Arc::ptr_eq(&d.model, model)
+                && Arc::ptr_eq(&d.process, process)
+                && (d.src, d.dst) == (src, dst)
+                && d.msg == *msg
+        }) {
+            return d.changes;
+        }
+        let changes = delivery_changes(m, process, src, dst, msg);
+        *slot = Some(Delivery {
+            model: Arc::clone(model),
+            process: Arc::clone(process),
+            src,
+            dst,
+            msg: msg.clone(),
+            changes,
+        });
+        changes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use stateright::actor::Network;
+    use stateright::{Checker, Model, StateRecorder};
+
+    use super::{at_rest, delivery_changes, judge, Deliveries};
+    use crate::config::{CheckModel, Options};
+    use crate::{build, find, State};
+
+    fn states(name: &str, o: &Options) -> (CheckModel, Vec<State>) {
+        let m = build(&find(name).unwrap().target(), o, |_, _| {}).unwrap();
+        let (recorder, states) = StateRecorder::new_with_accessor();
+        m.clone().checker().visitor(recorder).spawn_bfs().join();
+        (m, states())
+    }
+
+    /// [`at_rest`] with nothing remembered: every delivery run again.
+    fn judge_at_rest(m: &CheckModel, s: &State) -> bool {
+        judge(m, s, |p, src, dst, msg| {
+            delivery_changes(m, p, src, dst, msg)
+        })
+    }
+
+    /// The remembered answer is the answer, whatever order the states are asked in, the same
+    /// state twice or states of two models in turn.
+    #[test]
+    fn at_rest_remembers_only_the_state_it_judged() {
+        let o = Options {
+            processes: 3,
+            requests: 2,
+            crashes: 1,
+            reduction: false,
+            ..Options::default()
+        };
+        let (a, sa) = states("lamport-abcast", &o);
+        let (b, sb) = states("reliable-broadcast", &o);
+        let resting = sa.iter().filter(|s| judge_at_rest(&a, s)).count();
+        assert!(resting > 0 && resting < sa.len());
+        for (i, s) in sa.iter().enumerate().rev() {
+            let t = &sb[i % sb.len()];
+            for _ in 0..2 {
+                assert_eq!(at_rest(&a, s), judge_at_rest(&a, s));
+                assert_eq!(at_rest(&b, t), judge_at_rest(&b, t));
+            }
+            // A successor shares most of its parts with the state judged before it.
+            for next in a.next_states(s) {
+                assert_eq!(at_rest(&a, &next), judge_at_rest(&a, &next));
+            }
+        }
+        // The same processes (the very `Arc`s) with nothing in flight, or with a crash.
+        let mut told_apart = 0;
+        for s in &sa {
+            let mut quiet = s.clone();
+            quiet.network = Network::new_unordered_nonduplicating([]);
+            let mut crashed = s.clone();
+            crashed.crashed = vec![true; s.crashed.len()];
+            for v in [&quiet, &crashed] {
+                let (before, after) = (at_rest(&a, s), at_rest(&a, v));
+                assert_eq!(
+                    (before, after),
+                    (judge_at_rest(&a, s), judge_at_rest(&a, v))
+                );
+                told_apart += usize::from(before != after);
+            }
+        }
+        assert!(told_apart > 0);
+    }
+
+    /// A remembered delivery answers only for the same process state and envelope: with one
+    /// slot, every delivery of every state of two models lands on the one before it.
+    #[test]
+    fn a_delivery_is_remembered_only_for_its_process_state_and_envelope() {
+        let o = Options {
+            processes: 3,
+            requests: 2,
+            crashes: 1,
+            reduction: false,
+            ..Options::default()
+        };
+        let (a, sa) = states("lamport-abcast", &o);
+        let (b, sb) = states("reliable-broadcast", &o);
+        let mut one = Deliveries::new(1);
+        let (mut asked, mut changing) = (0, 0);
+        for (i, s) in sa.iter().enumerate() {
+            for (m, s) in [(&a, s), (&b, &sb[i % sb.len()])] {
+                for e in s.network.iter_deliverable() {
+                    let p = &s.actor_states[usize::from(e.dst)];
+                    let fresh = delivery_changes(m, p, e.src, e.dst, e.msg);
+                    for _ in 0..2 {
+                        assert_eq!(one.changes(m, p, e.src, e.dst, e.msg), fresh);
+                    }
+                    asked += 1;
+                    changing += usize::from(fresh);
+                }
+            }
+        }
+        assert!(changing > 0 && changing < asked, "{changing} of {asked}");
+    }
+}
