@@ -11,8 +11,13 @@
 //!
 //! Criterion's throughput line (elem/s) is the states/s figure; the element count is the
 //! number of states one check generates (duplicates included, as stateright counts them).
+//! Criterion times the two checks minutes apart, and this machine's speed drifts more than
+//! their difference in that time, so the bench also prints the ratio of the two measured in
+//! pairs: rounds that time one check of each in turn.
 
 mod paxos;
+
+use std::time::Instant;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nekosim_models::compact::CompactBfs;
@@ -50,7 +55,41 @@ fn paxos() -> paxos::PaxosModel {
     .into_model()
 }
 
+/// Rounds of [`paired_ratio`].
+const ROUNDS: usize = 31;
+
+/// Lamport's states per second over Paxos's, from rounds that each time one check of each,
+/// the first of the two alternating, so that a drift of the machine's speed falls on both
+/// alike: the least, median and greatest of the rounds' ratios.
+fn paired_ratio() -> [f64; 3] {
+    let per_second = |check: &dyn Fn() -> usize| {
+        let started = Instant::now();
+        let states = check();
+        states as f64 / started.elapsed().as_secs_f64()
+    };
+    let lamport = || run(lamport(), Exploration::default()).states;
+    let paxos = || paxos().checker().spawn_bfs().join().state_count();
+    let mut ratios: Vec<f64> = (0..ROUNDS)
+        .map(|round| {
+            if round % 2 == 0 {
+                let l = per_second(&lamport);
+                l / per_second(&paxos)
+            } else {
+                let p = per_second(&paxos);
+                per_second(&lamport) / p
+            }
+        })
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    [ratios[0], ratios[ROUNDS / 2], ratios[ROUNDS - 1]]
+}
+
 fn bench(c: &mut Criterion) {
+    let [least, median, greatest] = paired_ratio();
+    eprintln!(
+        "lamport-abcast n=3 k=2 against paxos 2 clients 3 servers, states per second, \
+         {ROUNDS} paired rounds: median {median:.2}x ({least:.2}x to {greatest:.2}x)"
+    );
     let mut g = c.benchmark_group("check");
     g.sample_size(10);
 

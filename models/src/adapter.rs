@@ -477,7 +477,7 @@ impl Actor for ProcessActor {
         msg: NetMsg,
         o: &mut Out<Self>,
     ) {
-        self.receive(id, state, src, msg, o, &mut Vec::new());
+        crate::receipts::receive(self, id, state, src, msg, o);
     }
 
     fn on_timeout(

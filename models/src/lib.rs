@@ -34,6 +34,7 @@ pub mod liveness;
 pub mod model;
 pub mod property;
 pub mod reason;
+pub mod receipts;
 pub mod reduction;
 pub mod registry;
 pub mod rest;

@@ -3,16 +3,14 @@
 //! termination) read only such states, where no step is left to make them true.
 //!
 //! The judgement runs the deliveries in flight (a delivery that changes nothing leaves the
-//! system where it is), the costliest part of checking a state. Both the last judgement and
-//! the deliveries it ran are remembered per thread, each keyed by what its answer reads.
+//! system where it is), the costliest part of checking a state. The deliveries it ran are
+//! remembered per thread, keyed by what their answers read.
 
 use std::borrow::Cow;
 use std::cell::RefCell;
-use std::collections::hash_map::DefaultHasher;
-use std::hash::{Hash, Hasher};
 use std::sync::Arc;
 
-use stateright::actor::{Id, Network, Out, Timers};
+use stateright::actor::{Id, Network, Out};
 
 use crate::adapter::{ModelTimer, NetMsg, ProcessState, Shared, State};
 use crate::config::CheckModel;
@@ -24,66 +22,6 @@ use crate::property::live;
 /// failure detector must keep running for the survivors to make progress), so a run cut by
 /// the timer budget is never at rest.
 pub fn at_rest(m: &CheckModel, s: &State) -> bool {
-    LAST_AT_REST.with(|last| {
-        let mut last = last.borrow_mut();
-        if let Some(answer) = last.as_ref().and_then(|l| l.answer(m, s)) {
-            return answer;
-        }
-        let answer = judge_at_rest(m, s);
-        *last = Some(LastAtRest::new(m, s, answer));
-        answer
-    })
-}
-
-thread_local! {
-    /// The state [`at_rest`] last judged on this thread. Every property judged at rest asks
-    /// about the state in turn, and each answer may run a delivery.
-    static LAST_AT_REST: RefCell<Option<LastAtRest>> = const { RefCell::new(None) };
-}
-
-/// A state [`at_rest`] judged, as what the answer reads: the model (its shared part), the
-/// process states by identity, and the network, timers and crashes by value. The `Arc`s held
-/// here keep their addresses from being reused while the entry lives, so an equal pointer is
-/// the same value.
-struct LastAtRest {
-    model: Arc<Shared>,
-    processes: Vec<Arc<ProcessState>>,
-    network: Network<NetMsg>,
-    timers: Vec<Timers<ModelTimer>>,
-    crashed: Vec<bool>,
-    answer: bool,
-}
-
-impl LastAtRest {
-    fn new(m: &CheckModel, s: &State, answer: bool) -> Self {
-        Self {
-            model: Arc::clone(&m.actors[0].shared),
-            processes: s.actor_states.clone(),
-            network: s.network.clone(),
-            timers: s.timers_set.clone(),
-            crashed: s.crashed.clone(),
-            answer,
-        }
-    }
-
-    /// The answer, if `s` of `m` is the state judged.
-    fn answer(&self, m: &CheckModel, s: &State) -> Option<bool> {
-        let same = Arc::ptr_eq(&self.model, &m.actors[0].shared)
-            && self.processes.len() == s.actor_states.len()
-            && self
-                .processes
-                .iter()
-                .zip(&s.actor_states)
-                .all(|(a, b)| Arc::ptr_eq(a, b))
-            && self.crashed == s.crashed
-            && self.timers == s.timers_set
-            && self.network == s.network;
-        same.then_some(self.answer)
-    }
-}
-
-/// [`at_rest`] judged anew, with the deliveries remembered.
-fn judge_at_rest(m: &CheckModel, s: &State) -> bool {
     judge(m, s, |p, src, dst, msg| {
         DELIVERIES.with(|d| d.borrow_mut().changes(m, p, src, dst, msg))
     })
@@ -137,8 +75,12 @@ fn delivery_changes(m: &CheckModel, p: &ProcessState, src: Id, dst: Id, msg: &Ne
 /// Slots of the deliveries remembered per thread: a power of two.
 const DELIVERY_SLOTS: usize = 1 << 12;
 
+/// The slots' hash: fixed keys, so a run's speed does not vary with a random seed.
+const HASHER: ahash::RandomState =
+    ahash::RandomState::with_seeds(0x7265_7374, 0x6e65_6b6f, 0x0073_696d, 0x6465_6c69);
+
 thread_local! {
-    /// Deliveries [`judge_at_rest`] ran on this thread, and whether each changed anything.
+    /// Deliveries [`at_rest`] ran on this thread, and whether each changed anything.
     /// The states of a search share their process states (the same `Arc`s) far more than they
     /// are equal as a whole, so one delivery answers for many states, as long as the process
     /// state it ran on is kept alive.
@@ -184,10 +126,9 @@ impl Deliveries {
             let n = self.slots.capacity();
             self.slots.resize_with(n, || None);
         }
-        let mut h = DefaultHasher::new();
-        (Arc::as_ptr(model), Arc::as_ptr(process), src, dst, msg).hash(&mut h);
+        let h = HASHER.hash_one((Arc::as_ptr(model), Arc::as_ptr(process), src, dst, msg));
         let mask = self.slots.len() - 1;
-        let slot = &mut self.slots[h.finish() as usize & mask];
+        let slot = &mut self.slots[h as usize & mask];
         if let Some(d) = slot.as_ref().filter(|d| {
             Arc::ptr_eq(&d.model, model)
                 && Arc::ptr_eq(&d.process, process)
@@ -232,8 +173,8 @@ mod tests {
         })
     }
 
-    /// The remembered answer is the answer, whatever order the states are asked in, the same
-    /// state twice or states of two models in turn.
+    /// The answer with remembered deliveries is the answer, whatever order the states are
+    /// asked in, the same state twice or states of two models in turn.
     #[test]
     fn at_rest_remembers_only_the_state_it_judged() {
         let o = Options {
