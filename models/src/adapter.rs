@@ -477,7 +477,7 @@ impl Actor for ProcessActor {
         msg: NetMsg,
         o: &mut Out<Self>,
     ) {
-        crate::receipts::receive(self, id, state, src, msg, o);
+        self.receive(id, state, src, msg, o, &mut Vec::new());
     }
 
     fn on_timeout(

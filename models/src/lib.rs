@@ -34,7 +34,6 @@ pub mod liveness;
 pub mod model;
 pub mod property;
 pub mod reason;
-pub mod receipts;
 pub mod reduction;
 pub mod registry;
 pub mod rest;
