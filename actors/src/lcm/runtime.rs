@@ -259,7 +259,7 @@ async fn go(
 /// light, where the others' lights are visible), with the multiplicity detection allows.
 pub fn view_of(snapshot: &Snapshot, frame: Frame, settings: &LcmSettings, lit: bool) -> View {
     let lights = settings.lights;
-    let mut points: Vec<(Point, Option<Light>, u32)> = Vec::new();
+    let mut points: Vec<(Point, Option<Light>, u32)> = Vec::with_capacity(snapshot.others.len());
     for s in &snapshot.others {
         let at = Point::from(frame.to_local(s.at - snapshot.me));
         let light = s.light.filter(|_| lit && lights.others_visible());
@@ -308,7 +308,9 @@ const MIDPOINTS_UP_TO: usize = 16;
 /// that see the same robots compute the very same point, whatever their frames.
 pub fn destination(snapshot: &Snapshot, frame: Frame, local: Point) -> Point {
     let p = snapshot.me + frame.to_world(local.coords);
-    let mut points: Vec<Point> = vec![snapshot.me];
+    let n = 1 + snapshot.others.len();
+    let mut points: Vec<Point> = Vec::with_capacity(n);
+    points.push(snapshot.me);
     points.extend(snapshot.others.iter().map(|s| s.at));
     let scale = points
         .iter()
@@ -316,7 +318,13 @@ pub fn destination(snapshot: &Snapshot, frame: Frame, local: Point) -> Point {
         .fold(1.0, f64::max);
     points.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
     let sum = points.iter().fold(Vector::zeros(), |s, q| s + q.coords);
-    let mut candidates = points.clone();
+    let pairs = if n <= MIDPOINTS_UP_TO {
+        n * (n - 1) / 2
+    } else {
+        0
+    };
+    let mut candidates = Vec::with_capacity(n + 2 + pairs);
+    candidates.extend_from_slice(&points);
     candidates.push(Point::from(sum / points.len() as f64));
     points.dedup();
     if let Some(c) = smallest_enclosing(&points) {

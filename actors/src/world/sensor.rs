@@ -49,8 +49,11 @@ impl SensorKind {
         static KINDS: std::sync::Mutex<
             std::collections::BTreeMap<&'static str, &'static &'static str>,
         > = std::sync::Mutex::new(std::collections::BTreeMap::new());
-        let name = intern(name);
         let mut kinds = KINDS.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(&kind) = kinds.get(name) {
+            return SensorKind(kind);
+        }
+        let name = intern(name);
         SensorKind(
             kinds
                 .entry(name)
