@@ -18,9 +18,9 @@ use crate::property::live;
 
 /// Nothing is left to happen: no client request or staged send pending, no protocol timer
 /// that a live process may still fire, no delivery to a live process that would change
-/// anything (on an ordered network: no delivery at all). After a crash, a pending protocol timer always counts as something left (a
-/// failure detector must keep running for the survivors to make progress), so a run cut by
-/// the timer budget is never at rest.
+/// anything (on an ordered network: no delivery at all). After a crash, a pending protocol
+/// timer always counts as something left (a failure detector must keep running for the
+/// survivors to make progress), so a run cut by the timer budget is never at rest.
 pub fn at_rest(m: &CheckModel, s: &State) -> bool {
     judge(m, s, |p, src, dst, msg| {
         DELIVERIES.with(|d| d.borrow_mut().changes(m, p, src, dst, msg))
@@ -100,14 +100,17 @@ struct Delivery {
 /// The deliveries judged last, one per slot, a slot chosen by hashing what the answer reads.
 struct Deliveries {
     slots: Vec<Option<Delivery>>,
+    /// How many slots `slots` gets at the first delivery: a power of two.
+    size: usize,
 }
 
 impl Deliveries {
-    /// Room for `slots` deliveries (a power of two), allocated at the first.
-    fn new(slots: usize) -> Self {
-        debug_assert!(slots.is_power_of_two());
+    /// Room for `size` deliveries (a power of two), allocated at the first.
+    fn new(size: usize) -> Self {
+        assert!(size.is_power_of_two(), "{size} slots: not a power of two");
         Self {
-            slots: Vec::with_capacity(slots),
+            slots: Vec::new(),
+            size,
         }
     }
 
@@ -123,8 +126,7 @@ impl Deliveries {
     ) -> bool {
         let model = &m.actors[0].shared;
         if self.slots.is_empty() {
-            let n = self.slots.capacity();
-            self.slots.resize_with(n, || None);
+            self.slots.resize_with(self.size, || None);
         }
         let h = HASHER.hash_one((Arc::as_ptr(model), Arc::as_ptr(process), src, dst, msg));
         let mask = self.slots.len() - 1;
