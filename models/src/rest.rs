@@ -168,6 +168,22 @@ mod tests {
         (m, states())
     }
 
+    /// Every state of two models of different protocols (3 processes, 2 requests, a crash
+    /// allowed): Lamport's total order, then reliable broadcast.
+    fn two_models() -> [(CheckModel, Vec<State>); 2] {
+        let o = Options {
+            processes: 3,
+            requests: 2,
+            crashes: 1,
+            reduction: false,
+            ..Options::default()
+        };
+        [
+            states("lamport-abcast", &o),
+            states("reliable-broadcast", &o),
+        ]
+    }
+
     /// [`at_rest`] with nothing remembered: every delivery run again.
     fn judge_at_rest(m: &CheckModel, s: &State) -> bool {
         judge(m, s, |p, src, dst, msg| {
@@ -179,15 +195,7 @@ mod tests {
     /// asked in, the same state twice or states of two models in turn.
     #[test]
     fn at_rest_remembers_only_the_state_it_judged() {
-        let o = Options {
-            processes: 3,
-            requests: 2,
-            crashes: 1,
-            reduction: false,
-            ..Options::default()
-        };
-        let (a, sa) = states("lamport-abcast", &o);
-        let (b, sb) = states("reliable-broadcast", &o);
+        let [(a, sa), (b, sb)] = two_models();
         let resting = sa.iter().filter(|s| judge_at_rest(&a, s)).count();
         assert!(resting > 0 && resting < sa.len());
         for (i, s) in sa.iter().enumerate().rev() {
@@ -224,15 +232,7 @@ mod tests {
     /// slot, every delivery of every state of two models lands on the one before it.
     #[test]
     fn a_delivery_is_remembered_only_for_its_process_state_and_envelope() {
-        let o = Options {
-            processes: 3,
-            requests: 2,
-            crashes: 1,
-            reduction: false,
-            ..Options::default()
-        };
-        let (a, sa) = states("lamport-abcast", &o);
-        let (b, sb) = states("reliable-broadcast", &o);
+        let [(a, sa), (b, sb)] = two_models();
         let mut one = Deliveries::new(1);
         let (mut asked, mut changing) = (0, 0);
         for (i, s) in sa.iter().enumerate() {
