@@ -216,6 +216,85 @@ fn push_proximity_fires_at_entry_and_contact_at_collision() {
     );
 }
 
+thread_local! {
+    static LATE: Seen = Rc::new(RefCell::new(Vec::new()));
+}
+
+/// Arms a proximity sensor (free distance 5) only at t = 10, then waits for two notices.
+#[derive(Debug, Clone)]
+struct LateWatcher;
+
+impl Algorithm for LateWatcher {
+    fn name(&self) -> &str {
+        "LateWatcher"
+    }
+    fn run(&self, robot: Robot) -> AlgorithmFuture {
+        let seen = LATE.with(|s| s.clone());
+        Box::pin(async move {
+            robot.sleep(10.0).await;
+            robot.activate_proximity(5.0, 0.0).await;
+            for _ in 0..2 {
+                let n = robot.next_notice().await;
+                seen.borrow_mut().push((robot.now(), n));
+            }
+        })
+    }
+}
+
+/// In ghost mode robots pass through each other, so entries are the only events two robots
+/// can have: a sensor armed late still sees a robot that was already moving towards it when
+/// it was armed, and one that starts moving later, each at the instant the motion formulas
+/// give.
+#[test]
+fn push_proximity_armed_late_in_ghost_mode_sees_robots_moving_before_and_after() {
+    LATE.with(|s| s.borrow_mut().clear());
+    let mut world = infinite();
+    world.ghost_mode = true;
+    run(
+        world,
+        100.0,
+        vec![
+            (spec(0.0, 0.0, 0.0, 1.0), Box::new(LateWatcher)),
+            // Moving towards the watcher from t = 0: centres 7 apart after 43 units.
+            (
+                spec(50.0, 0.0, 180.0, 1.0),
+                script(vec![ScriptStep::Forward {
+                    distance: 100.0,
+                    move_speed: 2.0,
+                }]),
+            ),
+            // Sets off at t = 30 from 60 units below: centres 7 apart after 53 units.
+            (
+                spec(0.0, -60.0, 90.0, 1.0),
+                script(vec![
+                    ScriptStep::Wait(30.0),
+                    ScriptStep::Forward {
+                        distance: 100.0,
+                        move_speed: 2.0,
+                    },
+                ]),
+            ),
+        ],
+    );
+    let seen = LATE.with(|s| s.borrow().clone());
+    assert_eq!(seen.len(), 2, "{seen:?}");
+    for ((t, n), (want_t, want_robot)) in seen.iter().zip([(21.5, 1), (56.5, 2)]) {
+        assert!((t - want_t).abs() < 1e-9, "entry of {want_robot} at {t}");
+        match n {
+            Notice::Interrupt {
+                sensor: SensorKind::PUSH_PROXIMITY,
+                value,
+            } => {
+                let gaps = value.get::<Vec<Gap>>().expect("gaps");
+                assert_eq!(gaps.len(), 1, "{gaps:?}");
+                assert_eq!(gaps[0].robot, want_robot);
+                assert!((gaps[0].distance - 5.0).abs() < 1e-9);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
+
 #[test]
 fn push_proximity_reports_robots_already_in_range_at_activation_and_re_entries() {
     WATCHED.with(|s| s.borrow_mut().clear());

@@ -152,6 +152,10 @@ pub struct VirtualWorld {
     waiting: usize,
     /// and the event at the instant's end that predicts for them, until it is taken.
     settle: Option<EventId>,
+    /// Whether a robot has armed an entry-triggered push sensor in this run: in ghost mode
+    /// such entries are the only events two robots can have, so until one is armed there is
+    /// no pair to predict ([`VirtualWorld::pairs_matter`]).
+    entries_armed: bool,
 }
 
 impl VirtualWorld {
@@ -226,6 +230,7 @@ impl VirtualWorld {
             unsettled: Vec::new(),
             waiting: 0,
             settle: None,
+            entries_armed: false,
         };
         for (i, s) in specs.iter().enumerate() {
             let id = i as RobotId;
@@ -564,6 +569,9 @@ impl VirtualWorld {
     /// against them reads, are asked for together rather than one miss after the other.
     fn fresh_around(&self, id: RobotId, cells: &[Cell], skip: &[Cell]) -> Fresh {
         let mut fresh = Fresh::new();
+        if !self.pairs_matter() {
+            return fresh;
+        }
         let pairs = &self.robots[id as usize].pairs;
         blocks_beyond(cells, skip, |b| {
             for &o in self.grid.robots_in(b) {
@@ -576,6 +584,15 @@ impl VirtualWorld {
             super::prefetch::prefetch(&self.robots[o as usize]);
         }
         fresh
+    }
+
+    /// Whether two robots can have events together: a collision, unless in ghost mode, or an
+    /// entry into an armed entry-triggered push sensor's range. Until then a scan for the
+    /// robots around one would only predict nothing for each. Arming the first entry sensor
+    /// predicts its robot against the robots around it, and every later scan finds the
+    /// robots that come next to it.
+    fn pairs_matter(&self) -> bool {
+        !self.cfg.ghost_mode || self.entries_armed
     }
 
     /// Predicts `id` against each of `fresh`, in order.

@@ -417,6 +417,7 @@ impl Sensing {
                     Some(w) => *w = watch,
                     None => entry.push(watch),
                 }
+                world.entries_armed = true;
                 let reaches = &mut world.robots[robot as usize].listening_mut().entry;
                 match reaches.iter_mut().find(|(s, _)| *s == sensor) {
                     Some(r) => r.1 = range,
