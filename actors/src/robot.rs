@@ -85,6 +85,8 @@ enum Request {
     Motion {
         ticket: u64,
         motion: Motion,
+        at: f64,
+        note: Option<Observation>,
     },
     Sensor {
         ticket: u64,
@@ -400,8 +402,28 @@ impl Robot {
 
     /// Starts a motion, replacing the current one, without waiting for it to end.
     pub fn start_motion(&self, motion: Motion) -> MotionTicket {
+        self.start_motion_at(self.now(), motion, None)
+    }
+
+    /// Starts `motion` at virtual time `at` (at once if it has come), replacing the motion
+    /// the robot has then, without waiting for it to end: the same as sleeping until `at` and
+    /// then [`Robot::start_motion`], one event fewer (the robot is not woken at `at` to ask
+    /// for it). `note`, if any, is written to the trace and the log as the motion starts, as
+    /// [`Robot::record`] would have written it then. A robot that crashes before `at` neither
+    /// moves nor writes it.
+    pub fn start_motion_at(
+        &self,
+        at: f64,
+        motion: Motion,
+        note: Option<Observation>,
+    ) -> MotionTicket {
         let ticket = self.ticket();
-        self.push(Request::Motion { ticket, motion });
+        self.push(Request::Motion {
+            ticket,
+            motion,
+            at,
+            note,
+        });
         MotionTicket(ticket)
     }
 
@@ -873,8 +895,13 @@ impl HandleEvent for RobotActor {
         let me = [Some(id), None];
         for r in requests.drain(..) {
             match r {
-                Request::Motion { ticket, motion } => out.schedule(
-                    now,
+                Request::Motion {
+                    ticket,
+                    motion,
+                    at,
+                    note,
+                } => out.schedule(
+                    at.max(now),
                     Target::MotionManager,
                     EventClass::Eventual,
                     me,
@@ -882,6 +909,7 @@ impl HandleEvent for RobotActor {
                         robot: id,
                         ticket,
                         motion: Box::new(motion),
+                        note: note.map(Box::new),
                     },
                 ),
                 Request::Sensor { ticket, query, at } => out.schedule(

@@ -93,3 +93,92 @@ fn a_panicking_algorithm_ends_the_run_instead_of_hanging_it() {
         }
     }
 }
+
+/// Asks at t = 0 for a 10-unit forward motion at 2 units/s to start at t = 5, with a note to
+/// write as it starts, then waits for its end.
+#[derive(Debug, Clone)]
+struct AskAhead;
+
+impl nekosim::Algorithm for AskAhead {
+    fn name(&self) -> &str {
+        "AskAhead"
+    }
+    fn run(&self, robot: nekosim::Robot) -> nekosim::AlgorithmFuture {
+        Box::pin(async move {
+            let note = Observation::Log {
+                robot: robot.id(),
+                text: "off".into(),
+            };
+            let forward = nekosim::world::motion::Motion::Forward {
+                distance: 10.0,
+                move_speed: 2.0,
+            };
+            let t = robot.start_motion_at(5.0, forward, Some(note));
+            robot.wait_motion(t).await;
+        })
+    }
+}
+
+/// A motion asked for ahead of time starts at its instant, its note written then and in
+/// front of the motion's own records, the robot not woken before its end; a robot that
+/// crashes before the instant neither moves nor writes the note.
+#[test]
+fn a_motion_asked_ahead_starts_at_its_instant_and_not_after_a_crash() {
+    let mut cfg = nekosim::SimConfig {
+        sensors: Default::default(),
+        seed: 1,
+        until: 20.0,
+        world: infinite(),
+        robots: vec![
+            (spec(0.0, 0.0, 0.0, 1.0), Box::new(AskAhead)),
+            (spec(0.0, 50.0, 0.0, 1.0), Box::new(AskAhead)),
+        ],
+        arbiters: 1,
+        record: true,
+        observers: Default::default(),
+        comms: Default::default(),
+    };
+    cfg.comms.faults = vec![nekosim::Fault::Crash { robot: 1, at: 3.0 }];
+    let out = nekosim::run(cfg).expect("run");
+    let of = |robot: u32| -> Vec<(f64, &Observation)> {
+        (out.records.iter())
+            .filter(|r| r.obs.robot() == robot)
+            .map(|r| (r.t, &r.obs))
+            .collect()
+    };
+    let zero = of(0);
+    let off = zero
+        .iter()
+        .position(|(_, o)| matches!(o, Observation::Log { text, .. } if text == "off"))
+        .expect("robot 0's note");
+    assert_eq!(zero[off].0, 5.0, "the note is written as the motion starts");
+    assert!(
+        matches!(zero[off + 1], (t, Observation::MotionRequest { .. }) if t == 5.0),
+        "{:?}",
+        zero.get(off + 1)
+    );
+    let finish = zero
+        .iter()
+        .find_map(|(t, o)| match o {
+            Observation::MotionFinish { state, .. } => Some((*t, state.pos)),
+            _ => None,
+        })
+        .expect("robot 0's motion ends");
+    assert_eq!(finish.0, 10.0);
+    assert!(
+        (finish.1 - nekosim::world::geometry::Point::new(10.0, 0.0)).norm() < 1e-9,
+        "{:?}",
+        finish.1
+    );
+    let one = of(1);
+    assert!(
+        one.iter().all(|(_, o)| !matches!(
+            o,
+            Observation::Log { .. } | Observation::MotionRequest { .. }
+        )),
+        "{one:?}"
+    );
+    assert!(one
+        .iter()
+        .any(|(t, o)| *t == 3.0 && matches!(o, Observation::Crash { .. })));
+}

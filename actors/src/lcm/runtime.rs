@@ -232,8 +232,7 @@ async fn go(
         wait_until(robot, plan.move_end).await;
         return from;
     };
-    wait_until(robot, plan.move_start).await;
-    let duration = plan.move_end - robot.now();
+    let duration = plan.move_end - start;
     let length = (to - from).norm();
     let reach = adversary.stop(plan, length);
     let stop = if reach >= length {
@@ -241,18 +240,19 @@ async fn go(
     } else {
         from + (to - from) * (reach / length)
     };
-    robot.record(Observation::Lcm(LcmRecord::Move {
+    // Asked for now and started at the Move's start, the record written then: the robot has
+    // nothing to do at that instant but ask.
+    let note = Observation::Lcm(LcmRecord::Move {
         robot: robot.id(),
         cycle,
         from,
         to,
         stop,
         end: plan.move_end,
-    }));
-    let end = robot
-        .motion(Motion::Custom(Arc::new(Glide { to: stop, duration })))
-        .await;
-    end.state.pos
+    });
+    let glide = Motion::Custom(Arc::new(Glide { to: stop, duration }));
+    let ticket = robot.start_motion_at(start, glide, Some(note));
+    robot.wait_motion(ticket).await.state.pos
 }
 
 /// The snapshot in the local frame `frame`: the robot at the origin, the others by point (and

@@ -98,11 +98,14 @@ pub struct FutureEvent {
 /// holds millions of them.
 #[derive(Clone, Debug)]
 pub enum Payload {
-    /// Robot -> motion manager: start `motion`, replacing the current one.
+    /// Robot -> motion manager: start `motion`, replacing the current one, first writing
+    /// `note`, the robot's own record of it, when the robot asked ahead of time
+    /// ([`crate::robot::Robot::start_motion_at`]).
     MotionRequest {
         robot: RobotId,
         ticket: u64,
         motion: Box<Motion>,
+        note: Option<Box<Observation>>,
     },
     /// The `step`-th to `through`-th events of the robot's current motion, all at this
     /// instant: steps of a motion that happen at the same instant are one event (a MOVETO's

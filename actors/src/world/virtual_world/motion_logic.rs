@@ -64,7 +64,13 @@ impl VirtualWorld {
                 robot,
                 ticket,
                 motion,
-            } => self.motion_request(robot, ticket, &motion, out),
+                note,
+            } => {
+                if let Some(note) = note {
+                    out.record(*note);
+                }
+                self.motion_request(robot, ticket, &motion, out)
+            }
             Payload::Crash { robot } => {
                 let now = out.now();
                 self.end_motion(robot, MotionOutcome::Crashed, out);
