@@ -2,8 +2,10 @@
 //! (100 of radius 5 per 800 x 800) computing the centre of gravity of what they see within 60
 //! units, under ASYNC with non-rigid moves, each completing about one cycle per simulated
 //! second, through the runner as `nekosim run` runs them. Prints, for each robot count, the
-//! real-time factor over 10 simulated seconds (one core: run it under `taskset -c 0`). The goal
-//! and figures are in docs/performance.md.
+//! real-time factor over 10 simulated seconds (one core: run it under `taskset -c 0`), then the
+//! same scenario under the kernel-alone reference (`nekosim::kernel::run`: the same handlers and
+//! scheduler core with no actors, no records written anywhere): the gap between the two is the
+//! actors' hosting. The goal and figures are in docs/performance.md.
 
 use std::time::Instant;
 
@@ -43,6 +45,19 @@ fn main() {
             UNTIL / wall,
             summary.events,
             wall / summary.events as f64 * 1e6
+        );
+        let reference = Source::parse("lcm_bench.ron", &text)
+            .expect("parses")
+            .build(Overrides::default(), &Registry::with_builtins())
+            .expect("builds")
+            .into_config(false);
+        let started = Instant::now();
+        let kernel = nekosim::kernel::run(reference).expect("runs");
+        let wall = started.elapsed().as_secs_f64();
+        println!(
+            "lcm {robots} robots, kernel alone: {:.2}x real time ({wall:.2} s), {} events",
+            UNTIL / wall,
+            kernel.stats.events
         );
     }
 }
