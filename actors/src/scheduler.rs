@@ -29,8 +29,6 @@
 
 mod event_manager;
 
-use std::collections::HashMap;
-
 use actix::prelude::*;
 
 use crate::host::{Deliver, Replied, ReplyTo};
@@ -81,7 +79,9 @@ pub struct Scheduler {
     me: Option<std::sync::Arc<Recipient<Replied>>>,
     /// The target of the delivery in flight.
     in_flight: Option<Target>,
-    sensors: HashMap<(RobotId, SensorKind), Recipient<Deliver>>,
+    /// Each robot's sensor actors started so far, by robot: a robot has a few sensors at
+    /// most, and a robot's list is found without hashing.
+    sensors: Vec<Vec<(SensorKind, Recipient<Deliver>)>>,
     on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
 }
 
@@ -112,7 +112,7 @@ impl Scheduler {
             routes,
             me: None,
             in_flight: None,
-            sensors: HashMap::new(),
+            sensors: Vec::new(),
             on_finish: Some(on_finish),
         }
     }
@@ -126,8 +126,19 @@ impl Scheduler {
             Target::Network => &self.routes.network,
             Target::Layer(r, l) => &self.routes.layers[r as usize][l as usize],
             Target::Sensor(r, k) => {
-                let spawn = &self.routes.spawn_sensor;
-                self.sensors.entry((r, k)).or_insert_with(|| spawn(r, k))
+                let i = r as usize;
+                if self.sensors.len() <= i {
+                    self.sensors.resize_with(i + 1, Vec::new);
+                }
+                let started = &mut self.sensors[i];
+                let at = match started.iter().position(|(kind, _)| *kind == k) {
+                    Some(at) => at,
+                    None => {
+                        started.push((k, (self.routes.spawn_sensor)(r, k)));
+                        started.len() - 1
+                    }
+                };
+                &started[at].1
             }
         }
     }
