@@ -272,6 +272,13 @@ pub fn run_observed(
             crate::recording::Canvas::milestone(r.canvas_mut(), at, text);
         }
     }
+    // Counting messages, decisions and crashes for the summary reads no robot's step records;
+    // everything else that may be here does.
+    let summary_only = observe.is_none()
+        && log.is_none()
+        && trace.is_none()
+        && recorder.is_none()
+        && built.predicates.is_empty();
     let outputs = Rc::new(RefCell::new((
         log,
         trace,
@@ -336,6 +343,7 @@ pub fn run_observed(
             progress: opts.progress,
             startup: opts.startup,
             stop: opts.stop,
+            summary_only,
         },
         comms: built.comms,
         sensors: built.sensors,

@@ -23,15 +23,17 @@ pub trait HandleEvent {
 }
 
 /// Handles `event` at time `now` as processing number `seq`, writing into `effects` (an empty
-/// buffer, reused): the handling's effects, in order.
+/// buffer, reused): the handling's effects, in order. `steps` says whether anything reads the
+/// robots' step records ([`Outbox::records_steps`]).
 pub fn handle_one<H: HandleEvent + ?Sized>(
     handler: &mut H,
     now: f64,
     seq: u64,
     event: Event,
     effects: Vec<Effect>,
+    steps: bool,
 ) -> Vec<Effect> {
-    let mut out = Outbox::reusing(now, seq, effects);
+    let mut out = Outbox::reusing(now, seq, effects).recording_steps(steps);
     handler.handle_event(event, &mut out);
     out.into_effects()
 }

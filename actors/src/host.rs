@@ -49,6 +49,9 @@ pub struct Deliver {
     /// before each handling of the run, for what the next ones will read
     /// ([`HandleEvent::look_ahead`]).
     pub look_ahead: bool,
+    /// Whether anything reads the robots' step records: when not, the handlings leave them
+    /// out ([`Outbox::records_steps`]).
+    pub steps: bool,
 }
 
 /// The most events a delivery carries ([`Deliver::then`] and its own).
@@ -122,12 +125,12 @@ pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) ->
     // The run's events in reverse: the next one last.
     let mut then = std::mem::take(&mut msg.then);
     then.reverse();
-    let look_ahead = msg.look_ahead;
+    let (look_ahead, steps) = (msg.look_ahead, msg.steps);
     if look_ahead {
         look_ahead_in_run(handler, &then);
     }
     let mut seq = msg.seq;
-    let mut effects = handle_one(handler, msg.now, msg.seq, msg.event, msg.effects);
+    let mut effects = handle_one(handler, msg.now, msg.seq, msg.event, msg.effects, msg.steps);
     let mut ends = smallvec::SmallVec::new();
     let mut scanned = 0;
     // The first event scheduled so far, and how many events of `then` may still be handled.
@@ -163,7 +166,7 @@ pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) ->
         if look_ahead {
             look_ahead_in_run(handler, &then);
         }
-        effects = handle_one(handler, event.time, seq, event, effects);
+        effects = handle_one(handler, event.time, seq, event, effects, steps);
     }
     then.reverse();
     Reply {
@@ -183,9 +186,9 @@ fn handle_inline<H: HandleEvent + ?Sized>(
     own: crate::world::event::Target,
     room: u32,
 ) -> Reply {
-    let now = msg.now;
+    let (now, steps) = (msg.now, msg.steps);
     let mut seq = msg.seq;
-    let mut effects = handle_one(handler, now, seq, msg.event, msg.effects);
+    let mut effects = handle_one(handler, now, seq, msg.event, msg.effects, msg.steps);
     let mut ends: smallvec::SmallVec<[u32; RUN]> = smallvec::smallvec![effects.len() as u32];
     let mut inline = 0;
     while inline < room {
@@ -200,7 +203,7 @@ fn handle_inline<H: HandleEvent + ?Sized>(
         }
         seq += 1;
         inline += 1;
-        effects = handle_one(handler, now, seq, event, effects);
+        effects = handle_one(handler, now, seq, event, effects, steps);
         ends.push(u32::try_from(effects.len()).expect("fewer than 2^32 effects"));
     }
     Reply {

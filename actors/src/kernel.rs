@@ -91,6 +91,7 @@ pub fn run(cfg: SimConfig) -> Result<RunOutput, SimError> {
             msg.seq,
             msg.event,
             msg.effects,
+            msg.steps,
         ));
     }
     let out = core.finish();

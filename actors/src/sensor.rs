@@ -58,7 +58,7 @@ impl HandleEvent for Sensor {
                 }
                 (_, other) => other,
             };
-            out.record(Observation::SensorReply {
+            out.record_step(|| Observation::SensorReply {
                 robot,
                 sensor: self.kind,
                 value: value.clone(),

@@ -150,3 +150,89 @@ fn a_stopped_run_is_a_prefix_of_the_full_run() {
     assert_eq!(cut.stats.end_time, last.t);
     assert!(cut.stats.end_time < full.stats.end_time);
 }
+
+/// A run's summary (its counts of messages, decisions, suspicions and crashes, its events and
+/// collisions, its predicates' verdicts) is the same whether the run writes a trace, which
+/// reads every record, or nothing, when the robots' step records are not even made.
+#[test]
+fn a_summary_does_not_depend_on_the_step_records_being_made() {
+    use nekosim::runner::{self, RunOptions};
+    use nekosim::scenario::{Overrides, Registry, Source};
+    let dir = std::env::temp_dir().join(format!("nekosim-steps-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut files: Vec<std::path::PathBuf> = ["examples/scenarios", "examples/lcm"]
+        .iter()
+        .flat_map(|d| std::fs::read_dir(d).unwrap().map(|e| e.unwrap().path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "ron"))
+        .collect();
+    files.sort();
+    assert!(files.len() > 30, "{files:?}");
+    let until = Overrides {
+        seed: None,
+        until: Some(20.0),
+    };
+    for path in &files {
+        let summary = |trace: Option<std::path::PathBuf>| {
+            let built = Source::load(path)
+                .unwrap()
+                .build(until, &Registry::with_builtins())
+                .unwrap();
+            let opts = RunOptions {
+                trace,
+                ..RunOptions::default()
+            };
+            let mut s = runner::run(built, opts).unwrap();
+            s.wall_seconds = 0.0;
+            s
+        };
+        let quiet = summary(None);
+        let traced = summary(Some(dir.join("trace.jsonl")));
+        assert_eq!(quiet, traced, "{}", path.display());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A sink that reads only what the summary counts gets no step record at all; the same run
+/// observed in full gets them, and the same records otherwise, in the same order.
+#[test]
+fn a_summary_only_sink_gets_every_record_but_the_steps() {
+    let seen = |summary_only: bool| {
+        let got = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let into = got.clone();
+        let robots: Vec<(RobotSpec, Box<dyn Algorithm>)> = (0..24)
+            .map(|i| {
+                let (x, y) = (20.0 + 25.0 * (i % 6) as f64, 20.0 + 30.0 * (i / 6) as f64);
+                let alg: Box<dyn Algorithm> = Box::new(RandomMovement::default());
+                (spec(x, y, 15.0 * i as f64, 4.0), alg)
+            })
+            .collect();
+        nekosim::run(SimConfig {
+            sensors: Default::default(),
+            seed: 4,
+            until: 80.0,
+            world: bounded(200.0, 200.0),
+            robots,
+            arbiters: 1,
+            // Only the sink reads the records.
+            record: false,
+            observers: Observers {
+                sink: Some(Box::new(move |r: &Record| {
+                    into.lock().unwrap().push(r.obs.clone())
+                })),
+                summary_only,
+                ..Default::default()
+            },
+            comms: Default::default(),
+        })
+        .expect("run");
+        let got = got.lock().unwrap().clone();
+        got
+    };
+    let (all, summary) = (seen(false), seen(true));
+    let steps = all.iter().filter(|o| o.is_step()).count();
+    assert!(steps > 500, "{steps} step records");
+    assert!(summary.iter().all(|o| !o.is_step()));
+    let others: Vec<_> = all.into_iter().filter(|o| !o.is_step()).collect();
+    assert!(others.len() > 20, "{} other records", others.len());
+    assert_eq!(summary, others);
+}

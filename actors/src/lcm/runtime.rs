@@ -139,7 +139,7 @@ async fn cycles<A: LookComputeMove + ?Sized>(
             read: plan.read,
             ..query
         };
-        let snapshot = match robot.read_at::<Look>(plan.look, LOOK, &query).await {
+        let mut snapshot = match robot.read_at::<Look>(plan.look, LOOK, &query).await {
             Ok(s) => s,
             Err(e) => {
                 robot.log(format!("Look refused: {e}"));
@@ -166,7 +166,8 @@ async fn cycles<A: LookComputeMove + ?Sized>(
             frame,
             me: snapshot.me,
             light: snapshot.light,
-            seen: snapshot.others.clone(),
+            // The snapshot's last use: its sightings go into the record.
+            seen: std::mem::take(&mut snapshot.others),
         }));
         robot.record(Observation::Lcm(LcmRecord::Compute {
             robot: id,

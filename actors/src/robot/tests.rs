@@ -33,7 +33,7 @@ fn handle(actor: &mut RobotActor, now: f64, seq: u64, payload: Payload) -> Vec<E
         concerns: [0, NO_ROBOT],
         payload,
     };
-    crate::handler::handle_one(actor, now, seq, event, Vec::new())
+    crate::handler::handle_one(actor, now, seq, event, Vec::new(), true)
 }
 
 /// The tickets of the timers a handling asks for.
@@ -176,7 +176,8 @@ fn a_robots_handling_borrows_its_buffers_and_gives_them_back() {
             };
             let effects = Vec::with_capacity(8);
             let before = crate::allocations::on_this_thread();
-            let effects = crate::handler::handle_one(actor, f64::from(round), seq, event, effects);
+            let effects =
+                crate::handler::handle_one(actor, f64::from(round), seq, event, effects, true);
             let made = crate::allocations::on_this_thread() - before;
             // The first handlings start the algorithm (its future) and fill the spares.
             if round >= 2 {
@@ -253,4 +254,9 @@ fn a_stream_at_rest_resumes_where_it_stopped() {
         }
     }
     assert_eq!(stream.live(7).get_word_pos(), whole.get_word_pos());
+}
+
+#[test]
+fn tmp_size_of_shared() {
+    eprintln!("SIZE Shared {}", std::mem::size_of::<Shared>());
 }

@@ -108,6 +108,8 @@ pub(crate) struct Core {
     run: smallvec::SmallVec<[(f64, u32); RUN]>,
     /// The buffer for the next delivery's run (see `spare`).
     spare_then: Vec<Event>,
+    /// Whether anything reads the robots' step records ([`Observers::summary_only`]).
+    steps: bool,
 }
 
 /// The fewest pending events at which the core looks ahead ([`EventQueue::look_ahead`]) and
@@ -160,6 +162,10 @@ pub struct Observers {
     /// event, at the virtual time reached, as if `until` had come then: the run finishes
     /// normally and [`RunStats::interrupted`] says so.
     pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    /// The sink reads only what a run's summary counts, none of the robots' step records
+    /// ([`Observation::is_step`]): the handlers then leave those out instead of making
+    /// records that nothing reads.
+    pub summary_only: bool,
 }
 
 impl std::fmt::Debug for Observers {
@@ -170,6 +176,7 @@ impl std::fmt::Debug for Observers {
             .field("progress", &self.progress.is_some())
             .field("startup", &self.startup.is_some())
             .field("stop", &self.stop)
+            .field("summary_only", &self.summary_only)
             .finish()
     }
 }
@@ -203,7 +210,10 @@ impl Core {
             runs: false,
             run: smallvec::SmallVec::new(),
             spare_then: Vec::new(),
+            steps: false,
         };
+        core.steps =
+            core.observers.keep || (core.observers.sink.is_some() && !core.observers.summary_only);
         core.apply_setup(setup.into_effects());
         core
     }
@@ -408,6 +418,9 @@ impl Core {
                 }
             }
             Effect::Record(obs) => {
+                if !self.steps && obs.is_step() {
+                    return;
+                }
                 if matches!(obs, Observation::Collision { .. }) {
                     self.output.stats.collisions += 1;
                 }
@@ -505,6 +518,7 @@ impl Core {
                 then,
                 inline,
                 look_ahead,
+                steps: self.steps,
             };
             return Next::Deliver(target, deliver);
         }

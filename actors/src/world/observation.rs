@@ -175,6 +175,29 @@ pub enum Observation {
 }
 
 impl Observation {
+    /// Whether this is a record of a robot's own steps (its motions and their steps, its
+    /// sensor requests and replies, its light, its Look-Compute-Move phases, its algorithm's
+    /// log lines), which only a run's outputs show (the log, the trace, a recording, an
+    /// observer), as opposed to what a run's summary also counts (births, collisions,
+    /// protocol requests, messages, decisions, suspicions, crashes). A run whose records
+    /// only its summary reads leaves the step records out ([`Observers::summary_only`]).
+    ///
+    /// [`Observers::summary_only`]: crate::scheduler::Observers::summary_only
+    pub fn is_step(&self) -> bool {
+        use Observation::*;
+        matches!(
+            self,
+            MotionRequest { .. }
+                | MotionFinish { .. }
+                | MotionStep { .. }
+                | SensorRequest { .. }
+                | SensorReply { .. }
+                | Light { .. }
+                | Log { .. }
+                | Lcm(_)
+        )
+    }
+
     /// The robot the observation is about (every observation has one).
     pub fn robot(&self) -> RobotId {
         use Observation::*;

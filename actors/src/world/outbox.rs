@@ -14,6 +14,8 @@ pub struct Outbox {
     cause: u64,
     next: u32,
     effects: Vec<Effect>,
+    /// Whether anything reads the robots' step records ([`Outbox::records_steps`]).
+    steps: bool,
 }
 
 impl Outbox {
@@ -24,6 +26,7 @@ impl Outbox {
             cause,
             next: 0,
             effects: Vec::new(),
+            steps: true,
         }
     }
 
@@ -37,7 +40,20 @@ impl Outbox {
             cause,
             next: 0,
             effects,
+            steps: true,
         }
+    }
+
+    /// The outbox, told whether anything reads the robots' step records this run.
+    pub fn recording_steps(mut self, steps: bool) -> Self {
+        self.steps = steps;
+        self
+    }
+
+    /// Whether anything reads the robots' step records ([`Observation::is_step`]): when
+    /// not, a handler need not make them ([`Outbox::record_step`]).
+    pub fn records_steps(&self) -> bool {
+        self.steps
     }
 
     /// Makes room for `n` more effects at once (a setup's millions, which growing by doubling
@@ -166,6 +182,16 @@ impl Outbox {
     /// Records an observation for the run's trace.
     pub fn record(&mut self, obs: Observation) {
         self.effects.push(Effect::Record(obs));
+    }
+
+    /// Records the step record `make` makes, if anything reads such records
+    /// ([`Outbox::records_steps`]): otherwise it is not even made.
+    pub fn record_step(&mut self, make: impl FnOnce() -> Observation) {
+        if self.steps {
+            let obs = make();
+            debug_assert!(obs.is_step(), "a step record: {obs:?}");
+            self.effects.push(Effect::Record(obs));
+        }
     }
 
     /// The effects, in the order they were produced.

@@ -19,7 +19,7 @@ impl VirtualWorld {
         }
         r.rest = state.pose();
         let state = Kinematics::at_rest(r.rest);
-        out.record(Observation::MotionFinish {
+        out.record_step(|| Observation::MotionFinish {
             robot: id,
             state,
             outcome: outcome.clone(),
@@ -102,7 +102,7 @@ impl VirtualWorld {
         self.end_motion(robot, MotionOutcome::Replaced, out);
         self.invalidate(robot, out);
         let from = self.robots[robot as usize].rest;
-        out.record(Observation::MotionRequest {
+        out.record_step(|| Observation::MotionRequest {
             robot,
             ticket,
             motion: motion.clone(),
@@ -110,7 +110,7 @@ impl VirtualWorld {
         match motion.path(now, from, self.cfg.turn) {
             Err(e) => {
                 let outcome = MotionOutcome::Rejected(e.to_string());
-                out.record(Observation::MotionFinish {
+                out.record_step(|| Observation::MotionFinish {
                     robot,
                     state: Kinematics::at_rest(from),
                     outcome: outcome.clone(),
@@ -177,7 +177,7 @@ impl VirtualWorld {
         let m = r.motion.as_ref().map(Path::pattern).expect("checked above");
         let (crate::world::motion::MotionStep { kind, .. }, last) =
             m.step(step).expect("a step of the motion");
-        out.record(Observation::MotionStep {
+        out.record_step(|| Observation::MotionStep {
             robot,
             step: kind,
             state: m.state_at(now),
@@ -190,7 +190,7 @@ impl VirtualWorld {
             r.rest = state.pose();
             r.motion = None;
             self.settle(robot, now);
-            out.record(Observation::MotionFinish {
+            out.record_step(|| Observation::MotionFinish {
                 robot,
                 state,
                 outcome: MotionOutcome::Arrived,

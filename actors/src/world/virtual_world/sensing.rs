@@ -123,7 +123,7 @@ impl Sensing {
         match payload {
             Payload::Light { robot, .. } if world.robots[robot as usize].crashed => {}
             Payload::Light { robot, light } => {
-                out.record(Observation::Light {
+                out.record_step(|| Observation::Light {
                     robot,
                     light: light.shown,
                     pending: light.pending,
@@ -136,7 +136,7 @@ impl Sensing {
                 ticket,
                 query,
             } => {
-                out.record(Observation::SensorRequest {
+                out.record_step(|| Observation::SensorRequest {
                     robot,
                     query: (*query).clone(),
                     plan: query
