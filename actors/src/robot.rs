@@ -245,6 +245,8 @@ pub struct RobotInfo {
     /// Radius [units].
     pub radius: f64,
     pub world: WorldSize,
+    /// Whether anything reads the run's step records ([`Robot::records_steps`]).
+    pub steps: bool,
 }
 
 /// A message or indication that reached the algorithm.
@@ -371,6 +373,13 @@ impl Robot {
     /// robot's other requests.
     pub fn record(&self, observation: Observation) {
         self.push(Request::Record(observation));
+    }
+
+    /// Whether anything reads the run's step records ([`Observation::is_step`]: the log, the
+    /// trace, a recording, an observer): when nothing does, a step record given to
+    /// [`Robot::record`] goes nowhere, and an algorithm may leave it out.
+    pub fn records_steps(&self) -> bool {
+        self.shared.info.steps
     }
 
     /// Shows `light` to the other robots from now on ([`crate::lcm`]).

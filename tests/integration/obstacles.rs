@@ -1,4 +1,4 @@
-//! Obstacles (issue 16, seed 7.2): exact contact times against closed forms, and whole runs
+//! Obstacles (seed 7.2): exact contact times against closed forms, and whole runs
 //! among obstacles replayed against every primitive by brute force.
 
 use nekosim::scenario::{Overrides, Registry, Source};

@@ -1,4 +1,4 @@
-//! The seed's own semantics where nekosim's defaults differ (issue 16): MOVETO turning always
+//! The seed's own semantics where nekosim's defaults differ: MOVETO turning always
 //! anticlockwise (seed eq. 4.1) as a world setting, walls separate from ghost mode, and inputs
 //! refused at once that used to run into long searches or lost precision.
 

@@ -127,14 +127,14 @@ async fn cycles<A: LookComputeMove + ?Sized>(
     };
     let mut cycle = 0u64;
     while let Some(plan) = adversary.next(robot.now()) {
-        robot.record(Observation::Lcm(LcmRecord::Activate {
+        note(&robot, || LcmRecord::Activate {
             robot: id,
             cycle,
             look: plan.look,
             compute_end: plan.compute_end,
             move_end: plan.move_end,
             round: plan.round,
-        }));
+        });
         let query = LookQuery {
             read: plan.read,
             ..query
@@ -160,7 +160,7 @@ async fn cycles<A: LookComputeMove + ?Sized>(
             ));
         }
         let new = new.filter(|&l| l < colours);
-        robot.record(Observation::Lcm(LcmRecord::Look {
+        note(&robot, || LcmRecord::Look {
             robot: id,
             cycle,
             frame,
@@ -168,26 +168,33 @@ async fn cycles<A: LookComputeMove + ?Sized>(
             light: snapshot.light,
             // The snapshot's last use: its sightings go into the record.
             seen: std::mem::take(&mut snapshot.others),
-        }));
-        robot.record(Observation::Lcm(LcmRecord::Compute {
+        });
+        note(&robot, || LcmRecord::Compute {
             robot: id,
             cycle,
             local_to: decision.to,
             to,
             light: new,
-        }));
+        });
         // A Compute writes the light even when it keeps its colour (spin-light's Robots.pml);
         // only a safe register, whose reads during a write may return any colour, tells such
         // a write from none, so only there is it made.
         let writes = new.or((settings.register == Register::Safe && colours > 1).then_some(light));
         compute(&robot, &plan, &mut light, writes).await;
         let at = go(&robot, &mut adversary, &plan, snapshot.me, to, cycle).await;
-        robot.record(Observation::Lcm(LcmRecord::Wait {
+        note(&robot, || LcmRecord::Wait {
             robot: id,
             cycle,
             at,
-        }));
+        });
         cycle += 1;
+    }
+}
+
+/// Writes the record `make` makes, when anything reads the run's step records.
+fn note(robot: &Robot, make: impl FnOnce() -> LcmRecord) {
+    if robot.records_steps() {
+        robot.record(Observation::Lcm(make()));
     }
 }
 
@@ -243,16 +250,18 @@ async fn go(
     };
     // Asked for now and started at the Move's start, the record written then: the robot has
     // nothing to do at that instant but ask.
-    let note = Observation::Lcm(LcmRecord::Move {
-        robot: robot.id(),
-        cycle,
-        from,
-        to,
-        stop,
-        end: plan.move_end,
+    let note = robot.records_steps().then(|| {
+        Observation::Lcm(LcmRecord::Move {
+            robot: robot.id(),
+            cycle,
+            from,
+            to,
+            stop,
+            end: plan.move_end,
+        })
     });
     let glide = Motion::Custom(Arc::new(Glide { to: stop, duration }));
-    let ticket = robot.start_motion_at(start, glide, Some(note));
+    let ticket = robot.start_motion_at(start, glide, note);
     robot.wait_motion(ticket).await.state.pos
 }
 

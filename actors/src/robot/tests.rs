@@ -58,6 +58,7 @@ fn an_inbox_left_empty_keeps_no_buffer() {
         count: 1,
         radius: 5.0,
         world: WorldSize::Infinite,
+        steps: true,
     };
     let mut actor = RobotActor::new(info, Box::new(Sleeper), 7, Default::default());
     let start = Payload::Notice(Box::new(Notice::Start));
@@ -142,6 +143,7 @@ fn a_robots_handling_borrows_its_buffers_and_gives_them_back() {
         count: 2,
         radius: 5.0,
         world: WorldSize::Infinite,
+        steps: true,
     };
     let drawn = [0, 1].map(|_| std::sync::Arc::new(std::sync::Mutex::new(Vec::with_capacity(8))));
     let mut robots = [0, 1].map(|id| {

@@ -168,6 +168,14 @@ pub struct Observers {
     pub summary_only: bool,
 }
 
+impl Observers {
+    /// Whether anything reads the robots' step records ([`Observation::is_step`]): kept
+    /// records, or a sink that reads more than the summary.
+    pub fn read_steps(&self) -> bool {
+        self.keep || (self.sink.is_some() && !self.summary_only)
+    }
+}
+
 impl std::fmt::Debug for Observers {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Observers")
@@ -212,8 +220,7 @@ impl Core {
             spare_then: Vec::new(),
             steps: false,
         };
-        core.steps =
-            core.observers.keep || (core.observers.sink.is_some() && !core.observers.summary_only);
+        core.steps = core.observers.read_steps();
         core.apply_setup(setup.into_effects());
         core
     }
