@@ -258,7 +258,13 @@ fn a_stream_at_rest_resumes_where_it_stopped() {
     assert_eq!(stream.live(7).get_word_pos(), whole.get_word_pos());
 }
 
+/// A robot's shared state (its settings, layer ids and buffers) stays small: a million robots
+/// hold one each, so every word is megabytes.
 #[test]
-fn tmp_size_of_shared() {
-    eprintln!("SIZE Shared {}", std::mem::size_of::<Shared>());
+fn a_robots_shared_state_stays_small() {
+    assert!(
+        std::mem::size_of::<Shared>() <= 176,
+        "{}",
+        std::mem::size_of::<Shared>()
+    );
 }
