@@ -350,7 +350,15 @@ impl Core {
     fn take_run(&mut self, target: Target) -> Vec<Event> {
         let mut then = std::mem::take(&mut self.spare_then);
         debug_assert!(then.is_empty() && self.run.is_empty());
-        if !self.runs || !self.closing.is_empty() || self.stopped() {
+        // The sensor manager's events are mostly requests, each of which schedules its trigger
+        // for the manager itself at once: the trigger comes before any later request, so a run
+        // would end at its first event and hand the rest back. The manager takes its triggers
+        // with the request instead ([`Core::inline_room`]), which a run rules out.
+        if !self.runs
+            || !self.closing.is_empty()
+            || target == Target::SensorManager
+            || self.stopped()
+        {
             return then;
         }
         let (mut t, mut at) = (self.now, self.at_instant);
