@@ -50,7 +50,7 @@ pub struct Deliver {
     /// ([`HandleEvent::look_ahead`]).
     pub look_ahead: bool,
     /// Whether anything reads the robots' step records: when not, the handlings leave them
-    /// out ([`Outbox::records_steps`]).
+    /// out ([`crate::world::outbox::Outbox::records_steps`]).
     pub steps: bool,
 }
 
