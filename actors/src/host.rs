@@ -137,6 +137,11 @@ pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) ->
     let mut first: Option<(u64, EventId)> = None;
     let mut free = then.len();
     loop {
+        ends.push(u32::try_from(effects.len()).expect("fewer than 2^32 effects"));
+        // With no event of the run left, what the handlings scheduled no longer matters here.
+        let Some(next) = then.last() else {
+            break;
+        };
         for e in &effects[scanned..] {
             match e {
                 Effect::Schedule(ev) | Effect::ScheduleIn(ev, _) => {
@@ -153,10 +158,6 @@ pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) ->
             }
         }
         scanned = effects.len();
-        ends.push(u32::try_from(effects.len()).expect("fewer than 2^32 effects"));
-        let Some(next) = then.last() else {
-            break;
-        };
         if free == 0 || first.is_some_and(|f| f < (time_key(next.time), next.id)) {
             break;
         }
