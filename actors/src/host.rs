@@ -6,16 +6,21 @@
 //! event. A delivery may carry a run: the events that come next for the same actor, which the
 //! host hands to its handler in turn for as long as the handlings before leave each the next
 //! event to take ([`handle_run`]), so a run saves round trips between the scheduler and a
-//! manager without changing which events are taken or their order. Everything here is about
-//! hosting; the handlers ([`HandleEvent`]) know none of it.
+//! manager without changing which events are taken or their order. A delivery with no run may
+//! also be passed on ([`PassOn`]): when the event a handling schedules at its instant is the
+//! next event there is, the host hands it straight to its actor instead of replying, and the
+//! last actor of such a chain replies for all of them; the events, their order and their
+//! numbers are again those of one delivery per event. Everything here is about hosting; the
+//! handlers ([`HandleEvent`]) know none of it.
 
 use std::sync::Arc;
 
 use actix::prelude::*;
 
 use crate::handler::{handle_one, HandleEvent};
-use crate::world::event::{Effect, Event, EventId};
+use crate::world::event::{Effect, Event, EventId, Target};
 use crate::world::radix::time_key;
+use crate::world::RobotId;
 
 /// Delivery of one event to the actor that handles it; the reply, the handling's effects,
 /// goes back to the scheduler as a message of its own ([`Replied`]).
@@ -52,6 +57,29 @@ pub struct Deliver {
     /// Whether anything reads the robots' step records: when not, the handlings leave them
     /// out ([`crate::world::outbox::Outbox::records_steps`]).
     pub steps: bool,
+    /// Where the events taken on at once may go when they are for another actor: with it,
+    /// [`Deliver::inline`] counts the events taken on for any actor, passed on along a chain
+    /// ([`handle_run`]); without it, only the actor's own.
+    pub pass_on: Option<Arc<dyn PassOn>>,
+    /// What the chain's handlings before this one did, when the delivery was passed on: the
+    /// reply so far, without its effects (they are in [`Deliver::effects`]).
+    pub chain: Option<Box<Reply>>,
+}
+
+/// The actors a delivery may be passed on to, straight from the host of the one before
+/// ([`Deliver::pass_on`]).
+pub trait PassOn: Send + Sync {
+    /// Whether `target`'s actor is running and may be sent the delivery at once.
+    fn reaches(&self, target: Target) -> bool;
+
+    /// Sends `msg` to `target`'s actor (one that [`PassOn::reaches`]).
+    fn pass(&self, target: Target, msg: Deliver);
+}
+
+impl std::fmt::Debug for dyn PassOn {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("PassOn")
+    }
 }
 
 /// The most events a delivery carries ([`Deliver::then`] and its own).
@@ -66,10 +94,21 @@ pub struct Reply {
     pub effects: Vec<Effect>,
     pub ends: smallvec::SmallVec<[u32; RUN]>,
     pub then: Vec<Event>,
-    /// How many of the handled events, after the delivered one, the actor scheduled for
-    /// itself and took on at once ([`Deliver::inline`]); their schedules are not among the
-    /// effects.
+    /// How many of the handled events, after the delivered one, were scheduled by the
+    /// handlings before them and taken on at once ([`Deliver::inline`]); their schedules are
+    /// not among the effects.
     pub inline: u32,
+    /// The robots whose events were among those taken on, in order (the scheduler counts
+    /// each robot's deliveries at an instant).
+    pub robots: smallvec::SmallVec<[RobotId; 2]>,
+}
+
+/// What a host does with a delivery once its handler is done: reply to the scheduler, or pass
+/// the next event on to its actor.
+#[derive(Debug)]
+pub enum Handled {
+    Reply(Reply),
+    PassOn(Target, Deliver),
 }
 
 /// The way back to the scheduler for one delivery's reply: one message, no channel. Dropped
@@ -117,10 +156,12 @@ pub struct Replied(pub Result<Reply, String>);
 /// With no run, it then takes on the events its handlings schedule for the same actor at the
 /// same instant, as long as each is the next event there is (see [`own_next`]), up to
 /// [`Deliver::inline`] of them.
-pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) -> Reply {
-    let (own, inline) = (msg.event.target, msg.inline);
-    if msg.then.is_empty() && inline > 0 {
-        return handle_inline(handler, msg, own, inline);
+///
+/// Given where deliveries may be passed on ([`Deliver::pass_on`]), it also takes on those for
+/// other actors: the first is passed on ([`Handled::PassOn`]), with the reply so far.
+pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) -> Handled {
+    if msg.then.is_empty() && (msg.inline > 0 || msg.chain.is_some()) {
+        return handle_inline(handler, msg);
     }
     // The run's events in reverse: the next one last.
     let mut then = std::mem::take(&mut msg.then);
@@ -170,60 +211,92 @@ pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) ->
         effects = handle_one(handler, event.time, seq, event, effects, steps);
     }
     then.reverse();
-    Reply {
+    Handled::Reply(Reply {
         effects,
         ends,
         then,
         inline: 0,
-    }
+        robots: smallvec::SmallVec::new(),
+    })
 }
 
-/// [`handle_run`] with no run: the delivered event, then up to `room` events that the
-/// handlings schedule for `own` at this instant, each taken out of the effects and handled
-/// while it is the next event there is.
-fn handle_inline<H: HandleEvent + ?Sized>(
-    handler: &mut H,
-    msg: Deliver,
-    own: crate::world::event::Target,
-    room: u32,
-) -> Reply {
-    let (now, steps) = (msg.now, msg.steps);
+/// [`handle_run`] with no run: the delivered event, then up to [`Deliver::inline`] events
+/// that the handlings schedule at this instant, each taken out of the effects and handled
+/// while it is the next event there is: here when it is for the same actor, passed on with
+/// the reply so far when it is for another that [`Deliver::pass_on`] reaches.
+fn handle_inline<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) -> Handled {
+    let (now, steps, own) = (msg.now, msg.steps, msg.event.target);
+    let mut reply = msg.chain.take().map_or_else(Reply::default, |c| *c);
+    let mut room = msg.inline;
     let mut seq = msg.seq;
-    let mut effects = handle_one(handler, now, seq, msg.event, msg.effects, msg.steps);
-    let mut ends: smallvec::SmallVec<[u32; RUN]> = smallvec::smallvec![effects.len() as u32];
-    let mut inline = 0;
-    while inline < room {
-        let Some(k) = own_next(&effects, now, own) else {
+    let mut effects = handle_one(handler, now, seq, msg.event, msg.effects, steps);
+    reply.ends.push(end_of(&effects));
+    while room > 0 {
+        let Some((k, target)) = next_at(&effects, now) else {
             break;
         };
+        let passed = target != own;
+        if passed && !msg.pass_on.as_ref().is_some_and(|p| p.reaches(target)) {
+            break;
+        }
         let Effect::Schedule(event) = effects.remove(k) else {
-            unreachable!("own_next names a plain schedule");
+            unreachable!("next_at names a plain schedule");
         };
-        for end in ends.iter_mut().filter(|e| **e as usize > k) {
+        for end in reply.ends.iter_mut().filter(|e| **e as usize > k) {
             *end -= 1;
         }
         seq += 1;
-        inline += 1;
+        room -= 1;
+        reply.inline += 1;
+        if let Target::Robot(r) = target {
+            reply.robots.push(r);
+        }
+        if passed {
+            return Handled::PassOn(
+                target,
+                Deliver {
+                    now,
+                    seq,
+                    event,
+                    effects,
+                    reply: msg.reply.take(),
+                    then: Vec::new(),
+                    inline: room,
+                    look_ahead: false,
+                    steps,
+                    pass_on: msg.pass_on.take(),
+                    chain: Some(Box::new(reply)),
+                },
+            );
+        }
         effects = handle_one(handler, now, seq, event, effects, steps);
-        ends.push(u32::try_from(effects.len()).expect("fewer than 2^32 effects"));
+        reply.ends.push(end_of(&effects));
     }
-    Reply {
-        effects,
-        ends,
-        then: Vec::new(),
-        inline,
-    }
+    reply.effects = effects;
+    Handled::Reply(reply)
+}
+
+fn end_of(effects: &[Effect]) -> u32 {
+    u32::try_from(effects.len()).expect("fewer than 2^32 effects")
 }
 
 /// The position among `effects` of the event that comes next when nothing was pending at
-/// `now` before them, if it is a plain schedule for `own`: of the events scheduled at `now`,
-/// the first scheduled (at one instant, events come in the order of their causes, and these
-/// are the newest). Nothing when an instant's end event was asked for, which the scheduler
-/// takes in its own turn.
-fn own_next(effects: &[Effect], now: f64, own: crate::world::event::Target) -> Option<usize> {
+/// `now` before them, and its actor, if it is a plain schedule: of the events scheduled at
+/// `now` and not cancelled since, the first scheduled (at one instant, events come in the
+/// order of their causes, and these are the newest). Nothing when an instant's end event was
+/// asked for, or the next is the event manager's, which the scheduler takes in its own turn.
+fn next_at(effects: &[Effect], now: f64) -> Option<(usize, Target)> {
     for (k, e) in effects.iter().enumerate() {
         match e {
-            Effect::Schedule(ev) if ev.time == now => return (ev.target == own).then_some(k),
+            Effect::Schedule(ev) if ev.time == now => {
+                let cancelled = effects[k + 1..]
+                    .iter()
+                    .any(|c| matches!(c, Effect::Cancel(h) if h.id == ev.id));
+                if cancelled {
+                    continue;
+                }
+                return (ev.target != Target::EventManager).then_some((k, ev.target));
+            }
             Effect::ScheduleIn(ev, _) if ev.time == now => return None,
             Effect::AtInstantEnd(_) | Effect::WithdrawAtInstantEnd(_) => return None,
             _ => {}
@@ -255,9 +328,20 @@ impl<H: HandleEvent + Unpin + 'static> Handler<Deliver> for Host<H> {
     fn handle(&mut self, mut msg: Deliver, _: &mut Context<Self>) {
         // Held across the handling: should it panic, dropping it tells the scheduler.
         let reply = msg.reply.take();
-        let handled = handle_run(&mut self.0, msg);
-        if let Some(reply) = reply {
-            reply.send(handled);
+        match handle_run(&mut self.0, msg) {
+            Handled::Reply(handled) => {
+                if let Some(reply) = reply {
+                    reply.send(handled);
+                }
+            }
+            Handled::PassOn(target, mut next) => {
+                next.reply = reply;
+                let to = next
+                    .pass_on
+                    .clone()
+                    .expect("a delivery passed on knows where");
+                to.pass(target, next);
+            }
         }
     }
 }

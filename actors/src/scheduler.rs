@@ -15,8 +15,13 @@
 //!    then does it take the next event. A delivery may carry a run: the events that come
 //!    next for the same actor ([`Deliver::then`]). The actor handles each in turn only while
 //!    the handlings before it leave it the next event ([`handle_run`]) and hands the rest
-//!    back, so the events taken and their order are those of one delivery per event. Actors
-//!    never message each other directly: every hop is an event.
+//!    back, so the events taken and their order are those of one delivery per event. Every
+//!    hop is an event. When the event a handling schedules at its instant is the next event
+//!    there is, the actor's host may pass it straight on to its actor ([`PassOn`]), which
+//!    replies for both: that is the delivery the scheduler would send next, numbered as it
+//!    would number it, so again the events and their order are those of one delivery per
+//!    event. The scheduler allows it only where it would deliver the event itself: nothing
+//!    else pending at the instant, no robot crashed, no livelock in reach.
 //! 4. Quiescence is therefore structural: an actor's work at instant `t` is exactly the handling
 //!    of events at `t`, and everything it causes is an event at `t` or later. Virtual time
 //!    cannot advance while work at the current instant remains, because that work is an event
@@ -31,7 +36,9 @@ mod event_manager;
 
 use actix::prelude::*;
 
-use crate::host::{Deliver, Replied, ReplyTo};
+use std::sync::{Arc, Mutex};
+
+use crate::host::{Deliver, PassOn, Replied, ReplyTo};
 use crate::world::event::{Event, Target};
 use crate::world::outbox::Outbox;
 use crate::world::sensor::SensorKind;
@@ -71,17 +78,66 @@ impl std::fmt::Debug for Routes {
     }
 }
 
+/// Every actor's mailbox: the scheduler's, and the hosts' that pass deliveries on
+/// ([`PassOn`]).
+struct Directory {
+    motion_manager: Recipient<Deliver>,
+    sensor_manager: Recipient<Deliver>,
+    robots: Vec<Recipient<Deliver>>,
+    network: Recipient<Deliver>,
+    layers: Vec<Vec<Recipient<Deliver>>>,
+    /// Each robot's sensor actors started so far, by robot: a robot has a few sensors at
+    /// most, and a robot's list is found without hashing. The scheduler starts them.
+    sensors: Mutex<Vec<Started>>,
+}
+
+/// A robot's sensor actors started so far.
+type Started = Vec<(SensorKind, Recipient<Deliver>)>;
+
+impl Directory {
+    /// Calls `f` with `target`'s mailbox, if its actor is running.
+    fn with<R>(&self, target: Target, f: impl FnOnce(Option<&Recipient<Deliver>>) -> R) -> R {
+        match target {
+            Target::EventManager => f(None),
+            Target::Robot(r) => f(self.robots.get(r as usize)),
+            Target::MotionManager => f(Some(&self.motion_manager)),
+            Target::SensorManager => f(Some(&self.sensor_manager)),
+            Target::Network => f(Some(&self.network)),
+            Target::Layer(r, l) => f(self
+                .layers
+                .get(r as usize)
+                .and_then(|ls| ls.get(l as usize))),
+            Target::Sensor(r, k) => {
+                let sensors = self.sensors.lock().expect("sensor directory");
+                let started = sensors.get(r as usize).map_or(&[][..], Vec::as_slice);
+                f(started.iter().find(|(kind, _)| *kind == k).map(|s| &s.1))
+            }
+        }
+    }
+}
+
+impl PassOn for Directory {
+    fn reaches(&self, target: Target) -> bool {
+        self.with(target, |to| to.is_some())
+    }
+
+    fn pass(&self, target: Target, msg: Deliver) {
+        // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
+        self.with(target, |to| to.expect("a running actor").do_send(msg));
+    }
+}
+
 /// The scheduler actor.
 pub struct Scheduler {
     core: Core,
-    routes: Routes,
+    actors: Arc<Directory>,
+    /// Starts a robot's sensor actor ([`Routes::spawn_sensor`]).
+    spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Recipient<Deliver>>,
+    prefetch: Prefetch,
     /// Where the replies go ([`ReplyTo`]): itself, once started.
     me: Option<std::sync::Arc<Recipient<Replied>>>,
     /// The target of the delivery in flight.
     in_flight: Option<Target>,
-    /// Each robot's sensor actors started so far, by robot: a robot has a few sensors at
-    /// most, and a robot's list is found without hashing.
-    sensors: Vec<Vec<(SensorKind, Recipient<Deliver>)>>,
     on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
 }
 
@@ -105,42 +161,53 @@ impl Scheduler {
         observers: Observers,
         on_finish: Box<dyn FnOnce(RunOutput)>,
     ) -> Self {
+        let Routes {
+            motion_manager,
+            sensor_manager,
+            robots,
+            network,
+            layers,
+            spawn_sensor,
+            prefetch,
+        } = routes;
+        let actors = Arc::new(Directory {
+            motion_manager,
+            sensor_manager,
+            robots,
+            network,
+            layers,
+            sensors: Mutex::new(Vec::new()),
+        });
         let mut core = Core::new(until, setup, observers);
         core.runs = true;
+        core.pass_on = Some(actors.clone() as Arc<dyn PassOn>);
         Self {
             core,
-            routes,
+            actors,
+            spawn_sensor,
+            prefetch,
             me: None,
             in_flight: None,
-            sensors: Vec::new(),
             on_finish: Some(on_finish),
         }
     }
 
-    fn route(&mut self, target: Target) -> &Recipient<Deliver> {
-        match target {
-            Target::EventManager => unreachable!("the event manager's events are handled inline"),
-            Target::Robot(r) => &self.routes.robots[r as usize],
-            Target::MotionManager => &self.routes.motion_manager,
-            Target::SensorManager => &self.routes.sensor_manager,
-            Target::Network => &self.routes.network,
-            Target::Layer(r, l) => &self.routes.layers[r as usize][l as usize],
-            Target::Sensor(r, k) => {
-                let i = r as usize;
-                if self.sensors.len() <= i {
-                    self.sensors.resize_with(i + 1, Vec::new);
-                }
-                let started = &mut self.sensors[i];
-                let at = match started.iter().position(|(kind, _)| *kind == k) {
-                    Some(at) => at,
-                    None => {
-                        started.push((k, (self.routes.spawn_sensor)(r, k)));
-                        started.len() - 1
-                    }
-                };
-                &started[at].1
+    /// Sends `deliver` to `target`'s actor, starting it first if it is a sensor not yet
+    /// needed.
+    fn send(&mut self, target: Target, deliver: Deliver) {
+        if let Target::Sensor(r, k) = target {
+            let mut sensors = self.actors.sensors.lock().expect("sensor directory");
+            let i = r as usize;
+            if sensors.len() <= i {
+                sensors.resize_with(i + 1, Vec::new);
+            }
+            let started = &mut sensors[i];
+            if !started.iter().any(|(kind, _)| *kind == k) {
+                started.push((k, (self.spawn_sensor)(r, k)));
             }
         }
+        // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
+        self.actors.pass(target, deliver);
     }
 
     /// Takes the next event and sends it to its actor, whose reply ([`Replied`]) steps on.
@@ -150,15 +217,14 @@ impl Scheduler {
             Next::Deliver(target, deliver) => (target, deliver),
         };
         if let Some(world) = self.core.ahead_in_world() {
-            (self.routes.prefetch)(&world);
+            (self.prefetch)(&world);
         }
         let me = self
             .me
             .get_or_insert_with(|| std::sync::Arc::new(ctx.address().recipient()));
         deliver.reply = Some(ReplyTo::new(me.clone()));
         self.in_flight = Some(target);
-        // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
-        self.route(target).do_send(deliver);
+        self.send(target, deliver);
     }
 
     /// Hands the output over. The actor is not stopped: the run's host drops or leaves the

@@ -5,7 +5,9 @@
 
 use std::collections::VecDeque;
 
-use crate::host::{Deliver, Reply, RUN};
+use std::sync::Arc;
+
+use crate::host::{Deliver, PassOn, Reply, RUN};
 use crate::world::event::{Effect, Event, FutureEvent, Notice, Payload, Target};
 use crate::world::observation::{Observation, Record};
 use crate::world::outbox::Outbox;
@@ -110,6 +112,9 @@ pub(crate) struct Core {
     spare_then: Vec<Event>,
     /// Whether anything reads the robots' step records ([`Observers::summary_only`]).
     steps: bool,
+    /// Where the hosts may pass deliveries on ([`Deliver::pass_on`]): the scheduler actor's
+    /// actors.
+    pub(crate) pass_on: Option<Arc<dyn PassOn>>,
 }
 
 /// The fewest pending events at which the core looks ahead ([`EventQueue::look_ahead`]) and
@@ -129,7 +134,9 @@ pub const LEAD_LIMIT: u64 = 1_000_000;
 /// The largest effects buffer kept for reuse: the setup's million start notices are not.
 const SPARE_EFFECTS: usize = 1 << 10;
 
-/// What the core says to do next.
+/// What the core says to do next. Made once an event and taken apart at once, so the
+/// delivery is not boxed.
+#[allow(clippy::large_enum_variant)]
 pub(crate) enum Next {
     /// Hand this event to the actor behind `Target` and apply its reply.
     Deliver(Target, Deliver),
@@ -219,6 +226,7 @@ impl Core {
             run: smallvec::SmallVec::new(),
             spare_then: Vec::new(),
             steps: false,
+            pass_on: None,
         };
         core.steps = core.observers.read_steps();
         core.apply_setup(setup.into_effects());
@@ -261,6 +269,7 @@ impl Core {
             ends,
             mut then,
             inline,
+            robots,
         } = reply;
         self.prefetch_cancelled(&effects);
         let handled = ends.len() - 1;
@@ -286,6 +295,12 @@ impl Core {
         while j < handled {
             j += 1;
             self.enter(self.run.get(j - 1).map_or(instant, |r| r.0));
+        }
+        // The robots' events taken on count in the vote as if delivered one by one; the room
+        // given ([`Core::inline_room`]) keeps the lead below the limit.
+        for r in robots {
+            let livelock = self.leads(r);
+            debug_assert!(!livelock, "a chain stays below the lead limit");
         }
         self.run.clear();
         self.keep_spare(effects);
@@ -379,28 +394,37 @@ impl Core {
         then
     }
 
-    /// How many events a manager may take on at once after the one being delivered
-    /// ([`Deliver::inline`]): the events it schedules for itself at this instant, which come
+    /// How many events an actor may take on at once after the one being delivered
+    /// ([`Deliver::inline`]), and where it may pass those for other actors on
+    /// ([`Deliver::pass_on`]): the events the handlings schedule at this instant, which come
     /// next when nothing else is pending at this instant (their causes are the newest), so
     /// long as the instant's event limit allows them, no instant's end event is pending and
-    /// the delivery carries no run. Robots, their sensors and layers take every event from
-    /// the scheduler, which watches them for livelocks and crashes.
-    fn inline_room(&mut self, target: Target, then: &[Event]) -> u32 {
+    /// the delivery carries no run. A manager may take on its own events in any case. Robots,
+    /// their sensors and layers, and events passed on, need more, as the scheduler watches
+    /// them for crashes and livelocks: no robot crashed, and a lead in the robots' vote that
+    /// the chain cannot bring to the limit.
+    fn inline_room(&mut self, target: Target, then: &[Event]) -> (u32, Option<Arc<dyn PassOn>>) {
         let manager = matches!(
             target,
             Target::MotionManager | Target::SensorManager | Target::Network
         );
-        if !manager
+        let passing = self.crashed.is_empty() && self.leader.1 + (RUN as u64) < self.lead_limit;
+        if !(manager || passing)
             || !self.runs
             || !then.is_empty()
             || !self.closing.is_empty()
             || self.stopped()
             || self.queue.peek_time().is_some_and(|t| t <= self.now)
         {
-            return 0;
+            return (0, None);
         }
         let left = self.instant_limit.saturating_sub(self.at_instant);
-        u32::try_from(left.min(RUN as u64 - 1)).expect("below RUN")
+        let room = u32::try_from(left.min(RUN as u64 - 1)).expect("below RUN");
+        let pass_on = self.pass_on.clone().filter(|_| passing && room > 0);
+        if pass_on.is_none() && !manager {
+            return (0, None);
+        }
+        (room, pass_on)
     }
 
     /// Applies one effect.
@@ -523,7 +547,7 @@ impl Core {
             } else {
                 Ahead::default()
             };
-            let inline = self.inline_room(target, &then);
+            let (inline, pass_on) = self.inline_room(target, &then);
             let deliver = Deliver {
                 now: self.now,
                 seq: self.seq,
@@ -534,6 +558,8 @@ impl Core {
                 inline,
                 look_ahead,
                 steps: self.steps,
+                pass_on,
+                chain: None,
             };
             return Next::Deliver(target, deliver);
         }

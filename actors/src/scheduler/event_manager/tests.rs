@@ -1,7 +1,7 @@
 //! The event manager's ordering, runs and look-ahead, against brute-force orders.
 use super::*;
 use crate::handler::HandleEvent;
-use crate::host::handle_run;
+use crate::host::{handle_run, Handled, PassOn};
 use crate::world::event::{EventClass, EventId};
 
 fn timer(robot: RobotId) -> Payload {
@@ -267,9 +267,44 @@ impl HandleEvent for Scrambler {
 /// The robot number a [`Scrambler`] logs for the motion manager's events.
 const MANAGER: RobotId = 50;
 
-/// Runs a core over a [`Scrambler`], deliveries carrying runs or not; returns the
-/// handlings, the events taken, those cancelled, and how many deliveries there were.
-fn scrambled(seed: u64, robots: RobotId, runs: bool) -> (Vec<(f64, u64, RobotId)>, u64, u64, u64) {
+/// The reply of a handling that passed nothing on.
+fn replied(handled: Handled) -> Reply {
+    match handled {
+        Handled::Reply(reply) => reply,
+        Handled::PassOn(target, _) => panic!("passed on to {target:?} with nowhere to pass"),
+    }
+}
+
+/// Every actor, for hosts that pass deliveries on: the tests follow each chain themselves.
+struct Everyone;
+
+impl PassOn for Everyone {
+    fn reaches(&self, _: Target) -> bool {
+        true
+    }
+
+    fn pass(&self, target: Target, _: Deliver) {
+        unreachable!("the test hands the delivery for {target:?} over itself")
+    }
+}
+
+/// How a core's deliveries are made in [`scrambled`].
+#[derive(Clone, Copy, PartialEq)]
+enum Hosting {
+    /// One event a delivery.
+    OneByOne,
+    /// Runs, and a manager's own events taken on at once.
+    Runs,
+    /// Runs, and every event taken on at once, passed on to its actor where it is another's.
+    PassOn,
+}
+
+/// What [`scrambled`] returns.
+type Scrambled = (Vec<(f64, u64, RobotId)>, u64, u64, u64, u64);
+
+/// Runs a core over a [`Scrambler`] as `hosting` says; returns the handlings, the events
+/// taken, those cancelled, how many deliveries there were and how many were passed on.
+fn scrambled(seed: u64, robots: RobotId, hosting: Hosting) -> Scrambled {
     let mut setup = Outbox::new(0.0, 0);
     for r in 0..robots {
         setup.schedule(
@@ -282,31 +317,52 @@ fn scrambled(seed: u64, robots: RobotId, runs: bool) -> (Vec<(f64, u64, RobotId)
     }
     let mut core = Core::new(6.0, setup, Observers::default());
     core.set_instant_limit(10_000);
-    core.runs = runs;
+    core.runs = hosting != Hosting::OneByOne;
+    if hosting == Hosting::PassOn {
+        core.pass_on = Some(std::sync::Arc::new(Everyone));
+    }
     let mut actor = Scrambler::new(seed, robots);
-    let mut deliveries = 0;
+    let (mut deliveries, mut passed) = (0, 0);
     while let Next::Deliver(_, d) = core.next() {
         deliveries += 1;
-        let reply = handle_run(&mut actor, d);
-        core.apply_reply(reply);
+        // One handler stands for every actor; the target of each event passed on is checked
+        // in its handling, as it is the target's own.
+        let mut handled = handle_run(&mut actor, d);
+        while let Handled::PassOn(target, d) = handled {
+            assert_eq!(d.event.target, target);
+            passed += 1;
+            handled = handle_run(&mut actor, d);
+        }
+        core.apply_reply(replied(handled));
     }
     let out = core.finish();
-    (actor.log, out.stats.events, out.stats.cancelled, deliveries)
+    (
+        actor.log,
+        out.stats.events,
+        out.stats.cancelled,
+        deliveries,
+        passed,
+    )
 }
 
 proptest::proptest! {
     /// Deliveries that carry runs, or take on what a manager schedules for itself at its
-    /// instant, take the same events in the same order, with the same numbers, as
-    /// deliveries of one event each, whatever the handlings schedule, cancel or leave to
-    /// the end of an instant; and they need fewer deliveries.
+    /// instant, or pass on what the handlings schedule for others, take the same events in
+    /// the same order, with the same numbers, as deliveries of one event each, whatever the
+    /// handlings schedule, cancel or leave to the end of an instant; and they need fewer
+    /// deliveries.
     #[test]
     fn runs_take_the_events_of_one_by_one_delivery(seed in proptest::prelude::any::<u64>(), robots in 1u32..4) {
-        let (one, events, cancelled, singles) = scrambled(seed, robots, false);
-        let (run, run_events, run_cancelled, deliveries) = scrambled(seed, robots, true);
+        let (one, events, cancelled, singles, _) = scrambled(seed, robots, Hosting::OneByOne);
+        let (run, run_events, run_cancelled, deliveries, _) = scrambled(seed, robots, Hosting::Runs);
         proptest::prop_assert_eq!(&run, &one);
         proptest::prop_assert_eq!((run_events, run_cancelled), (events, cancelled));
         proptest::prop_assert_eq!(singles, events);
         proptest::prop_assert!(deliveries <= singles);
+        let (chain, chain_events, chain_cancelled, trips, _) = scrambled(seed, robots, Hosting::PassOn);
+        proptest::prop_assert_eq!(&chain, &one);
+        proptest::prop_assert_eq!((chain_events, chain_cancelled), (events, cancelled));
+        proptest::prop_assert!(trips <= deliveries);
     }
 }
 
@@ -367,7 +423,7 @@ fn a_run_stops_where_its_next_event_is_no_longer_next() {
             _ => &[],
         };
         assert_eq!(then, want, "the run from {}", d.now);
-        let reply = handle_run(&mut actor, d);
+        let reply = replied(handle_run(&mut actor, d));
         handled.push(reply.ends.len());
         core.apply_reply(reply);
     }
@@ -425,7 +481,7 @@ fn a_run_asks_ahead_for_its_next_two_events_when_told_to() {
         assert_eq!(d.then.len(), 3, "the run of 1 s holds 2, 3 and 4 s");
         d.look_ahead = look_ahead;
         let mut actor = Actor::default();
-        let reply = handle_run(&mut actor, d);
+        let reply = replied(handle_run(&mut actor, d));
         assert_eq!(reply.ends.len(), 4);
         (actor.handled, actor.asked.into_inner())
     };
@@ -609,7 +665,7 @@ fn a_manager_takes_on_what_it_schedules_for_itself_at_a_quiet_instant() {
         let mut deliveries = Vec::new();
         while let Next::Deliver(_, d) = core.next() {
             deliveries.push((d.now, d.inline));
-            let reply = handle_run(&mut chain, d);
+            let reply = replied(handle_run(&mut chain, d));
             core.apply_reply(reply);
         }
         (chain.log, core.finish().stats.events, deliveries)
@@ -631,4 +687,67 @@ fn a_manager_takes_on_what_it_schedules_for_itself_at_a_quiet_instant() {
         deliveries.iter().map(|d| d.1 > 0).collect::<Vec<_>>(),
         [true, false, true, false, true]
     );
+}
+
+/// A handler that does nothing.
+struct Idle;
+
+impl HandleEvent for Idle {
+    fn handle_event(&mut self, _: Event, _: &mut Outbox) {}
+}
+
+/// Over many scrambled runs, passing on saves round trips, and some chains are long.
+#[test]
+fn passing_on_saves_round_trips() {
+    let (mut runs, mut trips, mut passed) = (0, 0, 0);
+    for seed in 0..64 {
+        runs += scrambled(seed, 3, Hosting::Runs).3;
+        let (_, _, _, d, p) = scrambled(seed, 3, Hosting::PassOn);
+        (trips, passed) = (trips + d, passed + p);
+    }
+    assert!(
+        passed > 0 && trips < runs,
+        "{trips} round trips against {runs}"
+    );
+}
+
+/// The scheduler lets hosts pass deliveries on only while it would deliver each event itself:
+/// not once a robot has crashed (its events are then dropped), and not with a lead in the
+/// robots' vote that a chain could bring to the limit.
+#[test]
+fn no_passing_on_after_a_crash_or_near_a_livelock() {
+    let first_delivery = |crash: bool, lead_limit: u64| {
+        let mut setup = Outbox::new(0.0, 0);
+        if crash {
+            setup.schedule(
+                0.5,
+                Target::EventManager,
+                EventClass::Eventual,
+                [Some(0), None],
+                Payload::Crash { robot: 0 },
+            );
+        }
+        setup.schedule(
+            1.0,
+            Target::Robot(1),
+            EventClass::Eventual,
+            [Some(1), None],
+            timer(1),
+        );
+        let mut core = Core::new(5.0, setup, Observers::default());
+        core.runs = true;
+        core.pass_on = Some(std::sync::Arc::new(Everyone));
+        core.set_lead_limit(lead_limit);
+        // A crash has the motion manager stop the robot first.
+        loop {
+            match core.next() {
+                Next::Deliver(Target::Robot(1), d) => return (d.inline, d.pass_on.is_some()),
+                Next::Deliver(_, d) => core.apply_reply(replied(handle_run(&mut Idle, d))),
+                Next::Finish => panic!("robot 1's timer is delivered"),
+            }
+        }
+    };
+    assert_eq!(first_delivery(false, LEAD_LIMIT), (RUN as u32 - 1, true));
+    assert_eq!(first_delivery(true, LEAD_LIMIT), (0, false));
+    assert_eq!(first_delivery(false, RUN as u64), (0, false));
 }
