@@ -159,26 +159,48 @@ pub struct Replied(pub Result<Reply, String>);
 ///
 /// Given where deliveries may be passed on ([`Deliver::pass_on`]), it also takes on those for
 /// other actors: the first is passed on ([`Handled::PassOn`]), with the reply so far.
-pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) -> Handled {
-    if msg.then.is_empty() && (msg.inline > 0 || msg.chain.is_some()) {
-        return handle_inline(handler, msg);
+pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, msg: Deliver) -> Handled {
+    let Deliver {
+        now,
+        seq,
+        event,
+        effects,
+        reply: reply_to,
+        mut then,
+        inline,
+        look_ahead,
+        steps,
+        pass_on,
+        chain,
+    } = msg;
+    let own = event.target;
+    let onward = Onward {
+        room: inline,
+        steps,
+        reply_to,
+        pass_on,
+    };
+    if then.is_empty() && (inline > 0 || chain.is_some()) {
+        let mut reply = chain.map_or_else(Reply::default, |c| *c);
+        let effects = handle_one(handler, now, seq, event, effects, steps);
+        reply.ends.push(end_of(&effects));
+        let at = Instant { now, seq, own };
+        return take_on(handler, onward, at, reply, effects);
     }
     // The run's events in reverse: the next one last.
-    let mut then = std::mem::take(&mut msg.then);
     then.reverse();
-    let (look_ahead, steps) = (msg.look_ahead, msg.steps);
     if look_ahead {
         look_ahead_in_run(handler, &then);
     }
-    let mut seq = msg.seq;
-    let mut effects = handle_one(handler, msg.now, msg.seq, msg.event, msg.effects, msg.steps);
+    let (mut now, mut seq) = (now, seq);
+    let mut effects = handle_one(handler, now, seq, event, effects, steps);
     let mut ends = smallvec::SmallVec::new();
     let mut scanned = 0;
     // The first event scheduled so far, and how many events of `then` may still be handled.
     let mut first: Option<(u64, EventId)> = None;
     let mut free = then.len();
     loop {
-        ends.push(u32::try_from(effects.len()).expect("fewer than 2^32 effects"));
+        ends.push(end_of(&effects));
         // With no event of the run left, what the handlings scheduled no longer matters here.
         let Some(next) = then.last() else {
             break;
@@ -205,38 +227,66 @@ pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) ->
         let event = then.pop().expect("a next event");
         free -= 1;
         seq += 1;
+        now = event.time;
         if look_ahead {
             look_ahead_in_run(handler, &then);
         }
-        effects = handle_one(handler, event.time, seq, event, effects, steps);
+        effects = handle_one(handler, now, seq, event, effects, steps);
     }
     then.reverse();
-    Handled::Reply(Reply {
-        effects,
-        ends,
+    let mut reply = Reply {
         then,
-        inline: 0,
-        robots: smallvec::SmallVec::new(),
-    })
+        ..Reply::default()
+    };
+    reply.ends = ends;
+    // What the last handling schedules at its instant may come next, before the run's events
+    // handed back, when the scheduler allowed it ([`Deliver::inline`]): nothing else pending
+    // up to the run's last event.
+    if inline > 0 && reply.then.first().is_none_or(|n| n.time > now) {
+        let at = Instant { now, seq, own };
+        return take_on(handler, onward, at, reply, effects);
+    }
+    reply.effects = effects;
+    Handled::Reply(reply)
 }
 
-/// [`handle_run`] with no run: the delivered event, then up to [`Deliver::inline`] events
-/// that the handlings schedule at this instant, each taken out of the effects and handled
-/// while it is the next event there is: here when it is for the same actor, passed on with
-/// the reply so far when it is for another that [`Deliver::pass_on`] reaches.
-fn handle_inline<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) -> Handled {
-    let (now, steps, own) = (msg.now, msg.steps, msg.event.target);
-    let mut reply = msg.chain.take().map_or_else(Reply::default, |c| *c);
-    let mut room = msg.inline;
-    let mut seq = msg.seq;
-    let mut effects = handle_one(handler, now, seq, msg.event, msg.effects, steps);
-    reply.ends.push(end_of(&effects));
+/// What a delivery allows beyond its events: how many more may be taken on, where to, and
+/// where the reply goes (see [`Deliver`]).
+struct Onward {
+    room: u32,
+    steps: bool,
+    reply_to: Option<ReplyTo>,
+    pass_on: Option<Arc<dyn PassOn>>,
+}
+
+/// Where a delivery's handlings stand: the instant of the last, its number, and its actor.
+struct Instant {
+    now: f64,
+    seq: u64,
+    own: Target,
+}
+
+/// After the handling numbered `at.seq`, whose effects end `effects` (and `reply.ends`): up to
+/// [`Deliver::inline`] events that the handlings schedule at its instant, each taken out of the
+/// effects and handled while it is the next event there is: here when it is for the same
+/// actor, passed on with the reply so far when it is for another that [`Deliver::pass_on`]
+/// reaches.
+fn take_on<H: HandleEvent + ?Sized>(
+    handler: &mut H,
+    mut onward: Onward,
+    at: Instant,
+    mut reply: Reply,
+    mut effects: Vec<Effect>,
+) -> Handled {
+    let Instant { now, mut seq, own } = at;
+    let steps = onward.steps;
+    let mut room = onward.room;
     while room > 0 {
         let Some((k, target)) = next_at(&effects, now) else {
             break;
         };
         let passed = target != own;
-        if passed && !msg.pass_on.as_ref().is_some_and(|p| p.reaches(target)) {
+        if passed && !onward.pass_on.as_ref().is_some_and(|p| p.reaches(target)) {
             break;
         }
         let Effect::Schedule(event) = effects.remove(k) else {
@@ -259,12 +309,12 @@ fn handle_inline<H: HandleEvent + ?Sized>(handler: &mut H, mut msg: Deliver) -> 
                     seq,
                     event,
                     effects,
-                    reply: msg.reply.take(),
+                    reply: onward.reply_to.take(),
                     then: Vec::new(),
                     inline: room,
                     look_ahead: false,
                     steps,
-                    pass_on: msg.pass_on.take(),
+                    pass_on: onward.pass_on.take(),
                     chain: Some(Box::new(reply)),
                 },
             );

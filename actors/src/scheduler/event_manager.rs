@@ -279,22 +279,24 @@ impl Core {
             self.run.len(),
             "a run's events handled or handed back"
         );
-        // The events taken on at once are at the delivered event's instant.
-        let instant = self.now;
+        // The events taken on at once are at the instant of the last handled before them.
+        let instant = from_run.checked_sub(1).map_or(self.now, |i| self.run[i].0);
         for (ev, &(_, slot)) in then.drain(..).rev().zip(self.run.iter().rev()) {
             self.queue.put_back(ev, slot);
         }
+        let time_of =
+            |run: &[(f64, u32)], j: usize| if j <= from_run { run[j - 1].0 } else { instant };
         let mut j = 0;
         for (k, e) in effects.drain(..).enumerate() {
             while k as u32 >= ends[j] {
                 j += 1;
-                self.enter(self.run.get(j - 1).map_or(instant, |r| r.0));
+                self.enter(time_of(&self.run, j));
             }
             self.apply_one(e);
         }
         while j < handled {
             j += 1;
-            self.enter(self.run.get(j - 1).map_or(instant, |r| r.0));
+            self.enter(time_of(&self.run, j));
         }
         // The robots' events taken on count in the vote as if delivered one by one; the room
         // given ([`Core::inline_room`]) keeps the lead below the limit.
@@ -394,31 +396,38 @@ impl Core {
         then
     }
 
-    /// How many events an actor may take on at once after the one being delivered
+    /// How many events an actor may take on at once after the ones being delivered
     /// ([`Deliver::inline`]), and where it may pass those for other actors on
-    /// ([`Deliver::pass_on`]): the events the handlings schedule at this instant, which come
-    /// next when nothing else is pending at this instant (their causes are the newest), so
-    /// long as the instant's event limit allows them, no instant's end event is pending and
-    /// the delivery carries no run. A manager may take on its own events in any case. Robots,
-    /// their sensors and layers, and events passed on, need more, as the scheduler watches
-    /// them for crashes and livelocks: no robot crashed, and a lead in the robots' vote that
-    /// the chain cannot bring to the limit.
+    /// ([`Deliver::pass_on`]): the events the handlings schedule at the instant of the last
+    /// one handled, which come next when nothing else is pending up to that instant (their
+    /// causes are the newest), so long as the instant's event limit allows them and no
+    /// instant's end event is pending. A manager may take on its own events after a delivery
+    /// with no run in any case. Runs, robots, their sensors and layers, and events passed on,
+    /// need more, as the scheduler watches robots for crashes and livelocks: no robot
+    /// crashed, and a lead in the robots' vote that the chain cannot bring to the limit.
     fn inline_room(&mut self, target: Target, then: &[Event]) -> (u32, Option<Arc<dyn PassOn>>) {
         let manager = matches!(
             target,
             Target::MotionManager | Target::SensorManager | Target::Network
-        );
-        let passing = self.crashed.is_empty() && self.leader.1 + (RUN as u64) < self.lead_limit;
+        ) && then.is_empty();
+        let passing = self.crashed.is_empty() && self.leader.1 + 2 * (RUN as u64) < self.lead_limit;
+        let (mut t, mut at) = (self.now, self.at_instant);
+        for e in then {
+            (t, at) = if e.time == t {
+                (t, at + 1)
+            } else {
+                (e.time, 1)
+            };
+        }
         if !(manager || passing)
             || !self.runs
-            || !then.is_empty()
             || !self.closing.is_empty()
             || self.stopped()
-            || self.queue.peek_time().is_some_and(|t| t <= self.now)
+            || self.queue.peek_time().is_some_and(|p| p <= t)
         {
             return (0, None);
         }
-        let left = self.instant_limit.saturating_sub(self.at_instant);
+        let left = self.instant_limit.saturating_sub(at);
         let room = u32::try_from(left.min(RUN as u64 - 1)).expect("below RUN");
         let pass_on = self.pass_on.clone().filter(|_| passing && room > 0);
         if pass_on.is_none() && !manager {
