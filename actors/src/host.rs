@@ -113,19 +113,23 @@ pub enum Handled {
 
 /// The way back to the scheduler for one delivery's reply: one message, no channel. Dropped
 /// without a reply (the actor stopped, or its handling panicked), it tells the scheduler so,
-/// and the run ends with a failure instead of waiting forever.
+/// naming the actor that held it, and the run ends with a failure instead of waiting forever.
 #[derive(Debug)]
-pub struct ReplyTo(Option<Arc<Recipient<Replied>>>);
+pub struct ReplyTo {
+    to: Option<Arc<Recipient<Replied>>>,
+    /// The actor the delivery is with (the last of a chain passed on).
+    with: Target,
+}
 
 impl ReplyTo {
-    /// Replies go to `to`.
-    pub fn new(to: Arc<Recipient<Replied>>) -> Self {
-        Self(Some(to))
+    /// Replies go to `to`, for a delivery to `with`.
+    pub fn new(to: Arc<Recipient<Replied>>, with: Target) -> Self {
+        Self { to: Some(to), with }
     }
 
     /// Sends the handling's effects back.
     pub fn send(mut self, reply: Reply) {
-        if let Some(to) = self.0.take() {
+        if let Some(to) = self.to.take() {
             to.do_send(Replied(Ok(reply)));
         }
     }
@@ -133,18 +137,26 @@ impl ReplyTo {
 
 impl Drop for ReplyTo {
     fn drop(&mut self) {
-        if let Some(to) = self.0.take() {
-            to.do_send(Replied(
-                Err("the actor dropped the event unanswered".into()),
-            ));
+        if let Some(to) = self.to.take() {
+            to.do_send(Replied(Err(NoReply {
+                with: self.with,
+                error: "the actor dropped the event unanswered".into(),
+            })));
         }
     }
+}
+
+/// Why a delivery has no reply, and with which actor it was.
+#[derive(Debug)]
+pub struct NoReply {
+    pub with: Target,
+    pub error: String,
 }
 
 /// The reply to a delivery: the handling's effects, or why there are none.
 #[derive(Debug, Message)]
 #[rtype(result = "()")]
-pub struct Replied(pub Result<Reply, String>);
+pub struct Replied(pub Result<Reply, NoReply>);
 
 /// Handles a delivery as its actor does: its event, then each event of its run
 /// ([`Deliver::then`]) in turn for as long as the handlings so far leave that event the next
@@ -385,7 +397,10 @@ impl<H: HandleEvent + Unpin + 'static> Handler<Deliver> for Host<H> {
                 }
             }
             Handled::PassOn(target, mut next) => {
-                next.reply = reply;
+                next.reply = reply.map(|mut r| {
+                    r.with = target;
+                    r
+                });
                 let to = next
                     .pass_on
                     .clone()

@@ -136,8 +136,8 @@ pub struct Scheduler {
     prefetch: Prefetch,
     /// Where the replies go ([`ReplyTo`]): itself, once started.
     me: Option<std::sync::Arc<Recipient<Replied>>>,
-    /// The target of the delivery in flight.
-    in_flight: Option<Target>,
+    /// Whether a delivery is in flight.
+    in_flight: bool,
     on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
 }
 
@@ -187,7 +187,7 @@ impl Scheduler {
             spawn_sensor,
             prefetch,
             me: None,
-            in_flight: None,
+            in_flight: false,
             on_finish: Some(on_finish),
         }
     }
@@ -222,8 +222,8 @@ impl Scheduler {
         let me = self
             .me
             .get_or_insert_with(|| std::sync::Arc::new(ctx.address().recipient()));
-        deliver.reply = Some(ReplyTo::new(me.clone()));
-        self.in_flight = Some(target);
+        deliver.reply = Some(ReplyTo::new(me.clone(), target));
+        self.in_flight = true;
         self.send(target, deliver);
     }
 
@@ -262,17 +262,17 @@ impl Handler<Replied> for Scheduler {
     type Result = ();
 
     fn handle(&mut self, reply: Replied, ctx: &mut Context<Self>) {
-        let target = self
-            .in_flight
-            .take()
-            .expect("a reply to the delivery in flight");
+        assert!(
+            std::mem::take(&mut self.in_flight),
+            "a reply to the delivery in flight"
+        );
         match reply.0 {
             Ok(reply) => {
                 self.core.apply_reply(reply);
                 self.step(ctx);
             }
             Err(e) => {
-                self.core.no_answer(target, e);
+                self.core.no_answer(e.with, e.error);
                 self.finish();
             }
         }

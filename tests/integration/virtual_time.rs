@@ -94,6 +94,64 @@ fn a_panicking_algorithm_ends_the_run_instead_of_hanging_it() {
     }
 }
 
+/// An algorithm that panics when its first motion ends: the motion manager's handling of the
+/// end notifies the robot at that instant, so the notice is passed on to the robot.
+#[derive(Debug)]
+struct FaultyAfterMoving;
+
+impl nekosim::Algorithm for FaultyAfterMoving {
+    fn name(&self) -> &str {
+        "FaultyAfterMoving"
+    }
+    fn run(&self, robot: nekosim::Robot) -> nekosim::AlgorithmFuture {
+        Box::pin(async move {
+            let forward = nekosim::world::motion::Motion::Forward {
+                distance: 2.0,
+                move_speed: 1.0,
+            };
+            let t = robot.start_motion_at(1.0, forward, None);
+            robot.wait_motion(t).await;
+            panic!("a bug in the user's algorithm");
+        })
+    }
+}
+
+/// A robot that panics in a handling passed on to it from another actor's (here the motion
+/// manager's) is named as the actor that did not answer, on every number of arbiters.
+#[test]
+fn a_panic_in_a_delivery_passed_on_names_the_robot() {
+    for arbiters in [1, 2] {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let out = nekosim::run(nekosim::SimConfig {
+                sensors: Default::default(),
+                seed: 1,
+                until: 10.0,
+                world: infinite(),
+                robots: vec![
+                    (spec(0.0, 0.0, 0.0, 1.0), idle()),
+                    (spec(10.0, 0.0, 0.0, 1.0), Box::new(FaultyAfterMoving)),
+                ],
+                arbiters,
+                record: true,
+                observers: Default::default(),
+                comms: Default::default(),
+            });
+            let _ = tx.send(out.map(|o| o.stats));
+        });
+        let out = rx
+            .recv_timeout(std::time::Duration::from_secs(60))
+            .expect("the run ended");
+        match out {
+            Err(nekosim::SimError::Stopped(nekosim::scheduler::RunFailure::NoAnswer {
+                target,
+                ..
+            })) => assert_eq!(target, "Robot(1)"),
+            other => panic!("expected NoAnswer from robot 1, got {other:?}"),
+        }
+    }
+}
+
 /// Asks at t = 0 for a 10-unit forward motion at 2 units/s to start at t = 5, with a note to
 /// write as it starts, then waits for its end.
 #[derive(Debug, Clone)]
