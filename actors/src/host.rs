@@ -165,12 +165,11 @@ pub struct Replied(pub Result<Reply, NoReply>);
 /// cancel it, and they asked for no instant's end event (which could come between). The
 /// first event that fails this, and those after it, go back unhandled in the [`Reply`].
 ///
-/// With no run, it then takes on the events its handlings schedule for the same actor at the
-/// same instant, as long as each is the next event there is (see [`own_next`]), up to
-/// [`Deliver::inline`] of them.
-///
-/// Given where deliveries may be passed on ([`Deliver::pass_on`]), it also takes on those for
-/// other actors: the first is passed on ([`Handled::PassOn`]), with the reply so far.
+/// Then, up to [`Deliver::inline`] of them, it takes on the events the handlings schedule for
+/// the same actor at the instant of the last, as long as each is the next event there is
+/// (see [`take_on`]). Given where deliveries may be passed on ([`Deliver::pass_on`]), it also
+/// takes on those for other actors: the first is passed on ([`Handled::PassOn`]), with the
+/// reply so far.
 pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, msg: Deliver) -> Handled {
     let Deliver {
         now,
