@@ -247,9 +247,9 @@ pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, msg: Deliver) -> Han
     then.reverse();
     let mut reply = Reply {
         then,
+        ends,
         ..Reply::default()
     };
-    reply.ends = ends;
     // What the last handling schedules at its instant may come next, before the run's events
     // handed back, when the scheduler allowed it ([`Deliver::inline`]): nothing else pending
     // up to the run's last event.

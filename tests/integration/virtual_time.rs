@@ -62,6 +62,12 @@ impl nekosim::Algorithm for Faulty {
 /// instead of waiting for the reply forever.
 #[test]
 fn a_panicking_algorithm_ends_the_run_instead_of_hanging_it() {
+    assert_no_answer_from_robot_1(|| Box::new(Faulty));
+}
+
+/// Runs an idle robot 0 and robot 1 with the algorithm `faulty` makes, on 1 and 2 arbiters;
+/// asserts each run ends with `NoAnswer` from robot 1 (within a minute, not hanging).
+fn assert_no_answer_from_robot_1(faulty: fn() -> Box<dyn nekosim::Algorithm>) {
     for arbiters in [1, 2] {
         let (tx, rx) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
@@ -72,7 +78,7 @@ fn a_panicking_algorithm_ends_the_run_instead_of_hanging_it() {
                 world: infinite(),
                 robots: vec![
                     (spec(0.0, 0.0, 0.0, 1.0), idle()),
-                    (spec(10.0, 0.0, 0.0, 1.0), Box::new(Faulty)),
+                    (spec(10.0, 0.0, 0.0, 1.0), faulty()),
                 ],
                 arbiters,
                 record: true,
@@ -120,36 +126,7 @@ impl nekosim::Algorithm for FaultyAfterMoving {
 /// manager's) is named as the actor that did not answer, on every number of arbiters.
 #[test]
 fn a_panic_in_a_delivery_passed_on_names_the_robot() {
-    for arbiters in [1, 2] {
-        let (tx, rx) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            let out = nekosim::run(nekosim::SimConfig {
-                sensors: Default::default(),
-                seed: 1,
-                until: 10.0,
-                world: infinite(),
-                robots: vec![
-                    (spec(0.0, 0.0, 0.0, 1.0), idle()),
-                    (spec(10.0, 0.0, 0.0, 1.0), Box::new(FaultyAfterMoving)),
-                ],
-                arbiters,
-                record: true,
-                observers: Default::default(),
-                comms: Default::default(),
-            });
-            let _ = tx.send(out.map(|o| o.stats));
-        });
-        let out = rx
-            .recv_timeout(std::time::Duration::from_secs(60))
-            .expect("the run ended");
-        match out {
-            Err(nekosim::SimError::Stopped(nekosim::scheduler::RunFailure::NoAnswer {
-                target,
-                ..
-            })) => assert_eq!(target, "Robot(1)"),
-            other => panic!("expected NoAnswer from robot 1, got {other:?}"),
-        }
-    }
+    assert_no_answer_from_robot_1(|| Box::new(FaultyAfterMoving));
 }
 
 /// Asks at t = 0 for a 10-unit forward motion at 2 units/s to start at t = 5, with a note to
