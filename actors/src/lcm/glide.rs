@@ -67,6 +67,20 @@ impl MotionSpec for Glide {
     }
 }
 
+impl Gliding {
+    /// The glide's one piece of path.
+    fn piece(&self) -> Piece {
+        Piece {
+            t0: self.t0,
+            t1: self.t1,
+            shape: Shape::Linear {
+                p0: self.from,
+                v: self.v,
+            },
+        }
+    }
+}
+
 impl MotionPattern for Gliding {
     fn start_time(&self) -> f64 {
         self.t0
@@ -89,26 +103,22 @@ impl MotionPattern for Gliding {
         }
     }
     fn events(&self) -> Vec<MotionStep> {
-        vec![
-            MotionStep {
-                t: self.t0,
-                kind: StepKind::Custom("start_glide".into()),
-            },
-            MotionStep {
-                t: self.t1,
-                kind: StepKind::Custom("finish_glide".into()),
-            },
-        ]
+        (0..2).filter_map(|k| self.step(k)).map(|s| s.0).collect()
+    }
+    fn step(&self, k: usize) -> Option<(MotionStep, bool)> {
+        let (t, name) = match k {
+            0 => (self.t0, "start_glide"),
+            1 => (self.t1, "finish_glide"),
+            _ => return None,
+        };
+        let kind = StepKind::Custom(name.into());
+        Some((MotionStep { t, kind }, k == 1))
     }
     fn pieces(&self) -> Vec<Piece> {
-        vec![Piece {
-            t0: self.t0,
-            t1: self.t1,
-            shape: Shape::Linear {
-                p0: self.from,
-                v: self.v,
-            },
-        }]
+        vec![self.piece()]
+    }
+    fn for_each_piece(&self, f: &mut dyn FnMut(Piece)) {
+        f(self.piece());
     }
     fn progress_at(&self, t: f64) -> Progress {
         let speed = self.v.norm();

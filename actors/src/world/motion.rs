@@ -10,6 +10,7 @@
 //! Users add their own patterns by implementing [`MotionSpec`] (how a request starts from a
 //! pose) and [`MotionPattern`] (the started motion).
 
+use std::borrow::Cow;
 use std::fmt;
 use std::sync::Arc;
 
@@ -70,8 +71,8 @@ pub enum StepKind {
     FinishTurn,
     StartForward,
     FinishForward,
-    /// An event of a user-defined pattern.
-    Custom(String),
+    /// An event of a user-defined pattern, by name (a constant name costs no allocation).
+    Custom(Cow<'static, str>),
 }
 
 impl StepKind {

@@ -416,7 +416,7 @@ mod tests {
             .iter()
             .map(|&t| MotionStep {
                 t,
-                kind: StepKind::Custom(String::new()),
+                kind: StepKind::Custom("".into()),
             })
             .collect()
     }
