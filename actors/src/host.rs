@@ -13,6 +13,9 @@
 //! numbers are again those of one delivery per event. Everything here is about hosting; the
 //! handlers ([`HandleEvent`]) know none of it.
 
+use std::cell::RefCell;
+use std::rc::Rc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use actix::prelude::*;
@@ -111,27 +114,98 @@ pub enum Handled {
     PassOn(Target, Deliver),
 }
 
-/// The way back to the scheduler for one delivery's reply: one message, no channel. Dropped
-/// without a reply (the actor stopped, or its handling panicked), it tells the scheduler so,
-/// naming the actor that held it, and the run ends with a failure instead of waiting forever.
+/// The way back to the scheduler for one delivery's reply: a call when the actor runs on the
+/// scheduler's thread ([`Here`]), else one message; no channel either way. Dropped without a
+/// reply (the actor stopped, or its handling panicked), it tells the scheduler so, naming the
+/// actor that held it, and the run ends with a failure instead of waiting forever.
 #[derive(Debug)]
 pub struct ReplyTo {
     to: Option<Arc<Recipient<Replied>>>,
     /// The actor the delivery is with (the last of a chain passed on).
     with: Target,
+    /// The scheduler's number ([`Here::number`]).
+    scheduler: u64,
 }
 
 impl ReplyTo {
-    /// Replies go to `to`, for a delivery to `with`.
-    pub fn new(to: Arc<Recipient<Replied>>, with: Target) -> Self {
-        Self { to: Some(to), with }
+    /// Replies go to `to`, the scheduler numbered `scheduler`, for a delivery to `with`.
+    pub fn new(to: Arc<Recipient<Replied>>, with: Target, scheduler: u64) -> Self {
+        Self {
+            to: Some(to),
+            with,
+            scheduler,
+        }
     }
 
     /// Sends the handling's effects back.
     pub fn send(mut self, reply: Reply) {
         if let Some(to) = self.to.take() {
-            to.do_send(Replied(Ok(reply)));
+            match Here::find(self.scheduler) {
+                Some(scheduler) => scheduler.replied(Ok(reply)),
+                None => to.do_send(Replied(Ok(reply))),
+            }
         }
+    }
+}
+
+/// A scheduler that takes the replies made on its own thread by a call ([`Here`]).
+pub trait TakesReplies {
+    /// The reply to the delivery in flight.
+    fn replied(&self, reply: Result<Reply, NoReply>);
+}
+
+thread_local! {
+    /// The scheduler whose replies are taken by a call on this thread, with its number.
+    static HERE: RefCell<Option<(u64, Rc<dyn TakesReplies>)>> = const { RefCell::new(None) };
+}
+
+/// While it lives, a reply to the scheduler it names, made on the thread that made it (the
+/// scheduler's own), reaches the scheduler by a call instead of a message: one delivery is in
+/// flight at a time, so the scheduler is then idle, and a message would only wake it up to
+/// take the very same reply.
+#[derive(Debug)]
+pub struct Here(u64);
+
+impl Here {
+    /// A number no other scheduler of the process has.
+    pub fn number() -> u64 {
+        static NEXT: AtomicU64 = AtomicU64::new(1);
+        NEXT.fetch_add(1, Ordering::Relaxed)
+    }
+
+    /// Replies to the scheduler numbered `id` made on this thread go to `scheduler`.
+    pub fn new(id: u64, scheduler: Rc<dyn TakesReplies>) -> Self {
+        let before = HERE.with(|h| h.borrow_mut().replace((id, scheduler)));
+        // A scheduler left behind (a run that never finished) is let go here, outside the
+        // borrow, since its own `Here` clears this slot.
+        drop(before);
+        Self(id)
+    }
+
+    /// The scheduler numbered `id`, if it takes replies on this thread.
+    fn find(id: u64) -> Option<Rc<dyn TakesReplies>> {
+        HERE.with(|h| {
+            h.borrow()
+                .as_ref()
+                .filter(|(here, _)| *here == id)
+                .map(|(_, s)| s.clone())
+        })
+    }
+}
+
+impl Drop for Here {
+    fn drop(&mut self) {
+        let id = self.0;
+        // At the thread's exit the slot may already be gone.
+        let gone = HERE.try_with(|h| {
+            let mut h = h.borrow_mut();
+            if h.as_ref().is_some_and(|(here, _)| *here == id) {
+                h.take()
+            } else {
+                None
+            }
+        });
+        drop(gone);
     }
 }
 
@@ -407,5 +481,83 @@ impl<H: HandleEvent + Unpin + 'static> Handler<Deliver> for Host<H> {
                 to.pass(target, next);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::AtomicUsize;
+
+    /// An actor that counts the replies it is sent as messages.
+    struct Mailbox(Arc<AtomicUsize>);
+
+    impl Actor for Mailbox {
+        type Context = Context<Self>;
+    }
+
+    impl Handler<Replied> for Mailbox {
+        type Result = ();
+        fn handle(&mut self, _: Replied, _: &mut Context<Self>) {
+            self.0.fetch_add(1, Ordering::SeqCst);
+        }
+    }
+
+    /// How many messages the mailbox has taken, once it has taken those sent before.
+    #[derive(Message)]
+    #[rtype(result = "usize")]
+    struct Count;
+
+    impl Handler<Count> for Mailbox {
+        type Result = usize;
+        fn handle(&mut self, _: Count, _: &mut Context<Self>) -> usize {
+            self.0.load(Ordering::SeqCst)
+        }
+    }
+
+    /// A scheduler that notes the replies it is handed by a call: `Ok` or `Err`.
+    struct Calls(RefCell<Vec<bool>>);
+
+    impl TakesReplies for Calls {
+        fn replied(&self, reply: Result<Reply, NoReply>) {
+            self.0.borrow_mut().push(reply.is_ok());
+        }
+    }
+
+    /// A reply made on the thread of the scheduler it is for reaches it by a call while that
+    /// scheduler is registered there; other schedulers' replies, replies from other threads,
+    /// replies after the registration ends, and every unanswered delivery, go as messages.
+    #[test]
+    fn replies_on_the_schedulers_thread_are_calls_and_the_others_messages() {
+        actix::System::new().block_on(async {
+            let messages = Arc::new(AtomicUsize::new(0));
+            let addr = Mailbox(messages.clone()).start();
+            let to = Arc::new(addr.clone().recipient::<Replied>());
+            let calls = Rc::new(Calls(RefCell::new(Vec::new())));
+            let (id, other) = (Here::number(), Here::number());
+            assert_ne!(id, other);
+            let reply_to = |scheduler| ReplyTo::new(to.clone(), Target::Robot(3), scheduler);
+
+            let here = Here::new(id, calls.clone());
+            reply_to(id).send(Reply::default());
+            reply_to(other).send(Reply::default());
+            let from_elsewhere = reply_to(id);
+            std::thread::spawn(move || from_elsewhere.send(Reply::default()))
+                .join()
+                .expect("the other thread");
+            drop(reply_to(id));
+            assert_eq!(addr.send(Count).await.expect("counted"), 3);
+            assert_eq!(*calls.0.borrow(), vec![true]);
+
+            drop(here);
+            reply_to(id).send(Reply::default());
+            assert_eq!(addr.send(Count).await.expect("counted"), 4);
+            assert_eq!(calls.0.borrow().len(), 1);
+            assert_eq!(
+                Rc::strong_count(&calls),
+                1,
+                "the thread lets the scheduler go"
+            );
+        });
     }
 }

@@ -36,9 +36,11 @@ mod event_manager;
 
 use actix::prelude::*;
 
+use std::cell::RefCell;
+use std::rc::Rc;
 use std::sync::{Arc, Mutex};
 
-use crate::host::{Deliver, PassOn, Replied, ReplyTo};
+use crate::host::{Deliver, Here, NoReply, PassOn, Replied, Reply, ReplyTo, TakesReplies};
 use crate::world::event::{Event, Target};
 use crate::world::outbox::Outbox;
 use crate::world::sensor::SensorKind;
@@ -127,15 +129,29 @@ impl PassOn for Directory {
     }
 }
 
-/// The scheduler actor.
+/// The scheduler actor. Its state is shared, on its own thread, with the hosts there: they
+/// hand it their replies by a call instead of a message ([`Here`]).
 pub struct Scheduler {
+    state: Rc<Turns>,
+}
+
+/// The scheduler's state, borrowed by whoever steps it: the scheduler actor, or a host on its
+/// thread with a reply ([`TakesReplies`]). One delivery is in flight at a time, so the two never
+/// overlap.
+struct Turns(RefCell<State>);
+
+struct State {
     core: Core,
     actors: Arc<Directory>,
     /// Starts a robot's sensor actor ([`Routes::spawn_sensor`]).
     spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Recipient<Deliver>>,
     prefetch: Prefetch,
-    /// Where the replies go ([`ReplyTo`]): itself, once started.
-    me: Option<std::sync::Arc<Recipient<Replied>>>,
+    /// Where the replies go ([`ReplyTo`]): the scheduler, once started.
+    me: Option<Arc<Recipient<Replied>>>,
+    /// The scheduler's number, which its deliveries' [`ReplyTo`]s carry.
+    id: u64,
+    /// While the run goes on: replies made on this thread reach the scheduler by a call.
+    here: Option<Here>,
     /// Whether a delivery is in flight.
     in_flight: bool,
     on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
@@ -143,10 +159,11 @@ pub struct Scheduler {
 
 impl std::fmt::Debug for Scheduler {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let state = self.state.0.borrow();
         f.debug_struct("Scheduler")
-            .field("now", &self.core.now)
-            .field("seq", &self.core.seq)
-            .field("pending", &self.core.queue.len())
+            .field("now", &state.core.now)
+            .field("seq", &state.core.seq)
+            .field("pending", &state.core.queue.len())
             .finish()
     }
 }
@@ -181,17 +198,36 @@ impl Scheduler {
         let mut core = Core::new(until, setup, observers);
         core.runs = true;
         core.pass_on = Some(actors.clone() as Arc<dyn PassOn>);
-        Self {
+        let state = State {
             core,
             actors,
             spawn_sensor,
             prefetch,
             me: None,
+            id: Here::number(),
+            here: None,
             in_flight: false,
             on_finish: Some(on_finish),
+        };
+        Self {
+            state: Rc::new(Turns(RefCell::new(state))),
         }
     }
 
+    /// Fails the run when more than `limit` events happen at one instant of virtual time (an
+    /// algorithm retrying forever without letting time pass).
+    pub fn with_instant_limit(self, limit: u64) -> Self {
+        self.state.0.borrow_mut().core.set_instant_limit(limit);
+        self
+    }
+
+    /// The pending events of a robot (the event manager's listing).
+    pub fn future_of(&mut self, robot: RobotId) -> Vec<Event> {
+        self.state.0.borrow_mut().core.queue.future_of(robot)
+    }
+}
+
+impl State {
     /// Sends `deliver` to `target`'s actor, starting it first if it is a sensor not yet
     /// needed.
     fn send(&mut self, target: Target, deliver: Deliver) {
@@ -210,8 +246,8 @@ impl Scheduler {
         self.actors.pass(target, deliver);
     }
 
-    /// Takes the next event and sends it to its actor, whose reply ([`Replied`]) steps on.
-    fn step(&mut self, ctx: &mut Context<Self>) {
+    /// Takes the next event and sends it to its actor, whose reply steps on.
+    fn step(&mut self) {
         let (target, mut deliver) = match self.core.next() {
             Next::Finish => return self.finish(),
             Next::Deliver(target, deliver) => (target, deliver),
@@ -219,34 +255,45 @@ impl Scheduler {
         if let Some(world) = self.core.ahead_in_world() {
             (self.prefetch)(&world);
         }
-        let me = self
-            .me
-            .get_or_insert_with(|| std::sync::Arc::new(ctx.address().recipient()));
-        deliver.reply = Some(ReplyTo::new(me.clone(), target));
+        let me = self.me.clone().expect("the scheduler started");
+        deliver.reply = Some(ReplyTo::new(me, target, self.id));
         self.in_flight = true;
         self.send(target, deliver);
+    }
+
+    /// Applies the reply to the delivery in flight, then steps on.
+    fn replied(&mut self, reply: Result<Reply, NoReply>) {
+        assert!(
+            std::mem::take(&mut self.in_flight),
+            "a reply to the delivery in flight"
+        );
+        match reply {
+            Ok(reply) => {
+                self.core.apply_reply(reply);
+                self.step();
+            }
+            Err(e) => {
+                self.core.no_answer(e.with, e.error);
+                self.finish();
+            }
+        }
     }
 
     /// Hands the output over. The actor is not stopped: the run's host drops or leaves the
     /// whole system once it has the output (`simulation::run_then_exit`), so the million
     /// robots' addresses and the queue are not dropped here one by one.
     fn finish(&mut self) {
+        self.here = None;
         let output = self.core.finish();
         if let Some(f) = self.on_finish.take() {
             f(output);
         }
     }
+}
 
-    /// Fails the run when more than `limit` events happen at one instant of virtual time (an
-    /// algorithm retrying forever without letting time pass).
-    pub fn with_instant_limit(mut self, limit: u64) -> Self {
-        self.core.set_instant_limit(limit);
-        self
-    }
-
-    /// The pending events of a robot (the event manager's listing).
-    pub fn future_of(&mut self, robot: RobotId) -> Vec<Event> {
-        self.core.queue.future_of(robot)
+impl TakesReplies for Turns {
+    fn replied(&self, reply: Result<Reply, NoReply>) {
+        self.0.borrow_mut().replied(reply);
     }
 }
 
@@ -254,27 +301,17 @@ impl Actor for Scheduler {
     type Context = Context<Self>;
 
     fn started(&mut self, ctx: &mut Self::Context) {
-        self.step(ctx);
+        let mut state = self.state.0.borrow_mut();
+        state.me = Some(Arc::new(ctx.address().recipient()));
+        state.here = Some(Here::new(state.id, self.state.clone()));
+        state.step();
     }
 }
 
 impl Handler<Replied> for Scheduler {
     type Result = ();
 
-    fn handle(&mut self, reply: Replied, ctx: &mut Context<Self>) {
-        assert!(
-            std::mem::take(&mut self.in_flight),
-            "a reply to the delivery in flight"
-        );
-        match reply.0 {
-            Ok(reply) => {
-                self.core.apply_reply(reply);
-                self.step(ctx);
-            }
-            Err(e) => {
-                self.core.no_answer(e.with, e.error);
-                self.finish();
-            }
-        }
+    fn handle(&mut self, reply: Replied, _: &mut Context<Self>) {
+        self.state.0.borrow_mut().replied(reply.0);
     }
 }
