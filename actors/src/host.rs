@@ -2,8 +2,8 @@
 //! the look-ahead (the ordering contract's points 3 and 5 in [`crate::scheduler`]).
 //!
 //! The scheduler actor sends each event to the actor that hosts its handler as a [`Deliver`]
-//! and waits for the [`Replied`] message with the handling's effects before it takes the next
-//! event. A delivery may carry a run: the events that come next for the same actor, which the
+//! and waits for the reply with the handling's effects before it takes the next event: a call
+//! when the actor runs on the scheduler's thread ([`Here`]), else a [`Replied`] message. A delivery may carry a run: the events that come next for the same actor, which the
 //! host hands to its handler in turn for as long as the handlings before leave each the next
 //! event to take ([`handle_run`]), so a run saves round trips between the scheduler and a
 //! manager without changing which events are taken or their order. A delivery with no run may

@@ -11,7 +11,8 @@
 //!    out in processing order, so the whole order is a function of the scenario and seed alone.
 //! 3. One delivery is in flight at a time. The scheduler sends the next event to its actor (a
 //!    manager, a robot, a sensor) and waits for the reply, which is the list of effects the
-//!    handling produced (events to schedule, events to cancel, observations to record). Only
+//!    handling produced (events to schedule, events to cancel, observations to record): a
+//!    call from a host on the scheduler's thread ([`Here`]), a message from any other. Only
 //!    then does it take the next event. A delivery may carry a run: the events that come
 //!    next for the same actor ([`Deliver::then`]). The actor handles each in turn only while
 //!    the handlings before it leave it the next event ([`handle_run`]) and hands the rest
