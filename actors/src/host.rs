@@ -3,10 +3,11 @@
 //!
 //! The scheduler actor sends each event to the actor that hosts its handler as a [`Deliver`]
 //! and waits for the reply with the handling's effects before it takes the next event: a call
-//! when the actor runs on the scheduler's thread ([`Here`]), else a [`Replied`] message. A delivery may carry a run: the events that come next for the same actor, which the
-//! host hands to its handler in turn for as long as the handlings before leave each the next
-//! event to take ([`handle_run`]), so a run saves round trips between the scheduler and a
-//! manager without changing which events are taken or their order. A delivery with no run may
+//! when the actor runs on the scheduler's thread ([`Here`]), else a [`Replied`] message. A
+//! delivery may carry a run: the events that come next for the same actor, which the host
+//! hands to its handler in turn for as long as the handlings before leave each the next event
+//! to take ([`handle_run`]), so a run saves round trips between the scheduler and a manager
+//! without changing which events are taken or their order. A delivery with no run may
 //! also be passed on ([`PassOn`]): when the event a handling schedules at its instant is the
 //! next event there is, the host hands it straight to its actor instead of replying, and the
 //! last actor of such a chain replies for all of them; the events, their order and their

@@ -133,13 +133,10 @@ impl PassOn for Directory {
 /// The scheduler actor. Its state is shared, on its own thread, with the hosts there: they
 /// hand it their replies by a call instead of a message ([`Here`]).
 pub struct Scheduler {
-    state: Rc<Turns>,
+    /// Borrowed by whoever steps it: the scheduler actor, or a host on its thread with a reply
+    /// ([`TakesReplies`]). One delivery is in flight at a time, so the two never overlap.
+    state: Rc<RefCell<State>>,
 }
-
-/// The scheduler's state, borrowed by whoever steps it: the scheduler actor, or a host on its
-/// thread with a reply ([`TakesReplies`]). One delivery is in flight at a time, so the two never
-/// overlap.
-struct Turns(RefCell<State>);
 
 struct State {
     core: Core,
@@ -160,7 +157,7 @@ struct State {
 
 impl std::fmt::Debug for Scheduler {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let state = self.state.0.borrow();
+        let state = self.state.borrow();
         f.debug_struct("Scheduler")
             .field("now", &state.core.now)
             .field("seq", &state.core.seq)
@@ -211,20 +208,20 @@ impl Scheduler {
             on_finish: Some(on_finish),
         };
         Self {
-            state: Rc::new(Turns(RefCell::new(state))),
+            state: Rc::new(RefCell::new(state)),
         }
     }
 
     /// Fails the run when more than `limit` events happen at one instant of virtual time (an
     /// algorithm retrying forever without letting time pass).
     pub fn with_instant_limit(self, limit: u64) -> Self {
-        self.state.0.borrow_mut().core.set_instant_limit(limit);
+        self.state.borrow_mut().core.set_instant_limit(limit);
         self
     }
 
     /// The pending events of a robot (the event manager's listing).
     pub fn future_of(&mut self, robot: RobotId) -> Vec<Event> {
-        self.state.0.borrow_mut().core.queue.future_of(robot)
+        self.state.borrow_mut().core.queue.future_of(robot)
     }
 }
 
@@ -292,9 +289,9 @@ impl State {
     }
 }
 
-impl TakesReplies for Turns {
+impl TakesReplies for RefCell<State> {
     fn replied(&self, reply: Result<Reply, NoReply>) {
-        self.0.borrow_mut().replied(reply);
+        self.borrow_mut().replied(reply);
     }
 }
 
@@ -302,7 +299,7 @@ impl Actor for Scheduler {
     type Context = Context<Self>;
 
     fn started(&mut self, ctx: &mut Self::Context) {
-        let mut state = self.state.0.borrow_mut();
+        let mut state = self.state.borrow_mut();
         state.me = Some(Arc::new(ctx.address().recipient()));
         state.here = Some(Here::new(state.id, self.state.clone()));
         state.step();
@@ -313,6 +310,6 @@ impl Handler<Replied> for Scheduler {
     type Result = ();
 
     fn handle(&mut self, reply: Replied, _: &mut Context<Self>) {
-        self.state.0.borrow_mut().replied(reply.0);
+        self.state.borrow_mut().replied(reply.0);
     }
 }
