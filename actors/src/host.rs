@@ -1,22 +1,22 @@
 //! How the product hosts handlers in actix actors: deliveries, runs of events, replies and
 //! the look-ahead (the ordering contract's points 3 and 5 in [`crate::scheduler`]).
 //!
-//! The scheduler actor sends each event to the actor that hosts its handler as a [`Deliver`]
-//! and waits for the reply with the handling's effects before it takes the next event: a call
-//! when the actor runs on the scheduler's thread ([`Here`]), else a [`Replied`] message. A
-//! delivery may carry a run: the events that come next for the same actor, which the host
-//! hands to its handler in turn for as long as the handlings before leave each the next event
-//! to take ([`handle_run`]), so a run saves round trips between the scheduler and a manager
-//! without changing which events are taken or their order. A delivery with no run may
-//! also be passed on ([`PassOn`]): when the event a handling schedules at its instant is the
-//! next event there is, the host hands it straight to its actor instead of replying, and the
-//! last actor of such a chain replies for all of them; the events, their order and their
-//! numbers are again those of one delivery per event. Everything here is about hosting; the
-//! handlers ([`HandleEvent`]) know none of it.
+//! The scheduler actor hands each event to the actor that hosts its handler and waits for the
+//! reply with the handling's effects before it takes the next event: by a call into the host
+//! when the actor runs on the scheduler's thread ([`Call`]), else as a [`Deliver`] message
+//! answered by a [`Replied`] one. A delivery may carry a run: the events that come next for
+//! the same actor, which the host hands to its handler in turn for as long as the handlings
+//! before leave each the next event to take ([`handle_run`]), so a run saves round trips
+//! between the scheduler and a manager without changing which events are taken or their
+//! order. A delivery with no run may also be passed on ([`PassOn`]): when the event a handling
+//! schedules at its instant is the next event there is, the host hands it straight to its
+//! actor instead of replying, and the last actor of such a chain replies for all of them; the
+//! events, their order and their numbers are again those of one delivery per event.
+//! Everything here is about hosting; the handlers ([`HandleEvent`]) know none of it.
 
 use std::cell::RefCell;
+use std::panic::AssertUnwindSafe;
 use std::rc::Rc;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use actix::prelude::*;
@@ -26,8 +26,8 @@ use crate::world::event::{Effect, Event, EventId, Target};
 use crate::world::radix::time_key;
 use crate::world::RobotId;
 
-/// Delivery of one event to the actor that handles it; the reply, the handling's effects,
-/// goes back to the scheduler as a message of its own ([`Replied`]).
+/// Delivery of one event to the actor that handles it; the reply is the handling's effects
+/// ([`Reply`]).
 #[derive(Debug, Message)]
 #[rtype(result = "()")]
 pub struct Deliver {
@@ -39,7 +39,7 @@ pub struct Deliver {
     /// An empty buffer for the handling's effects: the scheduler's, handed back in the reply
     /// and reused, so no handling allocates its effects' vector.
     pub effects: Vec<Effect>,
-    /// Where the reply goes (none when the handling is called directly).
+    /// Where the reply goes when the delivery is a message (none when it is a call).
     pub reply: Option<ReplyTo>,
     /// The events that come next for the same actor, taken from the queue with this one (a
     /// run, at most [`RUN`] events in all). The actor handles each in turn, as numbers
@@ -115,98 +115,28 @@ pub enum Handled {
     PassOn(Target, Deliver),
 }
 
-/// The way back to the scheduler for one delivery's reply: a call when the actor runs on the
-/// scheduler's thread ([`Here`]), else one message; no channel either way. Dropped without a
-/// reply (the actor stopped, or its handling panicked), it tells the scheduler so, naming the
-/// actor that held it, and the run ends with a failure instead of waiting forever.
+/// The way back to the scheduler for one delivery's reply, for a delivery sent as a message
+/// (to an actor on another thread, or passed on to one): one message, no channel. Dropped
+/// without a reply (the actor stopped, or its handling panicked), it tells the scheduler so,
+/// naming the actor that held it, and the run ends with a failure instead of waiting forever.
 #[derive(Debug)]
 pub struct ReplyTo {
     to: Option<Arc<Recipient<Replied>>>,
     /// The actor the delivery is with (the last of a chain passed on).
     with: Target,
-    /// The scheduler's number ([`Here::number`]).
-    scheduler: u64,
 }
 
 impl ReplyTo {
-    /// Replies go to `to`, the scheduler numbered `scheduler`, for a delivery to `with`.
-    pub fn new(to: Arc<Recipient<Replied>>, with: Target, scheduler: u64) -> Self {
-        Self {
-            to: Some(to),
-            with,
-            scheduler,
-        }
+    /// Replies go to `to` for a delivery to `with`.
+    pub fn new(to: Arc<Recipient<Replied>>, with: Target) -> Self {
+        Self { to: Some(to), with }
     }
 
     /// Sends the handling's effects back.
     pub fn send(mut self, reply: Reply) {
         if let Some(to) = self.to.take() {
-            match Here::find(self.scheduler) {
-                Some(scheduler) => scheduler.replied(Ok(reply)),
-                None => to.do_send(Replied(Ok(reply))),
-            }
+            to.do_send(Replied(Ok(reply)));
         }
-    }
-}
-
-/// A scheduler that takes the replies made on its own thread by a call ([`Here`]).
-pub trait TakesReplies {
-    /// The reply to the delivery in flight.
-    fn replied(&self, reply: Result<Reply, NoReply>);
-}
-
-thread_local! {
-    /// The scheduler whose replies are taken by a call on this thread, with its number.
-    static HERE: RefCell<Option<(u64, Rc<dyn TakesReplies>)>> = const { RefCell::new(None) };
-}
-
-/// While it lives, a reply to the scheduler it names, made on the thread that made it (the
-/// scheduler's own), reaches the scheduler by a call instead of a message: one delivery is in
-/// flight at a time, so the scheduler is then idle, and a message would only wake it up to
-/// take the very same reply.
-#[derive(Debug)]
-pub struct Here(u64);
-
-impl Here {
-    /// A number no other scheduler of the process has.
-    pub fn number() -> u64 {
-        static NEXT: AtomicU64 = AtomicU64::new(1);
-        NEXT.fetch_add(1, Ordering::Relaxed)
-    }
-
-    /// Replies to the scheduler numbered `id` made on this thread go to `scheduler`.
-    pub fn new(id: u64, scheduler: Rc<dyn TakesReplies>) -> Self {
-        let before = HERE.with(|h| h.borrow_mut().replace((id, scheduler)));
-        // A scheduler left behind (a run that never finished) is let go here, outside the
-        // borrow, since its own `Here` clears this slot.
-        drop(before);
-        Self(id)
-    }
-
-    /// The scheduler numbered `id`, if it takes replies on this thread.
-    fn find(id: u64) -> Option<Rc<dyn TakesReplies>> {
-        HERE.with(|h| {
-            h.borrow()
-                .as_ref()
-                .filter(|(here, _)| *here == id)
-                .map(|(_, s)| s.clone())
-        })
-    }
-}
-
-impl Drop for Here {
-    fn drop(&mut self) {
-        let id = self.0;
-        // At the thread's exit the slot may already be gone.
-        let gone = HERE.try_with(|h| {
-            let mut h = h.borrow_mut();
-            if h.as_ref().is_some_and(|(here, _)| *here == id) {
-                h.take()
-            } else {
-                None
-            }
-        });
-        drop(gone);
     }
 }
 
@@ -450,9 +380,23 @@ fn look_ahead_in_run<H: HandleEvent + ?Sized>(handler: &H, reversed: &[Event]) {
     }
 }
 
-/// The actor that hosts a handler: it takes [`Deliver`]s and replies with their effects.
+/// The actor that hosts a handler: it takes [`Deliver`]s and replies with their effects. A
+/// scheduler on the same thread shares the handler and hands it deliveries by a call instead
+/// ([`Host::call`]).
 #[derive(Debug)]
-pub struct Host<H>(pub H);
+pub struct Host<H>(Rc<RefCell<H>>);
+
+impl<H: HandleEvent + 'static> Host<H> {
+    /// The host of `handler`.
+    pub fn new(handler: H) -> Self {
+        Self(Rc::new(RefCell::new(handler)))
+    }
+
+    /// The handler, for a scheduler on this thread to call ([`Call`]).
+    pub fn call(&self) -> Call {
+        Call(self.0.clone())
+    }
+}
 
 impl<H: HandleEvent + Unpin + 'static> Actor for Host<H> {
     type Context = Context<Self>;
@@ -464,7 +408,7 @@ impl<H: HandleEvent + Unpin + 'static> Handler<Deliver> for Host<H> {
     fn handle(&mut self, mut msg: Deliver, _: &mut Context<Self>) {
         // Held across the handling: should it panic, dropping it tells the scheduler.
         let reply = msg.reply.take();
-        match handle_run(&mut self.0, msg) {
+        match handle_run(&mut *self.0.borrow_mut(), msg) {
             Handled::Reply(handled) => {
                 if let Some(reply) = reply {
                     reply.send(handled);
@@ -485,80 +429,126 @@ impl<H: HandleEvent + Unpin + 'static> Handler<Deliver> for Host<H> {
     }
 }
 
+/// A hosted handler that the scheduler on the host's thread hands deliveries to by a call: one
+/// delivery is in flight at a time, so while the scheduler waits for the reply the actor is
+/// idle, and a message would only queue the delivery for the actor to take at once.
+#[derive(Clone)]
+pub struct Call(Rc<RefCell<dyn HandleEvent>>);
+
+impl Call {
+    /// Handles `msg` as the host's actor would ([`handle_run`]); the text of the panic when
+    /// the handling panics (its actor then gives no answer).
+    pub fn deliver(&self, msg: Deliver) -> Result<Handled, String> {
+        let mut handler = self.0.borrow_mut();
+        std::panic::catch_unwind(AssertUnwindSafe(|| handle_run(&mut *handler, msg))).map_err(
+            |panic| {
+                let text = (panic.downcast_ref::<&str>().copied())
+                    .or_else(|| panic.downcast_ref::<String>().map(String::as_str))
+                    .unwrap_or("a panic");
+                format!("its handling panicked: {text}")
+            },
+        )
+    }
+}
+
+impl std::fmt::Debug for Call {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Call")
+    }
+}
+
+/// An actor's way in for the scheduler: its mailbox, and a call into its host when the actor
+/// runs on the scheduler's thread.
+#[derive(Debug)]
+pub struct Route {
+    pub mailbox: Recipient<Deliver>,
+    pub call: Option<Call>,
+}
+
+impl Route {
+    /// Starts `host`'s actor on this thread, the scheduler's.
+    pub fn start_here<H: HandleEvent + Unpin + 'static>(host: Host<H>) -> Self {
+        let call = Some(host.call());
+        Self {
+            mailbox: host.start().recipient(),
+            call,
+        }
+    }
+
+    /// An actor on another thread, reached by messages to `mailbox`.
+    pub fn elsewhere(mailbox: Recipient<Deliver>) -> Self {
+        Self {
+            mailbox,
+            call: None,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::atomic::AtomicUsize;
+    use crate::world::event::{EventClass, Payload, NO_ROBOT};
+    use crate::world::outbox::Outbox;
 
-    /// An actor that counts the replies it is sent as messages.
-    struct Mailbox(Arc<AtomicUsize>);
+    /// A handler that notes the instant of each event it takes, and panics at its third.
+    #[derive(Debug)]
+    struct Notes(Rc<RefCell<Vec<f64>>>);
 
-    impl Actor for Mailbox {
-        type Context = Context<Self>;
-    }
-
-    impl Handler<Replied> for Mailbox {
-        type Result = ();
-        fn handle(&mut self, _: Replied, _: &mut Context<Self>) {
-            self.0.fetch_add(1, Ordering::SeqCst);
+    impl HandleEvent for Notes {
+        fn handle_event(&mut self, event: Event, _: &mut Outbox) {
+            let mut seen = self.0.borrow_mut();
+            seen.push(event.time);
+            assert!(seen.len() < 3, "a bug in the handler");
         }
     }
 
-    /// How many messages the mailbox has taken, once it has taken those sent before.
-    #[derive(Message)]
-    #[rtype(result = "usize")]
-    struct Count;
-
-    impl Handler<Count> for Mailbox {
-        type Result = usize;
-        fn handle(&mut self, _: Count, _: &mut Context<Self>) -> usize {
-            self.0.load(Ordering::SeqCst)
+    /// A delivery of a timer event at `now`, with no reply asked for.
+    fn delivery(now: f64) -> Deliver {
+        Deliver {
+            now,
+            seq: 1,
+            event: Event {
+                time: now,
+                id: EventId { cause: 0, index: 0 },
+                target: Target::Robot(0),
+                class: EventClass::Eventual,
+                concerns: [NO_ROBOT; 2],
+                payload: Payload::Timer {
+                    robot: 0,
+                    ticket: 0,
+                },
+            },
+            effects: Vec::new(),
+            reply: None,
+            then: Vec::new(),
+            inline: 0,
+            look_ahead: false,
+            steps: false,
+            pass_on: None,
+            chain: None,
         }
     }
 
-    /// A scheduler that notes the replies it is handed by a call: `Ok` or `Err`.
-    struct Calls(RefCell<Vec<bool>>);
-
-    impl TakesReplies for Calls {
-        fn replied(&self, reply: Result<Reply, NoReply>) {
-            self.0.borrow_mut().push(reply.is_ok());
-        }
-    }
-
-    /// A reply made on the thread of the scheduler it is for reaches it by a call while that
-    /// scheduler is registered there; other schedulers' replies, replies from other threads,
-    /// replies after the registration ends, and every unanswered delivery, go as messages.
+    /// An actor started on the scheduler's thread is reached by its mailbox and by a call,
+    /// both into one handler; a call returns the handling's reply, or the panic's text when
+    /// the handling panics; an actor elsewhere has no call.
     #[test]
-    fn replies_on_the_schedulers_thread_are_calls_and_the_others_messages() {
+    fn a_call_and_the_mailbox_reach_one_handler() {
         actix::System::new().block_on(async {
-            let messages = Arc::new(AtomicUsize::new(0));
-            let addr = Mailbox(messages.clone()).start();
-            let to = Arc::new(addr.clone().recipient::<Replied>());
-            let calls = Rc::new(Calls(RefCell::new(Vec::new())));
-            let (id, other) = (Here::number(), Here::number());
-            assert_ne!(id, other);
-            let reply_to = |scheduler| ReplyTo::new(to.clone(), Target::Robot(3), scheduler);
-
-            let here = Here::new(id, calls.clone());
-            reply_to(id).send(Reply::default());
-            reply_to(other).send(Reply::default());
-            let from_elsewhere = reply_to(id);
-            std::thread::spawn(move || from_elsewhere.send(Reply::default()))
-                .join()
-                .expect("the other thread");
-            drop(reply_to(id));
-            assert_eq!(addr.send(Count).await.expect("counted"), 3);
-            assert_eq!(*calls.0.borrow(), vec![true]);
-
-            drop(here);
-            reply_to(id).send(Reply::default());
-            assert_eq!(addr.send(Count).await.expect("counted"), 4);
-            assert_eq!(calls.0.borrow().len(), 1);
-            assert_eq!(
-                Rc::strong_count(&calls),
-                1,
-                "the thread lets the scheduler go"
-            );
+            let seen = Rc::new(RefCell::new(Vec::new()));
+            let route = Route::start_here(Host::new(Notes(seen.clone())));
+            route.mailbox.send(delivery(1.0)).await.expect("handled");
+            let call = route.call.clone().expect("started here");
+            match call.deliver(delivery(2.0)) {
+                Ok(Handled::Reply(reply)) => assert_eq!(reply.ends.as_slice(), &[0]),
+                other => panic!("expected a reply, got {other:?}"),
+            }
+            assert_eq!(*seen.borrow(), vec![1.0, 2.0]);
+            let panicked = call
+                .deliver(delivery(3.0))
+                .expect_err("the handling panics");
+            assert!(panicked.contains("a bug in the handler"), "{panicked}");
+            assert!(Route::elsewhere(route.mailbox).call.is_none());
         });
     }
 }

@@ -11,9 +11,10 @@
 //!    out in processing order, so the whole order is a function of the scenario and seed alone.
 //! 3. One delivery is in flight at a time. The scheduler sends the next event to its actor (a
 //!    manager, a robot, a sensor) and waits for the reply, which is the list of effects the
-//!    handling produced (events to schedule, events to cancel, observations to record): a
-//!    call from a host on the scheduler's thread ([`Here`]), a message from any other. Only
-//!    then does it take the next event. A delivery may carry a run: the events that come
+//!    handling produced (events to schedule, events to cancel, observations to record). To an
+//!    actor on the scheduler's own thread the delivery is a call into its host ([`Call`]),
+//!    which returns the reply; to one on another arbiter, a message answered by a message.
+//!    Only then does it take the next event. A delivery may carry a run: the events that come
 //!    next for the same actor ([`Deliver::then`]). The actor handles each in turn only while
 //!    the handlings before it leave it the next event ([`handle_run`]) and hands the rest
 //!    back, so the events taken and their order are those of one delivery per event. Every
@@ -37,11 +38,9 @@ mod event_manager;
 
 use actix::prelude::*;
 
-use std::cell::RefCell;
-use std::rc::Rc;
 use std::sync::{Arc, Mutex};
 
-use crate::host::{Deliver, Here, NoReply, PassOn, Replied, Reply, ReplyTo, TakesReplies};
+use crate::host::{Call, Deliver, Handled, NoReply, PassOn, Replied, Reply, ReplyTo, Route};
 use crate::world::event::{Event, Target};
 use crate::world::outbox::Outbox;
 use crate::world::sensor::SensorKind;
@@ -54,14 +53,14 @@ pub use event_manager::{
 
 /// Who handles which events.
 pub struct Routes {
-    pub motion_manager: Recipient<Deliver>,
-    pub sensor_manager: Recipient<Deliver>,
-    pub robots: Vec<Recipient<Deliver>>,
-    pub network: Recipient<Deliver>,
+    pub motion_manager: Route,
+    pub sensor_manager: Route,
+    pub robots: Vec<Route>,
+    pub network: Route,
     /// Each robot's protocol layers, by stack index.
-    pub layers: Vec<Vec<Recipient<Deliver>>>,
+    pub layers: Vec<Vec<Route>>,
     /// Starts a robot's sensor actor on the robot's arbiter when it is first needed.
-    pub spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Recipient<Deliver>>,
+    pub spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Route>,
     /// Called, while an event is delivered, with the robots that the next two pending events
     /// concern when they are for a manager or the network ([`Core::ahead_in_world`]): asks for
     /// what their handlings read in the world ([`crate::world::VirtualWorld::prefetch`]), so
@@ -81,40 +80,82 @@ impl std::fmt::Debug for Routes {
     }
 }
 
-/// Every actor's mailbox: the scheduler's, and the hosts' that pass deliveries on
-/// ([`PassOn`]).
-struct Directory {
-    motion_manager: Recipient<Deliver>,
-    sensor_manager: Recipient<Deliver>,
-    robots: Vec<Recipient<Deliver>>,
-    network: Recipient<Deliver>,
-    layers: Vec<Vec<Recipient<Deliver>>>,
-    /// Each robot's sensor actors started so far, by robot: a robot has a few sensors at
-    /// most, and a robot's list is found without hashing. The scheduler starts them.
-    sensors: Mutex<Vec<Started>>,
+/// Something for each actor of a run but the sensors, found by the actor's target.
+struct PerActor<T> {
+    motion_manager: T,
+    sensor_manager: T,
+    robots: Vec<T>,
+    network: T,
+    layers: Vec<Vec<T>>,
 }
 
-/// A robot's sensor actors started so far.
-type Started = Vec<(SensorKind, Recipient<Deliver>)>;
+impl<T> PerActor<T> {
+    /// `target`'s entry; none for the event manager, a sensor, or an actor the run has not.
+    fn get(&self, target: Target) -> Option<&T> {
+        match target {
+            Target::EventManager | Target::Sensor(..) => None,
+            Target::Robot(r) => self.robots.get(r as usize),
+            Target::MotionManager => Some(&self.motion_manager),
+            Target::SensorManager => Some(&self.sensor_manager),
+            Target::Network => Some(&self.network),
+            Target::Layer(r, l) => self
+                .layers
+                .get(r as usize)
+                .and_then(|ls| ls.get(l as usize)),
+        }
+    }
+
+    /// Each entry split in two by `f`.
+    fn split<A, B>(self, f: impl Fn(T) -> (A, B)) -> (PerActor<A>, PerActor<B>) {
+        let (motion_a, motion_b) = f(self.motion_manager);
+        let (sensing_a, sensing_b) = f(self.sensor_manager);
+        let (network_a, network_b) = f(self.network);
+        let (robots_a, robots_b) = self.robots.into_iter().map(&f).unzip();
+        let (layers_a, layers_b) = (self.layers.into_iter())
+            .map(|ls| ls.into_iter().map(&f).unzip())
+            .unzip();
+        let a = PerActor {
+            motion_manager: motion_a,
+            sensor_manager: sensing_a,
+            robots: robots_a,
+            network: network_a,
+            layers: layers_a,
+        };
+        let b = PerActor {
+            motion_manager: motion_b,
+            sensor_manager: sensing_b,
+            robots: robots_b,
+            network: network_b,
+            layers: layers_b,
+        };
+        (a, b)
+    }
+}
+
+/// A robot's sensors started so far, with each one's entry: a robot has a few sensors at
+/// most, and a robot's list is found without hashing.
+type Sensors<T> = Vec<Vec<(SensorKind, T)>>;
+
+/// `sensors`' entry for robot `r`'s sensor `k`, if started.
+fn sensor<T>(sensors: &Sensors<T>, r: RobotId, k: SensorKind) -> Option<&T> {
+    let started = sensors.get(r as usize).map_or(&[][..], Vec::as_slice);
+    started.iter().find(|(kind, _)| *kind == k).map(|s| &s.1)
+}
+
+/// Every actor's mailbox: the scheduler's, and the hosts' that pass deliveries on
+/// ([`PassOn`]) from any thread.
+struct Directory {
+    mailboxes: PerActor<Recipient<Deliver>>,
+    /// The scheduler starts the sensors.
+    sensors: Mutex<Sensors<Recipient<Deliver>>>,
+}
 
 impl Directory {
     /// Calls `f` with `target`'s mailbox, if its actor is running.
     fn with<R>(&self, target: Target, f: impl FnOnce(Option<&Recipient<Deliver>>) -> R) -> R {
         match target {
-            Target::EventManager => f(None),
-            Target::Robot(r) => f(self.robots.get(r as usize)),
-            Target::MotionManager => f(Some(&self.motion_manager)),
-            Target::SensorManager => f(Some(&self.sensor_manager)),
-            Target::Network => f(Some(&self.network)),
-            Target::Layer(r, l) => f(self
-                .layers
-                .get(r as usize)
-                .and_then(|ls| ls.get(l as usize))),
-            Target::Sensor(r, k) => {
-                let sensors = self.sensors.lock().expect("sensor directory");
-                let started = sensors.get(r as usize).map_or(&[][..], Vec::as_slice);
-                f(started.iter().find(|(kind, _)| *kind == k).map(|s| &s.1))
-            }
+            Target::Sensor(r, k) => f(sensor(&self.sensors.lock().expect("sensors"), r, k)),
+            _ => f(self.mailboxes.get(target)),
         }
     }
 }
@@ -130,38 +171,43 @@ impl PassOn for Directory {
     }
 }
 
-/// The scheduler actor. Its state is shared, on its own thread, with the hosts there: they
-/// hand it their replies by a call instead of a message ([`Here`]).
-pub struct Scheduler {
-    /// Borrowed by whoever steps it: the scheduler actor, or a host on its thread with a reply
-    /// ([`TakesReplies`]). One delivery is in flight at a time, so the two never overlap.
-    state: Rc<RefCell<State>>,
+/// The calls into the hosts on the scheduler's thread ([`Call`]), by actor.
+struct Calls {
+    hosts: PerActor<Option<Call>>,
+    sensors: Sensors<Call>,
 }
 
-struct State {
+impl Calls {
+    /// `target`'s host, if it runs on the scheduler's thread.
+    fn get(&self, target: Target) -> Option<&Call> {
+        match target {
+            Target::Sensor(r, k) => sensor(&self.sensors, r, k),
+            _ => self.hosts.get(target)?.as_ref(),
+        }
+    }
+}
+
+/// The scheduler actor.
+pub struct Scheduler {
     core: Core,
     actors: Arc<Directory>,
+    calls: Calls,
     /// Starts a robot's sensor actor ([`Routes::spawn_sensor`]).
-    spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Recipient<Deliver>>,
+    spawn_sensor: Box<dyn Fn(RobotId, SensorKind) -> Route>,
     prefetch: Prefetch,
-    /// Where the replies go ([`ReplyTo`]): the scheduler, once started.
+    /// Where the replies to messages go ([`ReplyTo`]): the scheduler, once started.
     me: Option<Arc<Recipient<Replied>>>,
-    /// The scheduler's number, which its deliveries' [`ReplyTo`]s carry.
-    id: u64,
-    /// While the run goes on: replies made on this thread reach the scheduler by a call.
-    here: Option<Here>,
-    /// Whether a delivery is in flight.
+    /// Whether a delivery sent as a message awaits its reply.
     in_flight: bool,
     on_finish: Option<Box<dyn FnOnce(RunOutput)>>,
 }
 
 impl std::fmt::Debug for Scheduler {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let state = self.state.borrow();
         f.debug_struct("Scheduler")
-            .field("now", &state.core.now)
-            .field("seq", &state.core.seq)
-            .field("pending", &state.core.queue.len())
+            .field("now", &self.core.now)
+            .field("seq", &self.core.seq)
+            .field("pending", &self.core.queue.len())
             .finish()
     }
 }
@@ -185,81 +231,124 @@ impl Scheduler {
             spawn_sensor,
             prefetch,
         } = routes;
-        let actors = Arc::new(Directory {
+        let routes = PerActor {
             motion_manager,
             sensor_manager,
             robots,
             network,
             layers,
+        };
+        let (mailboxes, hosts) = routes.split(|r| (r.mailbox, r.call));
+        let actors = Arc::new(Directory {
+            mailboxes,
             sensors: Mutex::new(Vec::new()),
         });
         let mut core = Core::new(until, setup, observers);
         core.runs = true;
         core.pass_on = Some(actors.clone() as Arc<dyn PassOn>);
-        let state = State {
+        Self {
             core,
             actors,
+            calls: Calls {
+                hosts,
+                sensors: Vec::new(),
+            },
             spawn_sensor,
             prefetch,
             me: None,
-            id: Here::number(),
-            here: None,
             in_flight: false,
             on_finish: Some(on_finish),
-        };
-        Self {
-            state: Rc::new(RefCell::new(state)),
         }
     }
 
     /// Fails the run when more than `limit` events happen at one instant of virtual time (an
     /// algorithm retrying forever without letting time pass).
-    pub fn with_instant_limit(self, limit: u64) -> Self {
-        self.state.borrow_mut().core.set_instant_limit(limit);
+    pub fn with_instant_limit(mut self, limit: u64) -> Self {
+        self.core.set_instant_limit(limit);
         self
     }
 
     /// The pending events of a robot (the event manager's listing).
     pub fn future_of(&mut self, robot: RobotId) -> Vec<Event> {
-        self.state.borrow_mut().core.queue.future_of(robot)
+        self.core.queue.future_of(robot)
     }
-}
 
-impl State {
-    /// Sends `deliver` to `target`'s actor, starting it first if it is a sensor not yet
-    /// needed.
-    fn send(&mut self, target: Target, deliver: Deliver) {
-        if let Target::Sensor(r, k) = target {
-            let mut sensors = self.actors.sensors.lock().expect("sensor directory");
-            let i = r as usize;
-            if sensors.len() <= i {
-                sensors.resize_with(i + 1, Vec::new);
-            }
-            let started = &mut sensors[i];
-            if !started.iter().any(|(kind, _)| *kind == k) {
-                started.push((k, (self.spawn_sensor)(r, k)));
-            }
+    /// Starts robot `r`'s sensor `k` if it is not running yet.
+    fn start_sensor(&mut self, r: RobotId, k: SensorKind) {
+        let mut sensors = self.actors.sensors.lock().expect("sensors");
+        if sensor(&sensors, r, k).is_some() {
+            return;
         }
-        // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
-        self.actors.pass(target, deliver);
+        let i = r as usize;
+        if sensors.len() <= i {
+            sensors.resize_with(i + 1, Vec::new);
+        }
+        let route = (self.spawn_sensor)(r, k);
+        sensors[i].push((k, route.mailbox));
+        if let Some(call) = route.call {
+            let calls = &mut self.calls.sensors;
+            if calls.len() <= i {
+                calls.resize_with(i + 1, Vec::new);
+            }
+            calls[i].push((k, call));
+        }
     }
 
-    /// Takes the next event and sends it to its actor, whose reply steps on.
+    /// Takes the events in turn and hands each to its actor, until the run ends or a delivery
+    /// goes out as a message (its reply then steps on).
     fn step(&mut self) {
-        let (target, mut deliver) = match self.core.next() {
-            Next::Finish => return self.finish(),
-            Next::Deliver(target, deliver) => (target, deliver),
-        };
-        if let Some(world) = self.core.ahead_in_world() {
-            (self.prefetch)(&world);
+        loop {
+            let (target, deliver) = match self.core.next() {
+                Next::Finish => return self.finish(),
+                Next::Deliver(target, deliver) => (target, deliver),
+            };
+            if let Some(world) = self.core.ahead_in_world() {
+                (self.prefetch)(&world);
+            }
+            match self.deliver(target, deliver) {
+                Some(Ok(reply)) => self.core.apply_reply(reply),
+                Some(Err(e)) => return self.failed(e),
+                None => {
+                    self.in_flight = true;
+                    return;
+                }
+            }
         }
-        let me = self.me.clone().expect("the scheduler started");
-        deliver.reply = Some(ReplyTo::new(me, target, self.id));
-        self.in_flight = true;
-        self.send(target, deliver);
     }
 
-    /// Applies the reply to the delivery in flight, then steps on.
+    /// Hands `deliver` to `target`'s actor, and each delivery its host passes on
+    /// ([`Handled::PassOn`]) to the next: by a call while the actor runs on this thread, and
+    /// then the reply; else as a message, and then nothing (the reply comes as a message).
+    fn deliver(
+        &mut self,
+        mut target: Target,
+        mut deliver: Deliver,
+    ) -> Option<Result<Reply, NoReply>> {
+        loop {
+            if let Target::Sensor(r, k) = target {
+                self.start_sensor(r, k);
+            }
+            let Some(call) = self.calls.get(target) else {
+                let me = self.me.clone().expect("the scheduler started");
+                deliver.reply = Some(ReplyTo::new(me, target));
+                // A closed mailbox drops the delivery, whose `ReplyTo` then says so.
+                self.actors.pass(target, deliver);
+                return None;
+            };
+            match call.deliver(deliver) {
+                Ok(Handled::Reply(reply)) => return Some(Ok(reply)),
+                Ok(Handled::PassOn(next, passed)) => (target, deliver) = (next, passed),
+                Err(error) => {
+                    return Some(Err(NoReply {
+                        with: target,
+                        error,
+                    }))
+                }
+            }
+        }
+    }
+
+    /// Applies the reply to the delivery sent as a message, then steps on.
     fn replied(&mut self, reply: Result<Reply, NoReply>) {
         assert!(
             std::mem::take(&mut self.in_flight),
@@ -270,18 +359,20 @@ impl State {
                 self.core.apply_reply(reply);
                 self.step();
             }
-            Err(e) => {
-                self.core.no_answer(e.with, e.error);
-                self.finish();
-            }
+            Err(e) => self.failed(e),
         }
+    }
+
+    /// Ends the run: `e`'s actor gave no answer.
+    fn failed(&mut self, e: NoReply) {
+        self.core.no_answer(e.with, e.error);
+        self.finish();
     }
 
     /// Hands the output over. The actor is not stopped: the run's host drops or leaves the
     /// whole system once it has the output (`simulation::run_then_exit`), so the million
     /// robots' addresses and the queue are not dropped here one by one.
     fn finish(&mut self) {
-        self.here = None;
         let output = self.core.finish();
         if let Some(f) = self.on_finish.take() {
             f(output);
@@ -289,20 +380,12 @@ impl State {
     }
 }
 
-impl TakesReplies for RefCell<State> {
-    fn replied(&self, reply: Result<Reply, NoReply>) {
-        self.borrow_mut().replied(reply);
-    }
-}
-
 impl Actor for Scheduler {
     type Context = Context<Self>;
 
     fn started(&mut self, ctx: &mut Self::Context) {
-        let mut state = self.state.borrow_mut();
-        state.me = Some(Arc::new(ctx.address().recipient()));
-        state.here = Some(Here::new(state.id, self.state.clone()));
-        state.step();
+        self.me = Some(Arc::new(ctx.address().recipient()));
+        self.step();
     }
 }
 
@@ -310,6 +393,6 @@ impl Handler<Replied> for Scheduler {
     type Result = ();
 
     fn handle(&mut self, reply: Replied, _: &mut Context<Self>) {
-        self.state.borrow_mut().replied(reply.0);
+        self.replied(reply.0);
     }
 }

@@ -7,7 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use actix::prelude::*;
 
-use crate::host::{Deliver, Host};
+use crate::host::{Host, Route};
 use crate::layer::LayerActor;
 use crate::motion_manager::MotionManager;
 use crate::network::NetworkActor;
@@ -305,10 +305,12 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
         }
         let world = p.world;
         let wiring = p.wiring;
-        let motion_manager = Host(MotionManager::new(world.clone())).start().recipient();
-        let network = Host(NetworkActor::new(p.network, world.clone(), wiring.clone()))
-            .start()
-            .recipient();
+        let motion_manager = Route::start_here(Host::new(MotionManager::new(world.clone())));
+        let network = Route::start_here(Host::new(NetworkActor::new(
+            p.network,
+            world.clone(),
+            wiring.clone(),
+        )));
         let prefetch = {
             let world = world.clone();
             Box::new(move |ahead: &crate::scheduler::WorldAhead| {
@@ -318,9 +320,11 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                 }
             })
         };
-        let sensor_manager = Host(SensorManager::new(world, p.sensing))
-            .start()
-            .recipient();
+        let sensor_manager = Route::start_here(Host::new(SensorManager::new(world, p.sensing)));
+        // A robot's actors, the robot's, its sensors' and its layers', run on one arbiter;
+        // those of the first arbiter on this thread, the scheduler's.
+        let arbiters = p.arbiters;
+        let here = move |id: RobotId| id as usize % arbiters == 0;
         let arbiter_of = {
             let handles = handles.clone();
             move |id: RobotId| handles[id as usize % handles.len()].clone()
@@ -332,7 +336,7 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
         let stopped = move |i: usize| {
             i % STOP_EVERY == 0 && stop.as_ref().is_some_and(|s| s.load(Ordering::Relaxed))
         };
-        let mut robots: Vec<Recipient<Deliver>> = p
+        let mut robots: Vec<Route> = p
             .robots
             .into_iter()
             .zip(robot_info)
@@ -345,18 +349,15 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                     }
                 }
                 let ids = layer_ids.clone();
-                if info.id as usize % p.arbiters == 0 {
-                    // This thread's arbiter: started in place, without a closure sent over the
-                    // arbiter's queue and a task to run it (at 1M robots, both held until the
-                    // system ran).
-                    Host(RobotActor::new(info, algorithm, seed, ids))
-                        .start()
-                        .recipient()
+                if here(info.id) {
+                    Route::start_here(Host::new(RobotActor::new(info, algorithm, seed, ids)))
                 } else {
-                    Host::start_in_arbiter(&arbiter_of(info.id), move |_| {
-                        Host(RobotActor::new(info, algorithm, seed, ids))
-                    })
-                    .recipient()
+                    Route::elsewhere(
+                        Host::start_in_arbiter(&arbiter_of(info.id), move |_| {
+                            Host::new(RobotActor::new(info, algorithm, seed, ids))
+                        })
+                        .recipient(),
+                    )
                 }
             })
             .collect();
@@ -366,7 +367,7 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
         if let Some(f) = startup.as_mut() {
             f(count, count);
         }
-        let layers: Vec<Vec<Recipient<Deliver>>> = p
+        let layers: Vec<Vec<Route>> = p
             .instances
             .into_iter()
             .enumerate()
@@ -378,16 +379,16 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                     .enumerate()
                     .map(|(l, layer)| {
                         let wiring = wiring.clone();
-                        Host::start_in_arbiter(&arbiter_of(r), move |_| {
-                            Host(LayerActor::new(
-                                r,
-                                l as nekosim_protocols::LayerIx,
-                                layer,
-                                wiring,
-                                count as u32,
-                            ))
-                        })
-                        .recipient()
+                        let ix = l as nekosim_protocols::LayerIx;
+                        let host =
+                            move || Host::new(LayerActor::new(r, ix, layer, wiring, count as u32));
+                        if here(r) {
+                            Route::start_here(host())
+                        } else {
+                            Route::elsewhere(
+                                Host::start_in_arbiter(&arbiter_of(r), move |_| host()).recipient(),
+                            )
+                        }
                     })
                     .collect()
             })
@@ -401,10 +402,14 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
             layers,
             spawn_sensor: Box::new(move |robot, kind| {
                 let sensors = sensors.clone();
-                Host::start_in_arbiter(&arbiter_of(robot), move |_| {
-                    Host(Sensor::new(robot, kind, seed, sensors))
-                })
-                .recipient()
+                let host = move || Host::new(Sensor::new(robot, kind, seed, sensors));
+                if here(robot) {
+                    Route::start_here(host())
+                } else {
+                    Route::elsewhere(
+                        Host::start_in_arbiter(&arbiter_of(robot), move |_| host()).recipient(),
+                    )
+                }
             }),
             prefetch,
         };
