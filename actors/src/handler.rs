@@ -14,12 +14,6 @@ use crate::world::outbox::Outbox;
 pub trait HandleEvent {
     /// Handles `event`, which happens at `out`'s time; writes its effects into `out`.
     fn handle_event(&mut self, event: Event, out: &mut Outbox);
-
-    /// Asks for what the handlings of `next` and `after`, the events this handler is to take
-    /// next, will read ([`crate::world::prefetch`]), so that the memory arrives while the
-    /// handling at hand runs. Only a hint: it changes nothing. By default it asks for
-    /// nothing.
-    fn look_ahead(&self, _next: Option<&Event>, _after: Option<&Event>) {}
 }
 
 /// Handles `event` at time `now` as processing number `seq`, writing into `effects` (an empty

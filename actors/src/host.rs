@@ -1,18 +1,14 @@
-//! How the product hosts handlers in actix actors: deliveries, runs of events, replies and
-//! the look-ahead (the ordering contract's points 3 and 5 in [`crate::scheduler`]).
+//! How the product hosts handlers in actix actors: deliveries, events taken on at once,
+//! replies (the ordering contract's points 3 and 5 in [`crate::scheduler`]).
 //!
 //! The scheduler actor hands each event to the actor that hosts its handler and waits for the
 //! reply with the handling's effects before it takes the next event: by a call into the host
 //! when the actor runs on the scheduler's thread ([`Call`]), else as a [`Deliver`] message
-//! answered by a [`Replied`] one. A delivery may carry a run: the events that come next for
-//! the same actor, which the host hands to its handler in turn for as long as the handlings
-//! before leave each the next event to take ([`handle_run`]), so a run saves round trips
-//! between the scheduler and a manager without changing which events are taken or their
-//! order. A delivery with no run may also be passed on ([`PassOn`]): when the event a handling
-//! schedules at its instant is the next event there is, the host hands it straight to its
-//! actor instead of replying, and the last actor of such a chain replies for all of them; the
-//! events, their order and their numbers are again those of one delivery per event.
-//! Everything here is about hosting; the handlers ([`HandleEvent`]) know none of it.
+//! answered by a [`Replied`] one. When the event a handling schedules at its instant is the
+//! next event there is, the host takes it on at once ([`Deliver::inline`]), or passes it on
+//! to its actor ([`PassOn`]), instead of replying, and the last actor of such a chain replies
+//! for all of them; the events, their order and their numbers are those of one delivery per
+//! event. Everything here is about hosting; the handlers ([`HandleEvent`]) know none of it.
 
 use std::cell::RefCell;
 use std::panic::AssertUnwindSafe;
@@ -22,8 +18,7 @@ use std::sync::Arc;
 use actix::prelude::*;
 
 use crate::handler::{handle_one, HandleEvent};
-use crate::world::event::{Effect, Event, EventId, Target};
-use crate::world::radix::time_key;
+use crate::world::event::{Effect, Event, Target};
 use crate::world::RobotId;
 
 /// Delivery of one event to the actor that handles it; the reply is the handling's effects
@@ -41,29 +36,19 @@ pub struct Deliver {
     pub effects: Vec<Effect>,
     /// Where the reply goes when the delivery is a message (none when it is a call).
     pub reply: Option<ReplyTo>,
-    /// The events that come next for the same actor, taken from the queue with this one (a
-    /// run, at most [`RUN`] events in all). The actor handles each in turn, as numbers
-    /// `seq + 1`, `seq + 2`, ..., for as long as the handlings before it leave it the next
-    /// event ([`handle_run`]), and hands the others back in its [`Reply`]. Most events of a
-    /// random-movement run are the motion manager's and follow another of its own, and each
-    /// would otherwise pay a round trip between the scheduler and the manager.
-    pub then: Vec<Event>,
-    /// How many events the actor may take on at once after this one, at this instant and
-    /// with no run: the events its own handlings schedule for itself at this instant, when
-    /// each is the next event of the whole run, as nothing else is pending at this instant
-    /// ([`handle_run`]). Zero where the scheduler takes every event itself. A sensor request
-    /// and its trigger, the seed's two steps at one instant, are one round trip this way.
+    /// How many events the actor may take on at once after this one, at this instant: the
+    /// events its own handlings schedule for itself at this instant, when each is the next
+    /// event of the whole run, as nothing else is pending at this instant
+    /// ([`handle_delivery`]). Zero where the scheduler takes every event itself. A sensor
+    /// request and its trigger, the seed's two steps at one instant, are one round trip this
+    /// way.
     pub inline: u32,
-    /// Whether the scheduler looks ahead (a large queue): the host then asks the handler,
-    /// before each handling of the run, for what the next ones will read
-    /// ([`HandleEvent::look_ahead`]).
-    pub look_ahead: bool,
     /// Whether anything reads the robots' step records: when not, the handlings leave them
     /// out ([`crate::world::outbox::Outbox::records_steps`]).
     pub steps: bool,
     /// Where the events taken on at once may go when they are for another actor: with it,
     /// [`Deliver::inline`] counts the events taken on for any actor, passed on along a chain
-    /// ([`handle_run`]); without it, only the actor's own.
+    /// ([`handle_delivery`]); without it, only the actor's own.
     pub pass_on: Option<Arc<dyn PassOn>>,
     /// What the chain's handlings before this one did, when the delivery was passed on: the
     /// reply so far, without its effects (they are in [`Deliver::effects`]).
@@ -86,18 +71,17 @@ impl std::fmt::Debug for dyn PassOn {
     }
 }
 
-/// The most events a delivery carries ([`Deliver::then`] and its own).
-pub const RUN: usize = 8;
+/// The most events one delivery handles: its own and those taken on at once
+/// ([`Deliver::inline`]).
+pub const CHAIN: usize = 8;
 
-/// An actor's reply to a delivery: the effects of the events it handled, in order; where each
-/// handling's effects end (`ends[0]` the delivered event's, `ends[1]` the first of
-/// [`Deliver::then`]'s, and so on); and the events of `then` it did not handle, which go back
-/// to the queue as they were.
+/// An actor's reply to a delivery: the effects of the events it handled, in order, and where
+/// each handling's effects end (`ends[0]` the delivered event's, `ends[1]` the first event
+/// taken on at once's, and so on).
 #[derive(Debug, Default)]
 pub struct Reply {
     pub effects: Vec<Effect>,
-    pub ends: smallvec::SmallVec<[u32; RUN]>,
-    pub then: Vec<Event>,
+    pub ends: smallvec::SmallVec<[u32; CHAIN]>,
     /// How many of the handled events, after the delivered one, were scheduled by the
     /// handlings before them and taken on at once ([`Deliver::inline`]); their schedules are
     /// not among the effects.
@@ -163,107 +147,34 @@ pub struct NoReply {
 #[rtype(result = "()")]
 pub struct Replied(pub Result<Reply, NoReply>);
 
-/// Handles a delivery as its actor does: its event, then each event of its run
-/// ([`Deliver::then`]) in turn for as long as the handlings so far leave that event the next
-/// one to take (the ordering contract): nothing they scheduled comes before it (their events
-/// all come after every pending one at equal times, their cause being newer), they did not
-/// cancel it, and they asked for no instant's end event (which could come between). The
-/// first event that fails this, and those after it, go back unhandled in the [`Reply`].
-///
-/// Then, up to [`Deliver::inline`] of them, it takes on the events the handlings schedule for
-/// the same actor at the instant of the last, as long as each is the next event there is
-/// (see [`take_on`]). Given where deliveries may be passed on ([`Deliver::pass_on`]), it also
-/// takes on those for other actors: the first is passed on ([`Handled::PassOn`]), with the
-/// reply so far.
-pub fn handle_run<H: HandleEvent + ?Sized>(handler: &mut H, msg: Deliver) -> Handled {
+/// Handles a delivery as its actor does: its event, then, up to [`Deliver::inline`] of them,
+/// the events the handlings schedule for the same actor at its instant, as long as each is
+/// the next event there is (see [`take_on`]). Given where deliveries may be passed on
+/// ([`Deliver::pass_on`]), it also takes on those for other actors: the first is passed on
+/// ([`Handled::PassOn`]), with the reply so far.
+pub fn handle_delivery<H: HandleEvent + ?Sized>(handler: &mut H, msg: Deliver) -> Handled {
     let Deliver {
         now,
         seq,
         event,
         effects,
         reply: reply_to,
-        mut then,
         inline,
-        look_ahead,
         steps,
         pass_on,
         chain,
     } = msg;
     let own = event.target;
+    let mut reply = chain.map_or_else(Reply::default, |c| *c);
+    let effects = handle_one(handler, now, seq, event, effects, steps);
+    reply.ends.push(end_of(&effects));
     let onward = Onward {
         room: inline,
         steps,
         reply_to,
         pass_on,
     };
-    if then.is_empty() && (inline > 0 || chain.is_some()) {
-        let mut reply = chain.map_or_else(Reply::default, |c| *c);
-        let effects = handle_one(handler, now, seq, event, effects, steps);
-        reply.ends.push(end_of(&effects));
-        let at = Instant { now, seq, own };
-        return take_on(handler, onward, at, reply, effects);
-    }
-    // The run's events in reverse: the next one last.
-    then.reverse();
-    if look_ahead {
-        look_ahead_in_run(handler, &then);
-    }
-    let (mut now, mut seq) = (now, seq);
-    let mut effects = handle_one(handler, now, seq, event, effects, steps);
-    let mut ends = smallvec::SmallVec::new();
-    let mut scanned = 0;
-    // The first event scheduled so far, and how many events of `then` may still be handled.
-    let mut first: Option<(u64, EventId)> = None;
-    let mut free = then.len();
-    loop {
-        ends.push(end_of(&effects));
-        // With no event of the run left, what the handlings scheduled no longer matters here.
-        let Some(next) = then.last() else {
-            break;
-        };
-        for e in &effects[scanned..] {
-            match e {
-                Effect::Schedule(ev) | Effect::ScheduleIn(ev, _) => {
-                    let key = (time_key(ev.time), ev.id);
-                    first = Some(first.map_or(key, |f| f.min(key)));
-                }
-                Effect::Cancel(h) => {
-                    if let Some(k) = then.iter().position(|ev| ev.id == h.id) {
-                        free = free.min(then.len() - 1 - k);
-                    }
-                }
-                Effect::AtInstantEnd(_) | Effect::WithdrawAtInstantEnd(_) => free = 0,
-                Effect::Record(_) => {}
-            }
-        }
-        scanned = effects.len();
-        if free == 0 || first.is_some_and(|f| f < (time_key(next.time), next.id)) {
-            break;
-        }
-        let event = then.pop().expect("a next event");
-        free -= 1;
-        seq += 1;
-        now = event.time;
-        if look_ahead {
-            look_ahead_in_run(handler, &then);
-        }
-        effects = handle_one(handler, now, seq, event, effects, steps);
-    }
-    then.reverse();
-    let mut reply = Reply {
-        then,
-        ends,
-        ..Reply::default()
-    };
-    // What the last handling schedules at its instant may come next, before the run's events
-    // handed back, when the scheduler allowed it ([`Deliver::inline`]): nothing else pending
-    // up to the run's last event.
-    if inline > 0 && reply.then.first().is_none_or(|n| n.time > now) {
-        let at = Instant { now, seq, own };
-        return take_on(handler, onward, at, reply, effects);
-    }
-    reply.effects = effects;
-    Handled::Reply(reply)
+    take_on(handler, onward, Instant { now, seq, own }, reply, effects)
 }
 
 /// What a delivery allows beyond its events: how many more may be taken on, where to, and
@@ -326,9 +237,7 @@ fn take_on<H: HandleEvent + ?Sized>(
                     event,
                     effects,
                     reply: onward.reply_to.take(),
-                    then: Vec::new(),
                     inline: room,
-                    look_ahead: false,
                     steps,
                     pass_on: onward.pass_on.take(),
                     chain: Some(Box::new(reply)),
@@ -371,15 +280,6 @@ fn next_at(effects: &[Effect], now: f64) -> Option<(usize, Target)> {
     None
 }
 
-/// [`HandleEvent::look_ahead`] for the next two events of a run kept in reverse (the next
-/// last). The scheduler's own look-ahead sees only the events after the run.
-fn look_ahead_in_run<H: HandleEvent + ?Sized>(handler: &H, reversed: &[Event]) {
-    let mut rev = reversed.iter().rev();
-    if let Some(next) = rev.next() {
-        handler.look_ahead(Some(next), rev.next());
-    }
-}
-
 /// The actor that hosts a handler: it takes [`Deliver`]s and replies with their effects. A
 /// scheduler on the same thread shares the handler and hands it deliveries by a call instead
 /// ([`Host::call`]).
@@ -408,7 +308,7 @@ impl<H: HandleEvent + Unpin + 'static> Handler<Deliver> for Host<H> {
     fn handle(&mut self, mut msg: Deliver, _: &mut Context<Self>) {
         // Held across the handling: should it panic, dropping it tells the scheduler.
         let reply = msg.reply.take();
-        match handle_run(&mut *self.0.borrow_mut(), msg) {
+        match handle_delivery(&mut *self.0.borrow_mut(), msg) {
             Handled::Reply(handled) => {
                 if let Some(reply) = reply {
                     reply.send(handled);
@@ -436,11 +336,11 @@ impl<H: HandleEvent + Unpin + 'static> Handler<Deliver> for Host<H> {
 pub struct Call(Rc<RefCell<dyn HandleEvent>>);
 
 impl Call {
-    /// Handles `msg` as the host's actor would ([`handle_run`]); the text of the panic when
+    /// Handles `msg` as the host's actor would ([`handle_delivery`]); the text of the panic when
     /// the handling panics (its actor then gives no answer).
     pub fn deliver(&self, msg: Deliver) -> Result<Handled, String> {
         let mut handler = self.0.borrow_mut();
-        std::panic::catch_unwind(AssertUnwindSafe(|| handle_run(&mut *handler, msg))).map_err(
+        std::panic::catch_unwind(AssertUnwindSafe(|| handle_delivery(&mut *handler, msg))).map_err(
             |panic| {
                 let text = (panic.downcast_ref::<&str>().copied())
                     .or_else(|| panic.downcast_ref::<String>().map(String::as_str))
@@ -487,7 +387,7 @@ impl Route {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::world::event::{EventClass, Payload, NO_ROBOT};
+    use crate::world::event::{EventClass, EventId, Payload, NO_ROBOT};
     use crate::world::outbox::Outbox;
 
     /// A handler that notes the instant of each event it takes, and panics at its third.
@@ -520,9 +420,7 @@ mod tests {
             },
             effects: Vec::new(),
             reply: None,
-            then: Vec::new(),
             inline: 0,
-            look_ahead: false,
             steps: false,
             pass_on: None,
             chain: None,

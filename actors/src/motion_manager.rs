@@ -28,10 +28,4 @@ impl HandleEvent for MotionManager {
         let mut world = self.world.lock().expect("world lock");
         world.handle_motion(event.id, event.payload, out);
     }
-
-    fn look_ahead(&self, next: Option<&Event>, after: Option<&Event>) {
-        if let Ok(world) = self.world.try_lock() {
-            world.prefetch(next.map(|e| e.concerns), after.map(|e| e.concerns));
-        }
-    }
 }

@@ -14,12 +14,9 @@
 //!    handling produced (events to schedule, events to cancel, observations to record). To an
 //!    actor on the scheduler's own thread the delivery is a call into its host ([`Call`]),
 //!    which returns the reply; to one on another arbiter, a message answered by a message.
-//!    Only then does it take the next event. A delivery may carry a run: the events that come
-//!    next for the same actor ([`Deliver::then`]). The actor handles each in turn only while
-//!    the handlings before it leave it the next event ([`handle_run`]) and hands the rest
-//!    back, so the events taken and their order are those of one delivery per event. Every
-//!    hop is an event. When the event a handling schedules at its instant is the next event
-//!    there is, the actor's host may pass it straight on to its actor ([`PassOn`]), which
+//!    Only then does it take the next event. Every hop is an event. When the event a handling
+//!    schedules at its instant is the next event there is, the actor's host may take it on
+//!    at once ([`Deliver::inline`]), or pass it straight on to its actor ([`PassOn`]), which
 //!    replies for both: that is the delivery the scheduler would send next, numbered as it
 //!    would number it, so again the events and their order are those of one delivery per
 //!    event. The scheduler allows it only where it would deliver the event itself: nothing
@@ -244,7 +241,7 @@ impl Scheduler {
             sensors: Mutex::new(Vec::new()),
         });
         let mut core = Core::new(until, setup, observers);
-        core.runs = true;
+        core.chains = true;
         core.pass_on = Some(actors.clone() as Arc<dyn PassOn>);
         Self {
             core,

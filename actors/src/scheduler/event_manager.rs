@@ -7,7 +7,7 @@ use std::collections::VecDeque;
 
 use std::sync::Arc;
 
-use crate::host::{Deliver, PassOn, Reply, RUN};
+use crate::host::{Deliver, PassOn, Reply, CHAIN};
 use crate::world::event::{Effect, Event, FutureEvent, Notice, Payload, Target};
 use crate::world::observation::{Observation, Record};
 use crate::world::outbox::Outbox;
@@ -103,13 +103,9 @@ pub(crate) struct Core {
     /// Events for the end of the current instant ([`Outbox::at_instant_end`]), in the order
     /// they were scheduled.
     closing: VecDeque<Event>,
-    /// Whether deliveries carry runs ([`Deliver::then`]): the scheduler actor's do, the
-    /// kernel-alone reference's not (it has no hop to save).
-    pub(crate) runs: bool,
-    /// The time and slot of each event of the run in flight after its first.
-    run: smallvec::SmallVec<[(f64, u32); RUN]>,
-    /// The buffer for the next delivery's run (see `spare`).
-    spare_then: Vec<Event>,
+    /// Whether deliveries may take on events at once ([`Deliver::inline`]): the scheduler
+    /// actor's may, the kernel-alone reference's not (it has no hop to save).
+    pub(crate) chains: bool,
     /// Whether anything reads the robots' step records ([`Observers::summary_only`]).
     steps: bool,
     /// Where the hosts may pass deliveries on ([`Deliver::pass_on`]): the scheduler actor's
@@ -222,9 +218,7 @@ impl Core {
             spare: Vec::new(),
             ahead: Ahead::default(),
             closing: VecDeque::new(),
-            runs: false,
-            run: smallvec::SmallVec::new(),
-            spare_then: Vec::new(),
+            chains: false,
             steps: false,
             pass_on: None,
         };
@@ -258,45 +252,32 @@ impl Core {
         self.keep_spare(effects);
     }
 
-    /// Applies a delivery's reply ([`Reply`]): first the events of its run that were not
-    /// handled go back to the queue, as they were before the delivery took them; then each
-    /// handled event is taken in turn (as [`Core::next`] would have taken it: its time, its
-    /// number, the count) and its effects applied. Since each handled event was still the
-    /// next one after the effects before it, this is the order of delivering them one by one.
+    /// Applies a delivery's reply ([`Reply`]): each handled event is taken in turn (as
+    /// [`Core::next`] would have taken it: its time, its number, the count) and its effects
+    /// applied. Since each event taken on at once was the next one after the effects before
+    /// it, this is the order of delivering them one by one.
     pub(crate) fn apply_reply(&mut self, reply: Reply) {
         let Reply {
             mut effects,
             ends,
-            mut then,
-            inline,
+            inline: _,
             robots,
         } = reply;
         self.prefetch_cancelled(&effects);
         let handled = ends.len() - 1;
-        let from_run = handled - inline as usize;
-        assert_eq!(
-            from_run + then.len(),
-            self.run.len(),
-            "a run's events handled or handed back"
-        );
-        // The events taken on at once are at the instant of the last handled before them.
-        let instant = from_run.checked_sub(1).map_or(self.now, |i| self.run[i].0);
-        for (ev, &(_, slot)) in then.drain(..).rev().zip(self.run.iter().rev()) {
-            self.queue.put_back(ev, slot);
-        }
-        let time_of =
-            |run: &[(f64, u32)], j: usize| if j <= from_run { run[j - 1].0 } else { instant };
+        // The events taken on at once are at the instant of the delivered one.
+        let now = self.now;
         let mut j = 0;
         for (k, e) in effects.drain(..).enumerate() {
             while k as u32 >= ends[j] {
                 j += 1;
-                self.enter(time_of(&self.run, j));
+                self.enter(now);
             }
             self.apply_one(e);
         }
         while j < handled {
             j += 1;
-            self.enter(time_of(&self.run, j));
+            self.enter(now);
         }
         // The robots' events taken on count in the vote as if delivered one by one; the room
         // given ([`Core::inline_room`]) keeps the lead below the limit.
@@ -304,11 +285,7 @@ impl Core {
             let livelock = self.leads(r);
             debug_assert!(!livelock, "a chain stays below the lead limit");
         }
-        self.run.clear();
         self.keep_spare(effects);
-        if then.capacity() <= RUN {
-            self.spare_then = then;
-        }
     }
 
     /// In a large queue (as [`EventQueue::look_ahead`]), asks for the slots of the events that
@@ -359,76 +336,32 @@ impl Core {
         stop.is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed))
     }
 
-    /// Takes the events after the one just taken for `target` (`first`) that come next for
-    /// the same actor, up to a run of [`RUN`] ([`Deliver::then`]), each one that
-    /// [`Core::next`] would take and deliver there next: at `until` or before, for the same
-    /// actor, not past the livelock limit, no instant's end event pending (it could come
-    /// between them).
-    fn take_run(&mut self, target: Target) -> Vec<Event> {
-        let mut then = std::mem::take(&mut self.spare_then);
-        debug_assert!(then.is_empty() && self.run.is_empty());
-        // The sensor manager's events are mostly requests, each of which schedules its trigger
-        // for the manager itself at once: the trigger comes before any later request, so a run
-        // would end at its first event and hand the rest back. The manager takes its triggers
-        // with the request instead ([`Core::inline_room`]), which a run rules out.
-        if !self.runs
-            || !self.closing.is_empty()
-            || target == Target::SensorManager
-            || self.stopped()
-        {
-            return then;
-        }
-        let (mut t, mut at) = (self.now, self.at_instant);
-        let until = self.until;
-        while then.len() < RUN - 1 {
-            let Some((ev, slot)) = self.queue.pop_for(target, until) else {
-                break;
-            };
-            let n = if ev.time == t { at + 1 } else { 1 };
-            if n > self.instant_limit {
-                self.queue.put_back(ev, slot);
-                break;
-            }
-            (t, at) = (ev.time, n);
-            self.run.push((ev.time, slot));
-            then.push(ev);
-        }
-        then
-    }
-
-    /// How many events an actor may take on at once after the ones being delivered
+    /// How many events an actor may take on at once after the one being delivered
     /// ([`Deliver::inline`]), and where it may pass those for other actors on
-    /// ([`Deliver::pass_on`]): the events the handlings schedule at the instant of the last
-    /// one handled, which come next when nothing else is pending up to that instant (their
-    /// causes are the newest), so long as the instant's event limit allows them and no
-    /// instant's end event is pending. A manager may take on its own events after a delivery
-    /// with no run in any case. Runs, robots, their sensors and layers, and events passed on,
-    /// need more, as the scheduler watches robots for crashes and livelocks: no robot
-    /// crashed, and a lead in the robots' vote that the chain cannot bring to the limit.
-    fn inline_room(&mut self, target: Target, then: &[Event]) -> (u32, Option<Arc<dyn PassOn>>) {
+    /// ([`Deliver::pass_on`]): the events the handlings schedule at the instant, which come
+    /// next when nothing else is pending at that instant (their causes are the newest), so
+    /// long as the instant's event limit allows them and no instant's end event is pending. A
+    /// manager may take on its own events in any case. Robots, their sensors and layers, and
+    /// events passed on, need more, as the scheduler watches robots for crashes and
+    /// livelocks: no robot crashed, and a lead in the robots' vote that the chain cannot bring
+    /// to the limit.
+    fn inline_room(&mut self, target: Target) -> (u32, Option<Arc<dyn PassOn>>) {
         let manager = matches!(
             target,
             Target::MotionManager | Target::SensorManager | Target::Network
-        ) && then.is_empty();
-        let passing = self.crashed.is_empty() && self.leader.1 + 2 * (RUN as u64) < self.lead_limit;
-        let (mut t, mut at) = (self.now, self.at_instant);
-        for e in then {
-            (t, at) = if e.time == t {
-                (t, at + 1)
-            } else {
-                (e.time, 1)
-            };
-        }
+        );
+        let passing =
+            self.crashed.is_empty() && self.leader.1 + 2 * (CHAIN as u64) < self.lead_limit;
         if !(manager || passing)
-            || !self.runs
+            || !self.chains
             || !self.closing.is_empty()
             || self.stopped()
-            || self.queue.peek_time().is_some_and(|p| p <= t)
+            || self.queue.peek_time().is_some_and(|p| p <= self.now)
         {
             return (0, None);
         }
-        let left = self.instant_limit.saturating_sub(at);
-        let room = u32::try_from(left.min(RUN as u64 - 1)).expect("below RUN");
+        let left = self.instant_limit.saturating_sub(self.at_instant);
+        let room = u32::try_from(left.min(CHAIN as u64 - 1)).expect("below CHAIN");
         let pass_on = self.pass_on.clone().filter(|_| passing && room > 0);
         if pass_on.is_none() && !manager {
             return (0, None);
@@ -549,23 +482,19 @@ impl Core {
                 self.handle_inline(event);
                 continue;
             }
-            let then = self.take_run(target);
-            let look_ahead = self.queue.len() >= LOOK_AHEAD_FROM;
-            self.ahead = if look_ahead {
+            self.ahead = if self.queue.len() >= LOOK_AHEAD_FROM {
                 self.queue.look_ahead()
             } else {
                 Ahead::default()
             };
-            let (inline, pass_on) = self.inline_room(target, &then);
+            let (inline, pass_on) = self.inline_room(target);
             let deliver = Deliver {
                 now: self.now,
                 seq: self.seq,
                 event,
                 effects: std::mem::take(&mut self.spare),
                 reply: None,
-                then,
                 inline,
-                look_ahead,
                 steps: self.steps,
                 pass_on,
                 chain: None,

@@ -33,7 +33,7 @@ impl Outbox {
     /// An outbox as [`Outbox::new`] that collects into `effects` after what it holds: a
     /// buffer reused from an earlier handling (no allocation per event), or the effects of
     /// the events handled before this one in the same delivery
-    /// ([`crate::host::handle_run`]).
+    /// ([`crate::host::handle_delivery`]).
     pub fn reusing(now: f64, cause: u64, effects: Vec<Effect>) -> Self {
         Self {
             now,

@@ -240,45 +240,6 @@ impl EventQueue {
         None
     }
 
-    /// Takes the next pending event if it is for `target` and at `until` or before, with the
-    /// slot it was in ([`EventQueue::put_back`]); leaves it otherwise. The scheduler takes the
-    /// events after a delivered one this way to deliver them with it (a run, see
-    /// [`crate::host::Deliver::then`]).
-    pub fn pop_for(&mut self, target: Target, until: f64) -> Option<(Event, u32)> {
-        loop {
-            let e = *self.order.peek()?;
-            let id = Self::id_of(&e);
-            let Some((to, _)) = self.slots.route_where(e.slot, |x| x == id) else {
-                // Cancelled.
-                self.order.pop();
-                continue;
-            };
-            if key_time(e.key) > until || to != target {
-                return None;
-            }
-            self.order.pop();
-            let ev = self.take_pending(e.slot, id);
-            return Some((ev.expect("pending: its route was just read"), e.slot));
-        }
-    }
-
-    /// Puts back an event that [`EventQueue::pop_for`] took from `slot`, before any other
-    /// event was registered, cancelled or taken: events put back in the reverse order of their
-    /// taking leave the queue's order as it was (an unclaimed event may sit in another slot,
-    /// which decides nothing).
-    pub fn put_back(&mut self, ev: Event, slot: u32) {
-        let key = time_key(ev.time);
-        let id = ev.id;
-        let slot = if slot & CLAIMED != 0 {
-            self.slots.put_at(slot, ev);
-            slot
-        } else {
-            self.slots.put(ev)
-        };
-        let entry = self.counted(key, id, slot);
-        self.order.push_front(entry);
-    }
-
     /// Looks three events ahead, once an event is taken, in stages, so that no look reads
     /// memory it has not asked for an event before: asks for the slot of the third event to
     /// be brought into cache ([`super::prefetch`]), and returns the routes of the next two,
@@ -286,8 +247,9 @@ impl EventQueue {
     /// their handlings will read ([`Ahead`]). At a million robots every slot, every robot's
     /// state and every cell is a cache miss of its own. It takes nothing; the
     /// queue's order may move on to later instants early, which changes nothing of what it
-    /// gives. The scheduler takes a run of several events at once, after which the next two
-    /// may never have been third at a look; so the slots of the [`SLOTS_AHEAD`] events from
+    /// gives. A delivery may take several events at once (a chain, see
+    /// [`crate::host::Deliver::inline`]), after which the next two may never have been third
+    /// at a look; so the slots of the [`SLOTS_AHEAD`] events from
     /// the third on are asked for, not the third's alone.
     pub fn look_ahead(&mut self) -> Ahead {
         for n in 2..2 + SLOTS_AHEAD {

@@ -1,7 +1,7 @@
-//! The event manager's ordering, runs and look-ahead, against brute-force orders.
+//! The event manager's ordering, chains and look-ahead, against brute-force orders.
 use super::*;
 use crate::handler::HandleEvent;
-use crate::host::{handle_run, Handled, PassOn};
+use crate::host::{handle_delivery, Handled, PassOn};
 use crate::world::event::{EventClass, EventId};
 
 fn timer(robot: RobotId) -> Payload {
@@ -54,16 +54,15 @@ fn timers_core(n: usize) -> Core {
 }
 
 /// The core looks ahead only while the queue holds [`LOOK_AHEAD_FROM`] events or more,
-/// and then sees the routes of the next two events and tells the actor to look ahead in
-/// its run ([`Deliver::look_ahead`]).
+/// and then sees the routes of the next two events.
 #[test]
 fn the_core_looks_ahead_only_in_a_large_queue() {
     // One event taken leaves LOOK_AHEAD_FROM - 1 pending: no look.
     let mut small = timers_core(LOOK_AHEAD_FROM);
-    assert!(matches!(small.next(), Next::Deliver(Target::Robot(0), d) if !d.look_ahead));
+    assert!(matches!(small.next(), Next::Deliver(Target::Robot(0), _)));
     assert_eq!(small.ahead(), Ahead::default());
     let mut large = timers_core(LOOK_AHEAD_FROM + 1);
-    assert!(matches!(large.next(), Next::Deliver(Target::Robot(0), d) if d.look_ahead));
+    assert!(matches!(large.next(), Next::Deliver(Target::Robot(0), _)));
     let route = |r: RobotId| Some((Target::Robot(r), [r, crate::world::event::NO_ROBOT]));
     assert_eq!(large.ahead().next, route(1));
     assert_eq!(large.ahead().after, route(2));
@@ -293,9 +292,9 @@ impl PassOn for Everyone {
 enum Hosting {
     /// One event a delivery.
     OneByOne,
-    /// Runs, and a manager's own events taken on at once.
-    Runs,
-    /// Runs, and every event taken on at once, passed on to its actor where it is another's.
+    /// A manager's own events taken on at once.
+    TakeOn,
+    /// Every event taken on at once, passed on to its actor where it is another's.
     PassOn,
 }
 
@@ -317,7 +316,7 @@ fn scrambled(seed: u64, robots: RobotId, hosting: Hosting) -> Scrambled {
     }
     let mut core = Core::new(6.0, setup, Observers::default());
     core.set_instant_limit(10_000);
-    core.runs = hosting != Hosting::OneByOne;
+    core.chains = hosting != Hosting::OneByOne;
     if hosting == Hosting::PassOn {
         core.pass_on = Some(std::sync::Arc::new(Everyone));
     }
@@ -327,11 +326,11 @@ fn scrambled(seed: u64, robots: RobotId, hosting: Hosting) -> Scrambled {
         deliveries += 1;
         // One handler stands for every actor; the target of each event passed on is checked
         // in its handling, as it is the target's own.
-        let mut handled = handle_run(&mut actor, d);
+        let mut handled = handle_delivery(&mut actor, d);
         while let Handled::PassOn(target, d) = handled {
             assert_eq!(d.event.target, target);
             passed += 1;
-            handled = handle_run(&mut actor, d);
+            handled = handle_delivery(&mut actor, d);
         }
         core.apply_reply(replied(handled));
     }
@@ -346,17 +345,16 @@ fn scrambled(seed: u64, robots: RobotId, hosting: Hosting) -> Scrambled {
 }
 
 proptest::proptest! {
-    /// Deliveries that carry runs, or take on what a manager schedules for itself at its
-    /// instant, or pass on what the handlings schedule for others, take the same events in
-    /// the same order, with the same numbers, as deliveries of one event each, whatever the
-    /// handlings schedule, cancel or leave to the end of an instant; and they need fewer
-    /// deliveries.
+    /// Deliveries that take on what a manager schedules for itself at its instant, or pass
+    /// on what the handlings schedule for others, take the same events in the same order,
+    /// with the same numbers, as deliveries of one event each, whatever the handlings
+    /// schedule, cancel or leave to the end of an instant; and they need fewer deliveries.
     #[test]
-    fn runs_take_the_events_of_one_by_one_delivery(seed in proptest::prelude::any::<u64>(), robots in 1u32..4) {
+    fn chains_take_the_events_of_one_by_one_delivery(seed in proptest::prelude::any::<u64>(), robots in 1u32..4) {
         let (one, events, cancelled, singles, _) = scrambled(seed, robots, Hosting::OneByOne);
-        let (run, run_events, run_cancelled, deliveries, _) = scrambled(seed, robots, Hosting::Runs);
-        proptest::prop_assert_eq!(&run, &one);
-        proptest::prop_assert_eq!((run_events, run_cancelled), (events, cancelled));
+        let (own, own_events, own_cancelled, deliveries, _) = scrambled(seed, robots, Hosting::TakeOn);
+        proptest::prop_assert_eq!(&own, &one);
+        proptest::prop_assert_eq!((own_events, own_cancelled), (events, cancelled));
         proptest::prop_assert_eq!(singles, events);
         proptest::prop_assert!(deliveries <= singles);
         let (chain, chain_events, chain_cancelled, trips, _) = scrambled(seed, robots, Hosting::PassOn);
@@ -364,141 +362,6 @@ proptest::proptest! {
         proptest::prop_assert_eq!((chain_events, chain_cancelled), (events, cancelled));
         proptest::prop_assert!(trips <= deliveries);
     }
-}
-
-/// A run stops at the first of its events that the handlings before it cancelled, or that
-/// something they scheduled comes before; the rest go back to the queue and are taken
-/// after.
-#[test]
-fn a_run_stops_where_its_next_event_is_no_longer_next() {
-    // Robot 1's timers at 1, 2, 3, 4 and 5 s; robot 2's at 6 s. The handling at 1 s
-    // cancels the one at 4 s; the one at 2 s sets robot 2's timer for 2.5 s.
-    let mut setup = Outbox::new(0.0, 0);
-    let mut claims = crate::world::queue::Claims::default();
-    let mut handles = Vec::new();
-    for t in [1.0, 2.0, 3.0, 4.0, 5.0] {
-        handles.push(setup.schedule_in(
-            &mut claims,
-            t,
-            Target::Robot(1),
-            EventClass::Eventual,
-            [Some(1), None],
-            timer(1),
-        ));
-    }
-    setup.schedule(
-        6.0,
-        Target::Robot(2),
-        EventClass::Eventual,
-        [Some(2), None],
-        timer(2),
-    );
-    struct Actor(Vec<(f64, u64)>, crate::world::event::Handle);
-    impl HandleEvent for Actor {
-        fn handle_event(&mut self, _: Event, out: &mut Outbox) {
-            self.0.push((out.now(), out.cause()));
-            if out.now() == 1.0 {
-                out.cancel(self.1);
-            }
-            if out.now() == 2.0 {
-                out.schedule(
-                    2.5,
-                    Target::Robot(2),
-                    EventClass::Eventual,
-                    [Some(2), None],
-                    timer(2),
-                );
-            }
-        }
-    }
-    let mut core = Core::new(10.0, setup, Observers::default());
-    core.runs = true;
-    let mut actor = Actor(Vec::new(), handles[3]);
-    let mut handled = Vec::new();
-    while let Next::Deliver(_, d) = core.next() {
-        let then: Vec<f64> = d.then.iter().map(|e| e.time).collect();
-        let want: &[f64] = match d.now {
-            1.0 => &[2.0, 3.0, 4.0, 5.0],
-            3.0 => &[5.0],
-            _ => &[],
-        };
-        assert_eq!(then, want, "the run from {}", d.now);
-        let reply = replied(handle_run(&mut actor, d));
-        handled.push(reply.ends.len());
-        core.apply_reply(reply);
-    }
-    // The run from 1 s handles 1 and 2 s and stops at 3 s, which robot 2's timer at 2.5
-    // s now comes before; 3, 4 and 5 s go back. The run from 3 s no longer holds 4 s,
-    // which was cancelled.
-    assert_eq!(handled, [2, 1, 2, 1]);
-    assert_eq!(
-        actor.0,
-        [(1.0, 1), (2.0, 2), (2.5, 3), (3.0, 4), (5.0, 5), (6.0, 6)]
-    );
-    assert_eq!(core.finish().stats.cancelled, 1);
-}
-
-/// A delivery that says the scheduler looks ahead has its actor asked, before each
-/// handling of its run, for what the run's next two events will read; one that does not,
-/// never. What is handled is the same either way.
-#[test]
-fn a_run_asks_ahead_for_its_next_two_events_when_told_to() {
-    /// An ask: the last time handled before it, the next event's and the one after's.
-    type Ask = (f64, Option<f64>, Option<f64>);
-    #[derive(Default)]
-    struct Actor {
-        handled: Vec<f64>,
-        asked: std::cell::RefCell<Vec<Ask>>,
-    }
-    impl HandleEvent for Actor {
-        fn handle_event(&mut self, _: Event, out: &mut Outbox) {
-            self.handled.push(out.now());
-        }
-        fn look_ahead(&self, next: Option<&Event>, after: Option<&Event>) {
-            let last = self.handled.last().copied().unwrap_or(0.0);
-            let time = |e: Option<&Event>| e.map(|e| e.time);
-            self.asked
-                .borrow_mut()
-                .push((last, time(next), time(after)));
-        }
-    }
-    let run = |look_ahead: bool| {
-        let mut setup = Outbox::new(0.0, 0);
-        for t in [1.0, 2.0, 3.0, 4.0] {
-            setup.schedule(
-                t,
-                Target::Robot(1),
-                EventClass::Eventual,
-                [Some(1), None],
-                timer(1),
-            );
-        }
-        let mut core = Core::new(10.0, setup, Observers::default());
-        core.runs = true;
-        let Next::Deliver(_, mut d) = core.next() else {
-            panic!("a delivery");
-        };
-        assert_eq!(d.then.len(), 3, "the run of 1 s holds 2, 3 and 4 s");
-        d.look_ahead = look_ahead;
-        let mut actor = Actor::default();
-        let reply = replied(handle_run(&mut actor, d));
-        assert_eq!(reply.ends.len(), 4);
-        (actor.handled, actor.asked.into_inner())
-    };
-    let (handled, asked) = run(true);
-    assert_eq!(handled, [1.0, 2.0, 3.0, 4.0]);
-    // (the last time handled before the ask, next, after)
-    assert_eq!(
-        asked,
-        [
-            (0.0, Some(2.0), Some(3.0)),
-            (1.0, Some(3.0), Some(4.0)),
-            (2.0, Some(4.0), None)
-        ]
-    );
-    let (handled, asked) = run(false);
-    assert_eq!(handled, [1.0, 2.0, 3.0, 4.0]);
-    assert!(asked.is_empty());
 }
 
 /// In a queue large enough for the look-ahead, where a reply's cancellations are asked
@@ -649,7 +512,7 @@ fn a_manager_takes_on_what_it_schedules_for_itself_at_a_quiet_instant() {
             }
         }
     }
-    let run = |runs: bool| {
+    let run = |chains: bool| {
         let mut setup = Outbox::new(0.0, 0);
         for (t, r) in [(1.0, MANAGER), (2.0, 1), (2.0, MANAGER)] {
             let target = if r == MANAGER {
@@ -660,12 +523,12 @@ fn a_manager_takes_on_what_it_schedules_for_itself_at_a_quiet_instant() {
             setup.schedule(t, target, EventClass::Eventual, [Some(r), None], timer(r));
         }
         let mut core = Core::new(5.0, setup, Observers::default());
-        core.runs = runs;
+        core.chains = chains;
         let mut chain = Chain::default();
         let mut deliveries = Vec::new();
         while let Next::Deliver(_, d) = core.next() {
             deliveries.push((d.now, d.inline));
-            let reply = replied(handle_run(&mut chain, d));
+            let reply = replied(handle_delivery(&mut chain, d));
             core.apply_reply(reply);
         }
         (chain.log, core.finish().stats.events, deliveries)
@@ -699,15 +562,15 @@ impl HandleEvent for Idle {
 /// Over many scrambled runs, passing on saves round trips, and some chains are long.
 #[test]
 fn passing_on_saves_round_trips() {
-    let (mut runs, mut trips, mut passed) = (0, 0, 0);
+    let (mut own, mut trips, mut passed) = (0, 0, 0);
     for seed in 0..64 {
-        runs += scrambled(seed, 3, Hosting::Runs).3;
+        own += scrambled(seed, 3, Hosting::TakeOn).3;
         let (_, _, _, d, p) = scrambled(seed, 3, Hosting::PassOn);
         (trips, passed) = (trips + d, passed + p);
     }
     assert!(
-        passed > 0 && trips < runs,
-        "{trips} round trips against {runs}"
+        passed > 0 && trips < own,
+        "{trips} round trips against {own}"
     );
 }
 
@@ -735,19 +598,19 @@ fn no_passing_on_after_a_crash_or_near_a_livelock() {
             timer(1),
         );
         let mut core = Core::new(5.0, setup, Observers::default());
-        core.runs = true;
+        core.chains = true;
         core.pass_on = Some(std::sync::Arc::new(Everyone));
         core.set_lead_limit(lead_limit);
         // A crash has the motion manager stop the robot first.
         loop {
             match core.next() {
                 Next::Deliver(Target::Robot(1), d) => return (d.inline, d.pass_on.is_some()),
-                Next::Deliver(_, d) => core.apply_reply(replied(handle_run(&mut Idle, d))),
+                Next::Deliver(_, d) => core.apply_reply(replied(handle_delivery(&mut Idle, d))),
                 Next::Finish => panic!("robot 1's timer is delivered"),
             }
         }
     };
-    assert_eq!(first_delivery(false, LEAD_LIMIT), (RUN as u32 - 1, true));
+    assert_eq!(first_delivery(false, LEAD_LIMIT), (CHAIN as u32 - 1, true));
     assert_eq!(first_delivery(true, LEAD_LIMIT), (0, false));
-    assert_eq!(first_delivery(false, RUN as u64), (0, false));
+    assert_eq!(first_delivery(false, CHAIN as u64), (0, false));
 }
