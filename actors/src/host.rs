@@ -151,19 +151,21 @@ pub struct Replied(pub Result<Reply, NoReply>);
 /// the events the handlings schedule for the same actor at its instant, as long as each is
 /// the next event there is (see [`take_on`]). Given where deliveries may be passed on
 /// ([`Deliver::pass_on`]), it also takes on those for other actors: the first is passed on
-/// ([`Handled::PassOn`]), with the reply so far.
+/// ([`Handled::PassOn`]), with the reply so far. Where the reply goes is the host's business:
+/// it takes [`Deliver::reply`] out first.
 pub fn handle_delivery<H: HandleEvent + ?Sized>(handler: &mut H, msg: Deliver) -> Handled {
     let Deliver {
         now,
         seq,
         event,
         effects,
-        reply: reply_to,
+        reply,
         inline,
         steps,
         pass_on,
         chain,
     } = msg;
+    debug_assert!(reply.is_none(), "the host takes the reply out first");
     let own = event.target;
     let mut reply = chain.map_or_else(Reply::default, |c| *c);
     let effects = handle_one(handler, now, seq, event, effects, steps);
@@ -171,18 +173,16 @@ pub fn handle_delivery<H: HandleEvent + ?Sized>(handler: &mut H, msg: Deliver) -
     let onward = Onward {
         room: inline,
         steps,
-        reply_to,
         pass_on,
     };
     take_on(handler, onward, Instant { now, seq, own }, reply, effects)
 }
 
-/// What a delivery allows beyond its events: how many more may be taken on, where to, and
-/// where the reply goes (see [`Deliver`]).
+/// What a delivery allows beyond its events: how many more may be taken on, and where to (see
+/// [`Deliver`]).
 struct Onward {
     room: u32,
     steps: bool,
-    reply_to: Option<ReplyTo>,
     pass_on: Option<Arc<dyn PassOn>>,
 }
 
@@ -236,7 +236,7 @@ fn take_on<H: HandleEvent + ?Sized>(
                     seq,
                     event,
                     effects,
-                    reply: onward.reply_to.take(),
+                    reply: None,
                     inline: room,
                     steps,
                     pass_on: onward.pass_on.take(),
