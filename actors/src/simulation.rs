@@ -7,6 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use actix::prelude::*;
 
+use crate::handler::HandleEvent;
 use crate::host::{Host, Route};
 use crate::layer::LayerActor;
 use crate::motion_manager::MotionManager;
@@ -287,6 +288,20 @@ enum Teardown {
     Leave,
 }
 
+/// Starts the actor that `make` hosts on the arbiter of robot `id` among `arbiters` (a
+/// robot's own, its sensors' and its layers' share one): in place when it is the first, this
+/// thread's, the scheduler's, which then reaches it by a call; else on its own thread.
+fn start_for<H: HandleEvent + Unpin + 'static>(
+    arbiters: &[ArbiterHandle],
+    id: RobotId,
+    make: impl FnOnce() -> Host<H> + Send + 'static,
+) -> Route {
+    match id as usize % arbiters.len() {
+        0 => Route::start_here(make()),
+        k => Route::elsewhere(Host::start_in_arbiter(&arbiters[k], move |_| make()).recipient()),
+    }
+}
+
 fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError> {
     let mut p = Prepared::new(cfg)?;
     let count = p.robots.len();
@@ -321,14 +336,6 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
             })
         };
         let sensor_manager = Route::start_here(Host::new(SensorManager::new(world, p.sensing)));
-        // A robot's actors, the robot's, its sensors' and its layers', run on one arbiter;
-        // those of the first arbiter on this thread, the scheduler's.
-        let arbiters = p.arbiters;
-        let here = move |id: RobotId| id as usize % arbiters == 0;
-        let arbiter_of = {
-            let handles = handles.clone();
-            move |id: RobotId| handles[id as usize % handles.len()].clone()
-        };
         let layer_ids = p.layer_ids;
         // A stop while the robots spawn (the user's Ctrl-C) ends the spawning: the scheduler
         // then finishes before the first event.
@@ -349,16 +356,9 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                     }
                 }
                 let ids = layer_ids.clone();
-                if here(info.id) {
-                    Route::start_here(Host::new(RobotActor::new(info, algorithm, seed, ids)))
-                } else {
-                    Route::elsewhere(
-                        Host::start_in_arbiter(&arbiter_of(info.id), move |_| {
-                            Host::new(RobotActor::new(info, algorithm, seed, ids))
-                        })
-                        .recipient(),
-                    )
-                }
+                start_for(&handles, info.id, move || {
+                    Host::new(RobotActor::new(info, algorithm, seed, ids))
+                })
             })
             .collect();
         // Collected in place from the robots' settings (48 bytes each): 32 MB at a million
@@ -380,15 +380,9 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
                     .map(|(l, layer)| {
                         let wiring = wiring.clone();
                         let ix = l as nekosim_protocols::LayerIx;
-                        let host =
-                            move || Host::new(LayerActor::new(r, ix, layer, wiring, count as u32));
-                        if here(r) {
-                            Route::start_here(host())
-                        } else {
-                            Route::elsewhere(
-                                Host::start_in_arbiter(&arbiter_of(r), move |_| host()).recipient(),
-                            )
-                        }
+                        start_for(&handles, r, move || {
+                            Host::new(LayerActor::new(r, ix, layer, wiring, count as u32))
+                        })
                     })
                     .collect()
             })
@@ -402,14 +396,9 @@ fn run_hosted(cfg: SimConfig, teardown: Teardown) -> Result<RunOutput, SimError>
             layers,
             spawn_sensor: Box::new(move |robot, kind| {
                 let sensors = sensors.clone();
-                let host = move || Host::new(Sensor::new(robot, kind, seed, sensors));
-                if here(robot) {
-                    Route::start_here(host())
-                } else {
-                    Route::elsewhere(
-                        Host::start_in_arbiter(&arbiter_of(robot), move |_| host()).recipient(),
-                    )
-                }
+                start_for(&handles, robot, move || {
+                    Host::new(Sensor::new(robot, kind, seed, sensors))
+                })
             }),
             prefetch,
         };
