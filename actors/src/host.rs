@@ -77,15 +77,12 @@ pub const CHAIN: usize = 8;
 
 /// An actor's reply to a delivery: the effects of the events it handled, in order, and where
 /// each handling's effects end (`ends[0]` the delivered event's, `ends[1]` the first event
-/// taken on at once's, and so on).
+/// taken on at once's, and so on). The schedules of the events taken on are not among the
+/// effects.
 #[derive(Debug, Default)]
 pub struct Reply {
     pub effects: Vec<Effect>,
     pub ends: smallvec::SmallVec<[u32; CHAIN]>,
-    /// How many of the handled events, after the delivered one, were scheduled by the
-    /// handlings before them and taken on at once ([`Deliver::inline`]); their schedules are
-    /// not among the effects.
-    pub inline: u32,
     /// The robots whose events were among those taken on, in order (the scheduler counts
     /// each robot's deliveries at an instant).
     pub robots: smallvec::SmallVec<[RobotId; 2]>,
@@ -224,7 +221,6 @@ fn take_on<H: HandleEvent + ?Sized>(
         }
         seq += 1;
         room -= 1;
-        reply.inline += 1;
         if let Target::Robot(r) = target {
             reply.robots.push(r);
         }

@@ -260,7 +260,6 @@ impl Core {
         let Reply {
             mut effects,
             ends,
-            inline: _,
             robots,
         } = reply;
         self.prefetch_cancelled(&effects);
