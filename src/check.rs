@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 use nekosim_models::config::UNLIMITED_TIMERS;
 use nekosim_models::explain::{describe, explain};
 use nekosim_models::reason::reason;
-use nekosim_models::spill::{Spill, Spilled};
+use nekosim_models::spill::Spilled;
 use nekosim_models::temporal::StackFairness;
 use nekosim_models::{
     available_memory, build_in, run_watched, Budget, CheckModel, Discovery, Exploration,
@@ -34,12 +34,16 @@ use crate::scenario::{CheckNetwork, FaultSpec, Overrides, Registry, ScenarioErro
 mod budgets;
 pub mod lcm;
 pub mod lcm_search;
+mod reduction;
 mod temporal;
 mod trace;
 
 pub use budgets::{
-    default_spill_parent, duration_text, fresh_spill_dir, parse_duration, remove_spills,
+    default_spill_parent, duration_text, fresh_spill_dir, parse_duration, parse_size, parse_timers,
+    remove_spills, size_text,
 };
+use reduction::compare_reduction;
+pub use reduction::{reduction_in_effect, Reduction};
 pub use trace::{trace_lines, CheckEvent, CheckRecord};
 use trace::{write_recording, write_trace};
 
@@ -349,194 +353,6 @@ pub fn resolve(args: &CheckArgs, registry: &Registry) -> Result<Resolved, CheckE
         target,
         options,
     })
-}
-
-/// The reduction a check applies (docs/model-checking.md), by network: on an ordered one,
-/// or one that reorders into layers that hold early arrivals back (each link is then
-/// explored in send order), partial-order reduction; on one that reorders or loses messages
-/// otherwise, where no smaller set of steps is enough (any process's step may send a message
-/// that another takes first), forgetting spent messages.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Reduction {
-    PartialOrder,
-    /// Links in send order, then partial-order reduction.
-    PartialOrderInSendOrder,
-    /// Links in send order alone (a strategy or depth bound without the persistent sets).
-    InSendOrder,
-    SpentMessages,
-}
-
-impl Reduction {
-    /// Its name in the report.
-    pub fn label(self) -> &'static str {
-        match self {
-            Reduction::PartialOrder => "partial-order reduction",
-            Reduction::PartialOrderInSendOrder => {
-                "partial-order reduction with links in send order"
-            }
-            Reduction::InSendOrder => "links in send order",
-            Reduction::SpentMessages => "forgetting spent messages",
-        }
-    }
-}
-
-/// The reduction that takes effect in a check, or why none does: both need the
-/// breadth-first search, and partial-order reduction no depth bound. Links in send order
-/// (`in_send_order`, decided when the model is built) hold for every search.
-pub fn reduction_in_effect(
-    opts: &Options,
-    args: &CheckArgs,
-    in_send_order: bool,
-) -> Result<Reduction, &'static str> {
-    let bfs = args.strategy == Strategy::Bfs;
-    if !opts.reduction {
-        Err("turned off")
-    } else if in_send_order && bfs && args.depth.is_none() {
-        Ok(Reduction::PartialOrderInSendOrder)
-    } else if in_send_order {
-        Ok(Reduction::InSendOrder)
-    } else if !bfs {
-        Err("bfs only")
-    } else if opts.network != NetworkKind::Ordered {
-        Ok(Reduction::SpentMessages)
-    } else if args.depth.is_some() {
-        Err("not with a depth bound")
-    } else {
-        Ok(Reduction::PartialOrder)
-    }
-}
-
-/// Searches the model again without its reduction and prints both counts, or why no
-/// reduction took effect.
-fn compare_reduction(
-    out: &mut dyn Write,
-    protocols: &nekosim_protocols::Protocols,
-    (target, opts, args): (&Target, &Options, &CheckArgs),
-    (how, live): (Exploration, &Live),
-    (with, with_model_in_send_order): (&nekosim_models::Outcome, bool),
-) -> Result<(), CheckError> {
-    /// Ctrl-C stops the second search as it stops the first.
-    struct Interrupt<'a>(&'a Live);
-    impl Watch for Interrupt<'_> {
-        fn interrupted(&self) -> bool {
-            self.0
-                .interrupt
-                .as_ref()
-                .is_some_and(|i| i.load(Ordering::Relaxed))
-        }
-    }
-    let reduction = match reduction_in_effect(opts, args, with_model_in_send_order) {
-        Ok(r) => r.label(),
-        Err(why) => {
-            let _ = writeln!(out, "reduction: not in effect ({why})");
-            return Ok(());
-        }
-    };
-    let plain = Options {
-        reduction: false,
-        ..opts.clone()
-    };
-    let start = Instant::now();
-    let model = build_in(protocols, target, &plain, |_, _| {})?;
-    let how = Exploration {
-        spill: how.spill.map(|s| Spill {
-            dir: fresh_spill_dir(s.dir.parent().unwrap_or(Path::new("."))),
-            ..s
-        }),
-        ..how
-    };
-    let without = run_watched(model, how, &mut Interrupt(live));
-    let settled = |o: &nekosim_models::Outcome| {
-        if o.stopped.is_some() {
-            ", stopped by its budget"
-        } else {
-            ""
-        }
-    };
-    let _ = writeln!(
-        out,
-        "without {reduction}: states: {}, unique states: {}, depth: {}, seconds: {:.3}{}",
-        without.states,
-        without.unique_states,
-        without.max_depth,
-        start.elapsed().as_secs_f64(),
-        settled(&without),
-    );
-    let _ = writeln!(
-        out,
-        "{reduction}: {} unique states instead of {} ({:.2}x fewer){}",
-        with.unique_states,
-        without.unique_states,
-        without.unique_states as f64 / with.unique_states.max(1) as f64,
-        settled(with),
-    );
-    Ok(())
-}
-
-/// `bytes` in the largest binary unit that keeps it at least 1.
-pub fn size_text(bytes: u64) -> String {
-    let units = ["B", "KiB", "MiB", "GiB", "TiB"];
-    let mut v = bytes as f64;
-    let mut u = 0;
-    while v >= 1024.0 && u + 1 < units.len() {
-        v /= 1024.0;
-        u += 1;
-    }
-    if u == 0 {
-        format!("{bytes} B")
-    } else {
-        format!("{v:.1} {}", units[u])
-    }
-}
-
-/// Parses a timer budget: a number of firings per process, or `unlimited`.
-pub fn parse_timers(text: &str) -> Result<u32, String> {
-    match text.trim() {
-        "unlimited" => Ok(UNLIMITED_TIMERS),
-        t => t
-            .parse::<u32>()
-            .ok()
-            .filter(|&n| n != UNLIMITED_TIMERS)
-            .ok_or_else(|| {
-                format!("{text:?} is not a timer budget; expected a number of firings or unlimited")
-            }),
-    }
-}
-
-/// Parses a memory size: a number of bytes with an optional unit, binary (`KiB`, `MiB`,
-/// `GiB`, `TiB`) or decimal (`kB`, `MB`, `GB`, `TB`), e.g. `512MiB` or `4GiB`.
-pub fn parse_size(text: &str) -> Result<u64, String> {
-    let t = text.trim();
-    let split = t
-        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
-        .unwrap_or(t.len());
-    let (num, unit) = t.split_at(split);
-    let factor: f64 = match unit.trim() {
-        "" | "B" => 1.0,
-        "KiB" => 1024.0,
-        "MiB" => 1024.0 * 1024.0,
-        "GiB" => 1024.0 * 1024.0 * 1024.0,
-        "TiB" => 1024.0 * 1024.0 * 1024.0 * 1024.0,
-        "kB" | "KB" => 1e3,
-        "MB" => 1e6,
-        "GB" => 1e9,
-        "TB" => 1e12,
-        other => {
-            return Err(format!(
-                "unknown unit {other:?} in {text:?}; expected e.g. 512MiB or 4GiB"
-            ))
-        }
-    };
-    let n: f64 = num
-        .parse()
-        .map_err(|_| format!("{text:?} is not a size; expected e.g. 512MiB or 4GiB"))?;
-    let bytes = n * factor;
-    if !(bytes >= 1.0 && bytes.is_finite()) {
-        return Err(format!(
-            "{text:?} is not a size; expected e.g. 512MiB or 4GiB"
-        ));
-    }
-    Ok(bytes as u64)
 }
 
 /// Runs a check and prints its report on `out`.

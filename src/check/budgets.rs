@@ -1,6 +1,7 @@
-//! The command line's side of a stack check's disk and time budgets: where a breadth-first
-//! search spills ([`nekosim_models::spill`]; a directory of its own per search, and the
-//! cleanup for a process that ends at once), and durations as `--max-time` reads them.
+//! The command line's side of a stack check's budgets: where a breadth-first search spills
+//! ([`nekosim_models::spill`]; a directory of its own per search, and the cleanup for a
+//! process that ends at once), and durations, sizes and timer firings as `--max-time`,
+//! `--max-memory` and `--timers` read them.
 
 use std::io;
 use std::path::{Path, PathBuf};
@@ -10,7 +11,9 @@ use std::time::Duration;
 use nekosim_models::spill::{Spill, Spilled};
 use nekosim_models::Strategy;
 
-use super::{size_text, CheckArgs, CheckError};
+use nekosim_models::config::UNLIMITED_TIMERS;
+
+use super::{CheckArgs, CheckError};
 
 /// How the search of `args` spills: `None` when it does not (`--no-spill`, or a search other
 /// than breadth-first) and stops at the memory budget. A parent that is not a directory is
@@ -167,4 +170,70 @@ pub fn remove_spills(parent: &Path) {
             let _ = std::fs::remove_dir_all(e.path());
         }
     }
+}
+
+/// `bytes` in the largest binary unit that keeps it at least 1.
+pub fn size_text(bytes: u64) -> String {
+    let units = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = bytes as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < units.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{v:.1} {}", units[u])
+    }
+}
+
+/// Parses a timer budget: a number of firings per process, or `unlimited`.
+pub fn parse_timers(text: &str) -> Result<u32, String> {
+    match text.trim() {
+        "unlimited" => Ok(UNLIMITED_TIMERS),
+        t => t
+            .parse::<u32>()
+            .ok()
+            .filter(|&n| n != UNLIMITED_TIMERS)
+            .ok_or_else(|| {
+                format!("{text:?} is not a timer budget; expected a number of firings or unlimited")
+            }),
+    }
+}
+
+/// Parses a memory size: a number of bytes with an optional unit, binary (`KiB`, `MiB`,
+/// `GiB`, `TiB`) or decimal (`kB`, `MB`, `GB`, `TB`), e.g. `512MiB` or `4GiB`.
+pub fn parse_size(text: &str) -> Result<u64, String> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let factor: f64 = match unit.trim() {
+        "" | "B" => 1.0,
+        "KiB" => 1024.0,
+        "MiB" => 1024.0 * 1024.0,
+        "GiB" => 1024.0 * 1024.0 * 1024.0,
+        "TiB" => 1024.0 * 1024.0 * 1024.0 * 1024.0,
+        "kB" | "KB" => 1e3,
+        "MB" => 1e6,
+        "GB" => 1e9,
+        "TB" => 1e12,
+        other => {
+            return Err(format!(
+                "unknown unit {other:?} in {text:?}; expected e.g. 512MiB or 4GiB"
+            ))
+        }
+    };
+    let n: f64 = num
+        .parse()
+        .map_err(|_| format!("{text:?} is not a size; expected e.g. 512MiB or 4GiB"))?;
+    let bytes = n * factor;
+    if !(bytes >= 1.0 && bytes.is_finite()) {
+        return Err(format!(
+            "{text:?} is not a size; expected e.g. 512MiB or 4GiB"
+        ));
+    }
+    Ok(bytes as u64)
 }

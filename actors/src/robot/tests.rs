@@ -1,6 +1,6 @@
 //! A robot's handling: its buffers, its random stream and what it asks for.
 use super::*;
-use crate::world::event::{Effect, Event, EventId, NO_ROBOT};
+use crate::world::event::{Effect, Event, EventClass, EventId, Payload, Target, NO_ROBOT};
 use rand::{Rng, RngCore};
 
 /// Sleeps one second at a time, forever.
