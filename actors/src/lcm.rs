@@ -34,6 +34,7 @@ pub mod settings;
 pub mod view;
 
 pub use frame::Frame;
+pub use look::Register;
 pub use runtime::{Lcm, LcmConfigured};
-pub use settings::{LcmSettings, Movement, Register, Synchrony};
+pub use settings::{LcmSettings, Movement, Synchrony};
 pub use view::{Decision, Light, LightState, LookComputeMove, Multiplicity, Seen, View};

@@ -23,9 +23,21 @@ use nekosim_protocols::{
 };
 use stateright::actor::{model_timeout, Actor, ActorModelState, Id, Out};
 
+/// A timer budget (the check options' `timer_budget`) that never runs out: firings are not
+/// counted, so a process whose timer keeps firing can come back to a state it was in (a
+/// liveness check needs those cycles). To keep the space finite, a state with two copies of one message
+/// in flight is then outside the model: a timer that would send a second copy waits until the
+/// first is delivered or lost.
+pub const UNLIMITED_TIMERS: u32 = u32::MAX;
+
 /// A state of a model: every process's [`ProcessState`], timers and crash flag, and the
 /// messages in flight.
 pub type State = ActorModelState<ProcessActor, ()>;
+
+/// The processes of `s` that have not crashed, by index.
+pub(crate) fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
+    (0..s.actor_states.len()).filter(|&i| !s.crashed[i])
+}
 
 /// A message between processes: `msg` travels from a layer to the same layer (`layer`) of the
 /// destination.
@@ -427,7 +439,7 @@ impl ProcessActor {
                 }
                 let s = state.to_mut();
                 // Unlimited firings are not counted, so a timer loop can close a cycle.
-                if self.shared.timer_budget != crate::config::UNLIMITED_TIMERS {
+                if self.shared.timer_budget != UNLIMITED_TIMERS {
                     s.fired += 1;
                 }
                 log.push(Happening::Timer {

@@ -19,12 +19,7 @@ pub type CheckModel = ActorModel<ProcessActor, ModelCfg, ()>;
 /// One step of a model.
 pub type Action = ActorModelAction<NetMsg, ModelTimer, ()>;
 
-/// A timer budget ([`Options::timer_budget`]) that never runs out: firings are not counted,
-/// so a process whose timer keeps firing can come back to a state it was in (a liveness
-/// check needs those cycles). To keep the space finite, a state with two copies of one message
-/// in flight is then outside the model: a timer that would send a second copy waits until the
-/// first is delivered or lost.
-pub const UNLIMITED_TIMERS: u32 = u32::MAX;
+pub use crate::adapter::UNLIMITED_TIMERS;
 
 /// How the network treats messages between processes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -121,7 +116,7 @@ pub struct ModelCfg {
     /// it looks through ([`Rounds::Carried`]).
     pub round_layers: Vec<Option<Layer>>,
     /// Set when a budget ran out: from then on no new state is inside the model, so the
-    /// search drains what it holds and ends (see [`crate::model::Budget`]).
+    /// search drains what it holds and ends (see [`crate::budget::Budget`]).
     pub stop: Arc<AtomicBool>,
     /// The properties the stack's protocols state themselves ([`Protocols::invariant`],
     /// [`Protocols::reachable`]).

@@ -26,6 +26,7 @@
 //! See docs/model-checking.md for what is checked and under which assumptions.
 
 pub mod adapter;
+pub mod budget;
 pub mod compact;
 pub mod config;
 pub mod explain;
@@ -42,11 +43,11 @@ pub mod symmetry;
 pub mod temporal;
 
 pub use adapter::State;
+pub use budget::{Budget, Stopped};
 pub use config::{CheckModel, NetworkKind, Options};
 pub use family::Family;
 pub use model::{
-    available_memory, build, build_in, resident_memory, run, run_watched, Budget, Discovery,
-    Exploration, ModelError, Outcome, Progress, Stopped, Strategy, Target, Verdict, Watch,
-    SIMULATION_STATES,
+    available_memory, build, build_in, resident_memory, run, run_watched, Discovery, Exploration,
+    ModelError, Outcome, Progress, Strategy, Target, Verdict, Watch, SIMULATION_STATES,
 };
 pub use registry::{find, ModelDef, MODELS};

@@ -15,6 +15,7 @@ use stateright::actor::{ActorModel, LossyNetwork, Network};
 use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChooser};
 
 use crate::adapter::{ClientRequest, NetMsg, ProcessActor, ProcessState, Shared, State};
+use crate::budget::{Budget, Stopped, MEMORY_HEADROOM};
 use crate::compact::{self, CompactBfs};
 use crate::config::{
     Action, CheckModel, Condition, ModelCfg, NetworkKind, Options, UNLIMITED_TIMERS,
@@ -545,34 +546,6 @@ pub enum Strategy {
     Simulation { seed: u64 },
 }
 
-/// Resources a search may use. When one runs out, the search stops cleanly with what it has
-/// settled ([`Outcome::stopped`]); it never grows past the memory budget.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub struct Budget {
-    /// Unique states (states visited, for a simulation).
-    pub max_states: Option<usize>,
-    /// Resident memory of this process, in bytes (Linux: `VmRSS`); the search stops a little
-    /// below it ([`MEMORY_HEADROOM`]), so the peak stays under it.
-    pub max_memory: Option<u64>,
-}
-
-/// What ended a search before it was exhaustive.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Stopped {
-    /// The state budget; the unique states (or simulated states) reached.
-    States { limit: usize },
-    /// The memory budget; the resident bytes seen when it ran out.
-    Memory { limit: u64, seen: u64 },
-    /// The watcher asked it to stop ([`Watch::interrupted`]: Ctrl-C).
-    Interrupted,
-    /// The time budget the watcher keeps ([`Watch::out_of_time`]).
-    Time { limit: Duration },
-    /// The disk budget of spilling ([`Spill::max_disk`]) \[bytes\].
-    Disk { limit: u64 },
-    /// A spill file could not be written or read ([`crate::spill`]).
-    DiskError { kind: std::io::ErrorKind },
-}
-
 /// Where a search stands, as a watcher sees it while it runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Progress {
@@ -660,10 +633,6 @@ impl Default for Exploration {
 /// States a simulation visits when no state budget is given: random walks never finish on
 /// their own while an `always` property holds.
 pub const SIMULATION_STATES: usize = 1_000_000;
-
-/// A memory budget stops the search at `1 - 1/MEMORY_HEADROOM` of its size (64 MiB below
-/// 4 GiB), so that the peak stays under it.
-pub const MEMORY_HEADROOM: u64 = 64;
 
 /// This process's resident memory in bytes (`VmRSS` of /proc/self/status), where readable.
 pub fn resident_memory() -> Option<u64> {

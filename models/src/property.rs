@@ -23,7 +23,7 @@ use std::collections::BTreeSet;
 use nekosim_protocols::{MsgId, Payload, Pid, Request};
 use stateright::Expectation;
 
-use crate::adapter::{ProcessState, State};
+use crate::adapter::{live, ProcessState, State};
 use crate::config::{CheckModel, Condition, ModelCfg, NetworkKind, Options, Undo};
 use crate::family::Family;
 use crate::rest::at_rest;
@@ -241,10 +241,6 @@ fn trust_forgotten(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
 /// The last leader is read.
 fn leader_changed(_: &ModelCfg, b: &ProcessState, a: &ProcessState) -> bool {
     a.leader != b.leader
-}
-
-pub(crate) fn live(s: &State) -> impl Iterator<Item = usize> + '_ {
-    (0..s.actor_states.len()).filter(|&i| !s.crashed[i])
 }
 
 /// The global index of the broadcast `id` (process `p`'s `i`-th request is request

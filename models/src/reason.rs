@@ -9,11 +9,11 @@ use nekosim_protocols::codec::with_codecs;
 use nekosim_protocols::{Indication, MsgId, Payload, Pid, Request};
 use stateright::Path;
 
-use crate::adapter::{Happening, State};
+use crate::adapter::{live, Happening, State};
 use crate::config::{Action, CheckModel};
 use crate::explain::{explain, Event};
 use crate::family::Family;
-use crate::property::{has_issued, live, request_of, sent};
+use crate::property::{has_issued, request_of, sent};
 use crate::rest::at_rest;
 
 /// What is wrong in the last state of `path`, a counterexample of the property `name`;

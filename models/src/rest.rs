@@ -12,9 +12,8 @@ use std::sync::Arc;
 
 use stateright::actor::{Id, Network, Out};
 
-use crate::adapter::{ModelTimer, NetMsg, ProcessState, Shared, State};
+use crate::adapter::{live, ModelTimer, NetMsg, ProcessState, Shared, State};
 use crate::config::CheckModel;
-use crate::property::live;
 
 /// Nothing is left to happen: no client request or staged send pending, no protocol timer
 /// that a live process may still fire, no delivery to a live process that would change

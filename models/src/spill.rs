@@ -34,7 +34,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Mutex, OnceLock, RwLock};
 
-use crate::model::Stopped;
+use crate::budget::Stopped;
 
 /// Where and when a breadth-first search spills to disk.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -67,7 +67,7 @@ pub struct Spilled {
 }
 
 /// A memory budget asks for a spill at `1 - 1/SPILL_HEADROOM` of its size, well below the
-/// line where it stops the search ([`crate::model::MEMORY_HEADROOM`]): what memory gains
+/// line where it stops the search ([`crate::budget::MEMORY_HEADROOM`]): what memory gains
 /// until the spill is made and the spill's own buffers fit between the two.
 pub const SPILL_HEADROOM: u64 = 4;
 

@@ -51,7 +51,7 @@ use stateright::{Model, Path};
 
 #[cfg(doc)]
 use crate::adapter::ProcessState;
-use crate::adapter::{ModelTimer, NetMsg, ProcessActor, State};
+use crate::adapter::{live, ModelTimer, NetMsg, ProcessActor, State};
 use crate::compact::{Packer, Unpacked};
 use crate::config::{Action, CheckModel, NetworkKind, UNLIMITED_TIMERS};
 use crate::family::Family;
@@ -59,7 +59,7 @@ use crate::liveness::{
     explore, Actors, Exceeded, Graph, Lasso, Limits, Liveness, Strength, Task, TransitionSystem,
     Verdict,
 };
-use crate::property::{all_received, decided_all, live, suspects};
+use crate::property::{all_received, decided_all, suspects};
 
 mod reason;
 pub use reason::reason;

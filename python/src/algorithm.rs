@@ -26,6 +26,10 @@ use serde::Deserialize;
 /// The name the host is registered under (never a name a user's scenario uses).
 pub const HOST_NAME: &str = "PythonAlgorithm";
 
+/// The name the host of seed-style robot algorithms is registered under (never a name a
+/// user's scenario uses).
+pub const ROBOT_HOST_NAME: &str = "PythonRobot";
+
 /// The Python algorithms of one run, and what a failing `compute` leaves for the caller.
 #[derive(Debug, Clone)]
 pub struct Hosted {
@@ -107,11 +111,7 @@ impl Hosted {
                     .hasattr("compute")
                     .unwrap_or(false)
             });
-            let host = if lcm {
-                HOST_NAME
-            } else {
-                crate::robot::ROBOT_HOST_NAME
-            };
+            let host = if lcm { HOST_NAME } else { ROBOT_HOST_NAME };
             *spec = Spec::new(&format!("{host}(slot: {slot}, config: {config})"));
         }
     }

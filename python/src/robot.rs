@@ -30,9 +30,6 @@ use pyo3::types::PyType;
 
 use crate::algorithm::{kwargs, HostConfig, Hosted};
 
-/// The name the host is registered under (never a name a user's scenario uses).
-pub const ROBOT_HOST_NAME: &str = "PythonRobot";
-
 pyo3::create_exception!(
     nekosim,
     RunEnded,

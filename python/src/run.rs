@@ -22,9 +22,9 @@ use nekosim::world::observation::{Observation, Record};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::algorithm::{Hosted, PyLcm, HOST_NAME};
+use crate::algorithm::{Hosted, PyLcm, HOST_NAME, ROBOT_HOST_NAME};
 use crate::columns::ArrowBatch;
-use crate::robot::{PyRobot, ROBOT_HOST_NAME};
+use crate::robot::PyRobot;
 
 /// A robot's kinematic state from `t` on: `pos + vel (t' - t)`.
 #[derive(Clone, Copy, Debug)]

@@ -8,7 +8,6 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::settings::Register;
 use super::view::{Light, LightState};
 use crate::world::geometry::Point;
 use crate::world::sensor::{Reach, SensorModel, WorldView};
@@ -35,6 +34,18 @@ pub struct Sighting {
     pub robot: RobotId,
     pub at: Point,
     pub light: Option<LightState>,
+}
+
+/// What a Look reads from a light being written (during its robot's Compute).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Register {
+    /// The colour shown before the write.
+    #[default]
+    Atomic,
+    /// The old colour or the new one.
+    Regular,
+    /// Any colour of the palette.
+    Safe,
 }
 
 /// One robot as the Look returns it.

@@ -9,6 +9,7 @@ use std::sync::{Arc, OnceLock};
 use serde::{Deserialize, Serialize};
 
 use super::frame::Frames;
+pub use super::look::Register;
 use crate::world::RobotId;
 
 /// Which robots the adversary activates and how their phases may interleave
@@ -53,18 +54,6 @@ pub enum Movement {
     /// The adversary may stop the robot anywhere once it has moved `delta` [units], or at
     /// its destination if that is closer.
     NonRigid { delta: f64 },
-}
-
-/// What a Look reads from a light being written (during its robot's Compute).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Register {
-    /// The colour shown before the write.
-    #[default]
-    Atomic,
-    /// The old colour or the new one.
-    Regular,
-    /// Any colour of the palette.
-    Safe,
 }
 
 /// Who sees a robot's light (Das et al. 2016; Flocchini et al.'s "internal" and "external"

@@ -5,10 +5,10 @@ use nekosim_protocols::codec::with_codecs;
 use nekosim_protocols::{Pid, Request};
 
 use super::{Decision, StackFairness};
-use crate::adapter::State;
+use crate::adapter::{live, State};
 use crate::config::{Action, CheckModel};
 use crate::liveness::{Lasso, Liveness};
-use crate::property::{decided_all, has_issued, live, suspects};
+use crate::property::{decided_all, has_issued, suspects};
 
 /// Why a lasso violates its property, in the property's terms: what is missing, read in a
 /// state of the cycle where the predicate is false (the entry, for `eventually`), and why the
