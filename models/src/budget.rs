@@ -1,5 +1,6 @@
 //! A search's budgets (states, memory; a spilling search's disk, and the watcher's time and
-//! Ctrl-C) and what ended a search that one of them stopped before it was exhaustive.
+//! Ctrl-C), what ended a search that one of them stopped before it was exhaustive, and the
+//! memory a memory budget is measured against (this process's, the machine's).
 
 use std::time::Duration;
 
@@ -37,3 +38,31 @@ pub enum Stopped {
 /// A memory budget stops the search at `1 - 1/MEMORY_HEADROOM` of its size (64 MiB below
 /// 4 GiB), so that the peak stays under it.
 pub const MEMORY_HEADROOM: u64 = 64;
+
+/// This process's resident memory in bytes (`VmRSS` of /proc/self/status), where readable.
+pub fn resident_memory() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    kib_field(&status, "VmRSS:")
+}
+
+/// The memory this process may use: the machine's (`MemTotal`), or the cgroup's limit when
+/// lower (a container's `memory.max`).
+pub fn available_memory() -> Option<u64> {
+    let total = kib_field(&std::fs::read_to_string("/proc/meminfo").ok()?, "MemTotal:")?;
+    let cgroup = std::fs::read_to_string("/sys/fs/cgroup/memory.max")
+        .ok()
+        .and_then(|s| s.trim().parse::<u64>().ok());
+    Some(cgroup.map_or(total, |c| c.min(total)))
+}
+
+/// A `KEY: N kB` line of a /proc file, in bytes.
+fn kib_field(text: &str, key: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with(key))?;
+    let kib: u64 = line[key.len()..]
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
+    Some(kib * 1024)
+}

@@ -43,11 +43,11 @@ pub mod symmetry;
 pub mod temporal;
 
 pub use adapter::State;
-pub use budget::{Budget, Stopped};
+pub use budget::{available_memory, resident_memory, Budget, Stopped};
 pub use config::{CheckModel, NetworkKind, Options};
 pub use family::Family;
 pub use model::{
-    available_memory, build, build_in, resident_memory, run, run_watched, Discovery, Exploration,
-    ModelError, Outcome, Progress, Strategy, Target, Verdict, Watch, SIMULATION_STATES,
+    build, build_in, run, run_watched, Discovery, Exploration, ModelError, Outcome, Progress,
+    Strategy, Target, Verdict, Watch, SIMULATION_STATES,
 };
 pub use registry::{find, ModelDef, MODELS};

@@ -15,7 +15,7 @@ use stateright::actor::{ActorModel, LossyNetwork, Network};
 use stateright::{Checker, Expectation, HasDiscoveries, Model, Path, UniformChooser};
 
 use crate::adapter::{ClientRequest, NetMsg, ProcessActor, ProcessState, Shared, State};
-use crate::budget::{Budget, Stopped, MEMORY_HEADROOM};
+use crate::budget::{resident_memory, Budget, Stopped, MEMORY_HEADROOM};
 use crate::compact::{self, CompactBfs};
 use crate::config::{
     Action, CheckModel, Condition, ModelCfg, NetworkKind, Options, UNLIMITED_TIMERS,
@@ -633,34 +633,6 @@ impl Default for Exploration {
 /// States a simulation visits when no state budget is given: random walks never finish on
 /// their own while an `always` property holds.
 pub const SIMULATION_STATES: usize = 1_000_000;
-
-/// This process's resident memory in bytes (`VmRSS` of /proc/self/status), where readable.
-pub fn resident_memory() -> Option<u64> {
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    kib_field(&status, "VmRSS:")
-}
-
-/// The memory this process may use: the machine's (`MemTotal`), or the cgroup's limit when
-/// lower (a container's `memory.max`).
-pub fn available_memory() -> Option<u64> {
-    let total = kib_field(&std::fs::read_to_string("/proc/meminfo").ok()?, "MemTotal:")?;
-    let cgroup = std::fs::read_to_string("/sys/fs/cgroup/memory.max")
-        .ok()
-        .and_then(|s| s.trim().parse::<u64>().ok());
-    Some(cgroup.map_or(total, |c| c.min(total)))
-}
-
-/// A `KEY: N kB` line of a /proc file, in bytes.
-fn kib_field(text: &str, key: &str) -> Option<u64> {
-    let line = text.lines().find(|l| l.starts_with(key))?;
-    let kib: u64 = line[key.len()..]
-        .trim()
-        .trim_end_matches("kB")
-        .trim()
-        .parse()
-        .ok()?;
-    Some(kib * 1024)
-}
 
 /// Explores `model` with the strategy, threads, depth and budget of `how`. Breadth-first on
 /// one thread, each counterexample is a shortest one.
