@@ -168,91 +168,55 @@ pub(super) fn check(options: CheckOptions, registry: &Registry) -> Result<u8, Fa
         print!("{}", check::list());
         return Ok(0);
     }
-    let CheckOptions {
-        model,
-        layer,
-        processes,
-        requests,
-        crashes,
-        network,
-        strategy,
-        seed,
-        max_states,
-        max_memory,
-        spill_dir,
-        no_spill,
-        max_disk,
-        spill_after,
-        max_time,
-        depth,
-        threads,
-        trace,
-        rrd,
-        timers,
-        rounds,
-        symmetry,
-        no_reduction,
-        compare_reduction,
-        keep_going,
-        no_liveness,
-        quiet,
-        synchrony,
-        movement,
-        register,
-        fairness,
-        property,
-        goals,
-        ..
-    } = options;
-    if rrd.is_some() && !cfg!(feature = "rerun") {
+    if options.rrd.is_some() && !cfg!(feature = "rerun") {
         return Err(invalid(RecordingError::Unsupported));
     }
     let args = CheckArgs {
-        model: model.unwrap_or_default(),
-        layer,
-        processes,
-        requests,
-        crashes,
-        network: network.map(|n| match n {
+        model: options.model.unwrap_or_default(),
+        layer: options.layer,
+        processes: options.processes,
+        requests: options.requests,
+        crashes: options.crashes,
+        network: options.network.map(|n| match n {
             NetArg::Unordered => NetworkKind::Unordered,
             NetArg::Ordered => NetworkKind::Ordered,
             NetArg::Lossy => NetworkKind::Lossy,
         }),
-        strategy: match strategy {
+        strategy: match options.strategy {
             StrategyArg::Bfs => Strategy::Bfs,
             StrategyArg::Dfs => Strategy::Dfs,
-            StrategyArg::Simulation => Strategy::Simulation { seed },
+            StrategyArg::Simulation => Strategy::Simulation { seed: options.seed },
         },
-        max_states,
-        max_memory,
-        spill_dir,
-        no_spill,
-        max_disk,
-        spill_after,
-        max_time,
-        depth,
-        threads,
-        trace,
-        rrd,
-        timers,
-        rounds,
-        symmetry,
-        no_reduction,
-        compare_reduction,
-        keep_going,
-        no_liveness,
+        max_states: options.max_states,
+        max_memory: options.max_memory,
+        spill_dir: options.spill_dir,
+        no_spill: options.no_spill,
+        max_disk: options.max_disk,
+        spill_after: options.spill_after,
+        max_time: options.max_time,
+        depth: options.depth,
+        threads: options.threads,
+        trace: options.trace,
+        rrd: options.rrd,
+        timers: options.timers,
+        rounds: options.rounds,
+        symmetry: options.symmetry,
+        no_reduction: options.no_reduction,
+        compare_reduction: options.compare_reduction,
+        keep_going: options.keep_going,
+        no_liveness: options.no_liveness,
         lcm: check::lcm::LcmOverrides {
-            synchrony,
-            rigid: movement.map(|m| m == MovementArg::Rigid),
-            register: register.map(|r| match r {
+            synchrony: options.synchrony,
+            rigid: options.movement.map(|m| m == MovementArg::Rigid),
+            register: options.register.map(|r| match r {
                 RegisterArg::Atomic => nekosim_actors::lcm::Register::Atomic,
                 RegisterArg::Regular => nekosim_actors::lcm::Register::Regular,
                 RegisterArg::Safe => nekosim_actors::lcm::Register::Safe,
             }),
-            fairness,
-            property,
+            fairness: options.fairness,
+            property: options.property,
         },
-        goals,
+        goals: options.goals,
     };
     // Ctrl-C (or SIGTERM) stops the search: the check reports what it found and
     // explored, writes the outputs asked for, and exits 130; a second one ends the
@@ -276,7 +240,7 @@ pub(super) fn check(options: CheckOptions, registry: &Registry) -> Result<u8, Fa
     }
     let live = check::Live {
         interrupt: Some(interrupt),
-        progress: !quiet && std::io::stderr().is_terminal(),
+        progress: !options.quiet && std::io::stderr().is_terminal(),
     };
     let conclusion = check::check_live(&args, registry, &mut std::io::stdout().lock(), &live)
         .map_err(|e| match e {
